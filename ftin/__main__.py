@@ -1,0 +1,3 @@
+from ftin.cli import main
+
+main()

@@ -1,0 +1,126 @@
+"""The sequence and trajectory types that flow through every layer (design §1).
+
+Frames and units live in the field names: ``_s`` seconds, ``_m`` metres, ``_rad_s`` rad/s,
+``_m_s2`` m/s². Quaternions are scalar-first ``wxyz`` everywhere (viser's order); convert to
+scipy's ``xyzw`` only at the call site (``ftin.data.frames``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+
+def _as_float_array(name: str, value: Any, shape_tail: tuple[int, ...]) -> np.ndarray:
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim != 1 + len(shape_tail) or array.shape[1:] != shape_tail:
+        expected = "(N" + "".join(f", {n}" for n in shape_tail) + ")"
+        raise ValueError(f"{name} must have shape {expected}, got {array.shape}")
+    return array
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Positions (and optionally body orientations) over time in one world frame."""
+
+    t_s: np.ndarray  # (N,) monotonic seconds
+    p_world_m: np.ndarray  # (N, 3)
+    q_world_body_wxyz: np.ndarray | None = None  # (N, 4)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
+        object.__setattr__(self, "p_world_m", _as_float_array("p_world_m", self.p_world_m, (3,)))
+        n = len(self.t_s)
+        if len(self.p_world_m) != n:
+            raise ValueError(f"p_world_m has {len(self.p_world_m)} rows, t_s has {n}")
+        if self.q_world_body_wxyz is not None:
+            q = _as_float_array("q_world_body_wxyz", self.q_world_body_wxyz, (4,))
+            if len(q) != n:
+                raise ValueError(f"q_world_body_wxyz has {len(q)} rows, t_s has {n}")
+            object.__setattr__(self, "q_world_body_wxyz", q)
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t_s[-1] - self.t_s[0]) if len(self) else 0.0
+
+    @property
+    def path_length_m(self) -> float:
+        return float(np.linalg.norm(np.diff(self.p_world_m, axis=0), axis=1).sum())
+
+    def slice(self, start: int, stop: int) -> Trajectory:
+        q = None if self.q_world_body_wxyz is None else self.q_world_body_wxyz[start:stop]
+        return Trajectory(self.t_s[start:stop], self.p_world_m[start:stop], q)
+
+
+@dataclass(frozen=True)
+class ImuSequence:
+    """One IMU recording in the device frame, with optional orientation and ground truth.
+
+    ``acc_m_s2`` is specific force including gravity: +9.81 on the axis pointing up when the device
+    lies still. ``q_world_device_wxyz`` rotates device-frame vectors into a gravity-aligned world
+    frame (z up, arbitrary yaw). ``gt`` is sampled at ``t_s`` (same N) and lives in the ground-truth
+    world frame, which the reader has already aligned with the device world frame at the start.
+
+    ``meta`` keys in use: ``dataset`` (format name), ``source`` (path), ``carry`` (handheld, pocket,
+    trolley, ...), ``orientation_source`` ("device", "ground_truth", "estimated"), ``warnings``.
+    """
+
+    name: str
+    t_s: np.ndarray  # (N,)
+    gyro_rad_s: np.ndarray  # (N, 3) device frame
+    acc_m_s2: np.ndarray  # (N, 3) device frame, specific force incl. gravity
+    q_world_device_wxyz: np.ndarray | None = None  # (N, 4)
+    gt: Trajectory | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
+        n = len(self.t_s)
+        for name in ("gyro_rad_s", "acc_m_s2"):
+            array = _as_float_array(name, getattr(self, name), (3,))
+            if len(array) != n:
+                raise ValueError(f"{name} has {len(array)} rows, t_s has {n}")
+            object.__setattr__(self, name, array)
+        if self.q_world_device_wxyz is not None:
+            q = _as_float_array("q_world_device_wxyz", self.q_world_device_wxyz, (4,))
+            if len(q) != n:
+                raise ValueError(f"q_world_device_wxyz has {len(q)} rows, t_s has {n}")
+            object.__setattr__(self, "q_world_device_wxyz", q)
+        if self.gt is not None and len(self.gt) != n:
+            raise ValueError(f"ground truth has {len(self.gt)} samples, IMU has {n}")
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t_s[-1] - self.t_s[0]) if len(self) > 1 else 0.0
+
+    @property
+    def rate_hz(self) -> float:
+        """Mean sample rate, from the median interval (robust to a dropped sample)."""
+        if len(self) < 2:
+            return 0.0
+        return float(1.0 / np.median(np.diff(self.t_s)))
+
+    def with_(self, **changes: Any) -> ImuSequence:
+        """A copy with some fields replaced (the type is immutable)."""
+        return replace(self, **changes)
+
+    def slice(self, start: int, stop: int) -> ImuSequence:
+        q = None if self.q_world_device_wxyz is None else self.q_world_device_wxyz[start:stop]
+        gt = None if self.gt is None else self.gt.slice(start, stop)
+        return ImuSequence(
+            self.name,
+            self.t_s[start:stop],
+            self.gyro_rad_s[start:stop],
+            self.acc_m_s2[start:stop],
+            q,
+            gt,
+            dict(self.meta),
+        )
