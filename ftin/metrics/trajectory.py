@@ -1,0 +1,283 @@
+"""Trajectory error metrics: ATE, RTE and PDE under a stated convention (design §4).
+
+A convention fixes three things, and every metric of one evaluation follows the same three:
+
+| convention    | axes          | alignment of the estimate       | ATE / RTE aggregate                |
+|---------------|---------------|---------------------------------|------------------------------------|
+| ``RONIN``     | x, y          | none                            | RMSE over all N x 2 coordinates    |
+| ``EUCLIDEAN`` | all given     | none                            | RMSE of per-sample Euclidean norms |
+| ``SE2``       | x, y          | yaw + shift (Umeyama, no scale) | RMSE of per-sample Euclidean norms |
+| ``SE3``       | x, y, z       | rotation + shift (no scale)     | RMSE of per-sample Euclidean norms |
+
+Decisions:
+- RoNIN (the default, as the paper's baselines report): the estimate is expected to be integrated
+  from the ground-truth start position (the inference code does that); the metric applies no
+  translation, so a start offset counts as error. Its ATE is ``sqrt(mean((est - gt)^2))`` over the
+  N x 2 coordinates, which equals the Euclidean RMSE divided by sqrt 2.
+- RTE is the RMSE of displacement differences ``(est[i+k] - est[i]) - (gt[i+k] - gt[i])`` over every
+  start i, with ``k = round(window_s * rate_hz)`` and the rate taken from the median sample interval
+  of ``t_s``, so 60 s is 6000 samples at 100 Hz and 12000 at 200 Hz (RoNIN's code hard-codes 12000,
+  which is 120 s at 100 Hz). A sequence with fewer than ``k + 1`` samples uses its whole-sequence
+  drift (k = N - 1) scaled by ``window_s / duration_s``.
+- PDE is ``|est[end] - gt[end]| / ground-truth path length`` on the convention's axes (horizontal
+  for RONIN and SE2) and, for the aligned conventions, on the aligned estimate. It is a ratio, not
+  a percentage.
+- ``evaluate_trajectory`` evaluates at the ground-truth timestamps: when the estimate has other
+  timestamps it is linearly interpolated onto the ground-truth samples inside the time span both
+  cover (never extrapolated), because the reference defines where errors are measured and an
+  estimate is often sparser (one position per window) than the ground truth.
+- All functions are pure: inputs are read, never written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from ftin.data.types import Trajectory
+from ftin.metrics.alignment import fit_se2, fit_se3
+
+# Timestamps closer than this are the same instant (float noise from readers and resampling).
+_SAME_TIME_TOL_S = 1e-6
+
+
+class Convention(str, Enum):
+    """How trajectories are compared; see the module docstring and ``describe``."""
+
+    RONIN = "ronin"
+    EUCLIDEAN = "euclidean"
+    SE2 = "se2"
+    SE3 = "se3"
+
+
+_HORIZONTAL = (Convention.RONIN, Convention.SE2)
+
+
+@dataclass(frozen=True)
+class TrajectoryMetrics:
+    """Errors of one estimate (or the mean over sequences): ``ate`` and ``rte`` in metres, ``pde``
+    a ratio of final error to ground-truth path length."""
+
+    ate: float
+    rte: float
+    pde: float
+    convention: Convention
+    rte_window_s: float = 60.0
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values; the convention as its string value."""
+        return {
+            "ate": self.ate,
+            "rte": self.rte,
+            "pde": self.pde,
+            "convention": self.convention.value,
+            "rte_window_s": self.rte_window_s,
+        }
+
+
+def ate(est_m: np.ndarray, gt_m: np.ndarray, convention: Convention = Convention.RONIN) -> float:
+    """Absolute trajectory error in metres of (N, 2|3) positions sampled at the same instants."""
+    convention = Convention(convention)
+    est, gt = _prepare(est_m, gt_m, convention)
+    return _rmse(est - gt, convention)
+
+
+def rte(
+    est_m: np.ndarray,
+    gt_m: np.ndarray,
+    t_s: np.ndarray,
+    window_s: float = 60.0,
+    convention: Convention = Convention.RONIN,
+) -> float:
+    """Relative trajectory error in metres over ``window_s`` windows (rate from ``t_s``)."""
+    convention = Convention(convention)
+    est, gt = _prepare(est_m, gt_m, convention)
+    return _relative_error(est, gt, _check_times(t_s, len(est)), window_s, convention)
+
+
+def pde(est_m: np.ndarray, gt_m: np.ndarray, convention: Convention = Convention.RONIN) -> float:
+    """Position drift error: final position error / ground-truth path length (a ratio)."""
+    convention = Convention(convention)
+    est, gt = _prepare(est_m, gt_m, convention)
+    return _drift_ratio(est, gt)
+
+
+def evaluate_trajectory(
+    est: Trajectory,
+    gt: Trajectory,
+    convention: Convention = Convention.RONIN,
+    rte_window_s: float = 60.0,
+) -> TrajectoryMetrics:
+    """ATE, RTE and PDE of ``est`` against ``gt`` at the ground-truth timestamps they share."""
+    convention = Convention(convention)
+    t_s, est_m, gt_m = _common_samples(est, gt)
+    est_p, gt_p = _prepare(est_m, gt_m, convention)
+    return TrajectoryMetrics(
+        ate=_rmse(est_p - gt_p, convention),
+        rte=_relative_error(est_p, gt_p, t_s, rte_window_s, convention),
+        pde=_drift_ratio(est_p, gt_p),
+        convention=convention,
+        rte_window_s=float(rte_window_s),
+    )
+
+
+def mean_metrics(metrics: Sequence[TrajectoryMetrics]) -> TrajectoryMetrics:
+    """Mean of each metric over sequences (each sequence weighs the same, as the paper's tables)."""
+    if len(metrics) == 0:
+        raise ValueError("mean_metrics needs at least one TrajectoryMetrics, got an empty list")
+    first = metrics[0]
+    for i, m in enumerate(metrics):
+        if m.convention != first.convention or m.rte_window_s != first.rte_window_s:
+            raise ValueError(
+                f"metrics[{i}] uses convention {m.convention.value!r} with a {m.rte_window_s:g} s RTE "
+                f"window but metrics[0] uses {first.convention.value!r} with {first.rte_window_s:g} s; "
+                "only metrics of one convention and window can be averaged"
+            )
+    return TrajectoryMetrics(
+        ate=float(np.mean([m.ate for m in metrics])),
+        rte=float(np.mean([m.rte for m in metrics])),
+        pde=float(np.mean([m.pde for m in metrics])),
+        convention=first.convention,
+        rte_window_s=first.rte_window_s,
+    )
+
+
+def describe(convention: Convention = Convention.RONIN, rte_window_s: float = 60.0) -> str:
+    """One sentence stating the convention, for the header or footer of every table."""
+    convention = Convention(convention)
+    w = f"{rte_window_s:g} s"
+    lead, axes, ate_text = {
+        Convention.RONIN: (
+            "RoNIN convention: no alignment (the estimate starts at the ground-truth start)",
+            "horizontal x, y",
+            "ATE = RMSE over all x and y coordinates (Euclidean RMSE / √2)",
+        ),
+        Convention.EUCLIDEAN: (
+            "Euclidean convention: no alignment",
+            "x, y, z",
+            "ATE = RMSE of the Euclidean position errors",
+        ),
+        Convention.SE2: (
+            "SE(2)-aligned convention: the estimate is first rotated about z and shifted "
+            "(Umeyama, no scale) to best fit the ground truth",
+            "horizontal x, y",
+            "ATE = RMSE of the Euclidean position errors",
+        ),
+        Convention.SE3: (
+            "SE(3)-aligned convention: the estimate is first rotated and shifted "
+            "(Umeyama, no scale) to best fit the ground truth",
+            "x, y, z",
+            "ATE = RMSE of the Euclidean position errors",
+        ),
+    }[convention]
+    return (
+        f"{lead}; errors over {axes} in metres; {ate_text}; RTE = the same RMSE of displacement "
+        f"differences over every {w} window (sequences shorter than {w}: whole-sequence drift scaled "
+        f"by {w} / duration); PDE = final position error / ground-truth path length (ratio)."
+    )
+
+
+# --- internals -------------------------------------------------------------------------------------
+
+
+def _prepare(est_m: Any, gt_m: Any, convention: Convention) -> tuple[np.ndarray, np.ndarray]:
+    """Validated copies on the convention's axes, the estimate aligned where the convention says."""
+    est = _check_positions("est_m", est_m)
+    gt = _check_positions("gt_m", gt_m)
+    if est.shape != gt.shape:
+        raise ValueError(f"est_m has shape {est.shape} but gt_m has shape {gt.shape}; they must match")
+    if len(est) < 2:
+        raise ValueError(f"trajectory metrics need at least 2 samples, got {len(est)}")
+    if convention in _HORIZONTAL:
+        est, gt = est[:, :2], gt[:, :2]
+    elif convention is Convention.SE3 and est.shape[1] != 3:
+        raise ValueError(f"the SE3 convention needs (N, 3) positions, got {est.shape}")
+    if convention is Convention.SE2:
+        est = fit_se2(est, gt).apply(est)
+    elif convention is Convention.SE3:
+        est = fit_se3(est, gt).apply(est)
+    return est, gt
+
+
+def _check_positions(name: str, value: Any) -> np.ndarray:
+    p = np.asarray(value, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] not in (2, 3):
+        raise ValueError(f"{name} must have shape (N, 2) or (N, 3) positions in metres, got {p.shape}")
+    bad = np.flatnonzero(~np.isfinite(p).all(axis=1))
+    if len(bad):
+        raise ValueError(f"{name} has a non-finite value in row {bad[0]} ({len(bad)} rows in all)")
+    return p
+
+
+def _check_times(t_s: Any, n: int, name: str = "t_s") -> np.ndarray:
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},) to match the positions, got {t.shape}")
+    if not np.isfinite(t).all():
+        raise ValueError(f"{name} has a non-finite value in row {np.flatnonzero(~np.isfinite(t))[0]}")
+    steps = np.diff(t)
+    if (steps <= 0).any():
+        row = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise ValueError(f"{name} must increase strictly; row {row} ({t[row]} s) follows {t[row - 1]} s")
+    return t
+
+
+def _rmse(err: np.ndarray, convention: Convention) -> float:
+    """RoNIN averages squared coordinates; the other conventions average squared distances."""
+    if convention is Convention.RONIN:
+        return float(np.sqrt(np.mean(err**2)))
+    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+
+
+def _relative_error(
+    est: np.ndarray, gt: np.ndarray, t_s: np.ndarray, window_s: float, convention: Convention
+) -> float:
+    if not np.isfinite(window_s) or window_s <= 0:
+        raise ValueError(f"rte window_s must be a positive number of seconds, got {window_s}")
+    rate_hz = 1.0 / float(np.median(np.diff(t_s)))
+    k = int(round(window_s * rate_hz))
+    if k < 1:
+        raise ValueError(f"rte window_s = {window_s} s is shorter than one sample interval at {rate_hz:g} Hz")
+    if k <= len(est) - 1:
+        err = (est[k:] - est[:-k]) - (gt[k:] - gt[:-k])
+        return _rmse(err, convention)
+    # Shorter than one window: scale the whole-sequence drift to the window length.
+    err = (est[-1:] - est[:1]) - (gt[-1:] - gt[:1])
+    return _rmse(err, convention) * window_s / float(t_s[-1] - t_s[0])
+
+
+def _drift_ratio(est: np.ndarray, gt: np.ndarray) -> float:
+    path_m = float(np.linalg.norm(np.diff(gt, axis=0), axis=1).sum())
+    if path_m <= 0.0:
+        raise ValueError("PDE is undefined: the ground-truth path has zero length (it never moves)")
+    return float(np.linalg.norm(est[-1] - gt[-1])) / path_m
+
+
+def _common_samples(est: Trajectory, gt: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t_s, est positions, gt positions) at the ground-truth timestamps both trajectories cover."""
+    if len(est) < 2 or len(gt) < 2:
+        raise ValueError(
+            f"trajectory metrics need at least 2 samples; the estimate has {len(est)}, "
+            f"the ground truth {len(gt)}"
+        )
+    t_gt = _check_times(gt.t_s, len(gt), "ground-truth t_s")
+    if len(est) == len(gt) and np.allclose(est.t_s, t_gt, rtol=0.0, atol=_SAME_TIME_TOL_S):
+        return t_gt, est.p_world_m, gt.p_world_m
+    t_est = _check_times(est.t_s, len(est), "estimate t_s")
+    start_s = max(t_est[0], t_gt[0])
+    stop_s = min(t_est[-1], t_gt[-1])
+    inside = (t_gt >= start_s - _SAME_TIME_TOL_S) & (t_gt <= stop_s + _SAME_TIME_TOL_S)
+    if start_s >= stop_s or inside.sum() < 2:
+        raise ValueError(
+            f"estimate ({t_est[0]:.3f}..{t_est[-1]:.3f} s) and ground truth "
+            f"({t_gt[0]:.3f}..{t_gt[-1]:.3f} s) do not overlap in at least 2 ground-truth samples"
+        )
+    t_s = t_gt[inside]
+    # Clip to the estimate's span so float noise at the ends never extrapolates.
+    t_query = np.clip(t_s, t_est[0], t_est[-1])
+    est_m = np.column_stack([np.interp(t_query, t_est, est.p_world_m[:, j]) for j in range(3)])
+    return t_s, est_m, gt.p_world_m[inside]
