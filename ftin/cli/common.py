@@ -18,5 +18,5 @@ def user_errors(*kinds: type[BaseException]) -> Iterator[None]:
     try:
         yield
     except kinds as exc:
-        err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False)
+        err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None

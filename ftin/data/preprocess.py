@@ -1,0 +1,246 @@
+"""Preprocessing of ``ImuSequence``: resampling, world-frame IMU, orientation estimation.
+
+Every function returns a new sequence (the types are immutable) with ``meta`` copied, never
+shared, and appends to ``meta["warnings"]`` whatever it assumed.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Any
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+from scipy.spatial.transform import Rotation, Slerp
+
+from ftin.data import frames
+from ftin.data.errors import DataFormatError
+from ftin.data.types import ImuSequence, Trajectory
+
+# Anti-alias low-pass cut-off as a fraction of the new Nyquist frequency (leaves a transition band).
+_ANTIALIAS_FRACTION_OF_NYQUIST = 0.8
+_ANTIALIAS_ORDER = 4
+
+
+def _meta_with_warning(meta: dict[str, Any], *warnings: str, **updates: Any) -> dict[str, Any]:
+    """A copy of ``meta`` with ``updates`` applied and ``warnings`` appended (input untouched)."""
+    out = dict(meta)
+    out.update(updates)
+    out["warnings"] = [*meta.get("warnings", []), *warnings]
+    return out
+
+
+def _require_increasing_time(seq: ImuSequence) -> None:
+    steps = np.diff(seq.t_s)
+    bad = np.flatnonzero(~(steps > 0))
+    if len(bad):
+        k = int(bad[0])
+        raise DataFormatError(
+            f"sequence {seq.name!r}: t_s must be strictly increasing, but row {k + 1} "
+            f"({seq.t_s[k + 1]!r} s) does not come after row {k} ({seq.t_s[k]!r} s)"
+        )
+
+
+def _slerp(t_s: np.ndarray, q_wxyz: np.ndarray, t_new_s: np.ndarray) -> np.ndarray:
+    slerp = Slerp(t_s, frames.rotation_from_wxyz(q_wxyz))
+    return frames.make_continuous(frames.wxyz_from_rotation(slerp(t_new_s)))
+
+
+def _interp_columns(t_s: np.ndarray, values: np.ndarray, t_new_s: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(t_new_s, t_s, values[:, i]) for i in range(values.shape[1])])
+
+
+def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSequence:
+    """The sequence on a uniform grid ``t_s[0] + k / rate_hz`` inside the original time span.
+
+    Vectors (gyro, specific force, ground-truth positions) are interpolated linearly, orientations by
+    Slerp. Decision: when the new rate is lower than the old one and ``antialias`` is set, gyro and
+    specific force first pass a zero-phase Butterworth low-pass (order 4, cut-off at 0.8 x the new
+    Nyquist frequency) so that vibration above the new Nyquist frequency does not fold into the band
+    (EuRoC's 200 Hz drone IMU resampled to 100 Hz, say). Ground truth is smooth and is not filtered.
+    """
+    if not np.isfinite(rate_hz) or rate_hz <= 0:
+        raise ValueError(f"rate_hz must be a positive number, got {rate_hz!r}")
+    if len(seq) < 2:
+        raise DataFormatError(f"sequence {seq.name!r} has {len(seq)} samples: resampling needs at least 2")
+    _require_increasing_time(seq)
+    t_old = seq.t_s
+    n_new = int(np.floor((t_old[-1] - t_old[0]) * rate_hz + 1e-9)) + 1
+    t_new = t_old[0] + np.arange(n_new) / rate_hz
+
+    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
+    old_rate_hz = seq.rate_hz
+    warnings: list[str] = []
+    if antialias and rate_hz < old_rate_hz:
+        sos = butter(
+            _ANTIALIAS_ORDER,
+            _ANTIALIAS_FRACTION_OF_NYQUIST * rate_hz / 2.0,
+            btype="low",
+            fs=old_rate_hz,
+            output="sos",
+        )
+        pad = 3 * (2 * len(sos) + 1)  # sosfiltfilt's default padding must fit in the signal
+        if len(seq) > pad:
+            gyro = sosfiltfilt(sos, gyro, axis=0)
+            acc = sosfiltfilt(sos, acc, axis=0)
+        else:
+            warnings.append(f"resample: {len(seq)} samples are too few to low-pass before downsampling")
+
+    q = None if seq.q_world_device_wxyz is None else _slerp(t_old, seq.q_world_device_wxyz, t_new)
+    gt = None
+    if seq.gt is not None:
+        gt_q = None if seq.gt.q_world_body_wxyz is None else _slerp(t_old, seq.gt.q_world_body_wxyz, t_new)
+        gt = Trajectory(t_new, _interp_columns(t_old, seq.gt.p_world_m, t_new), gt_q)
+    return ImuSequence(
+        seq.name,
+        t_new,
+        _interp_columns(t_old, gyro, t_new),
+        _interp_columns(t_old, acc, t_new),
+        q,
+        gt,
+        _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz)),
+    )
+
+
+def world_frame_imu(seq: ImuSequence) -> tuple[np.ndarray, np.ndarray]:
+    """``(gyro_world_rad_s, acc_world_m_s2)``, each (N, 3): the IMU rotated by ``q_world_device``."""
+    if seq.q_world_device_wxyz is None:
+        raise DataFormatError(
+            f"sequence {seq.name!r} has no orientation (q_world_device_wxyz): "
+            "call ftin.data.preprocess.ensure_orientation first"
+        )
+    rotation = frames.rotation_from_wxyz(seq.q_world_device_wxyz)
+    return rotation.apply(seq.gyro_rad_s), rotation.apply(seq.acc_m_s2)
+
+
+def yaw_offset_rad(
+    t_s: np.ndarray, q_to_wxyz: np.ndarray, q_from_wxyz: np.ndarray, window_s: float
+) -> tuple[float, float]:
+    """``(yaw, tilt)`` of the mean of ``R_to(t) R_from(t)^-1`` over the first ``window_s`` seconds.
+
+    Both series give the orientation of the same body in two gravity-aligned world frames, so the
+    product maps frame "from" into frame "to" and should be a pure yaw; the mean over a window
+    averages sensor noise, and the returned tilt (rad) says how far from a pure yaw it is.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    in_window = t <= t[0] + window_s
+    in_window[:2] = True  # at least two samples even for a zero-length window
+    offsets = (
+        frames.rotation_from_wxyz(q_to_wxyz[in_window])
+        * frames.rotation_from_wxyz(q_from_wxyz[in_window]).inv()
+    )
+    mean = frames.wxyz_from_rotation(offsets.mean())
+    return float(frames.yaw_rad(mean)), float(frames.tilt_rad(mean))
+
+
+def rotate_trajectory_about_z(trajectory: Trajectory, yaw: float) -> Trajectory:
+    """The trajectory expressed in a world frame turned by ``yaw`` radians about z."""
+    turn = frames.yaw_rotation(yaw)
+    q = trajectory.q_world_body_wxyz
+    q_new = None if q is None else frames.wxyz_from_rotation(turn * frames.rotation_from_wxyz(q))
+    return Trajectory(trajectory.t_s.copy(), turn.apply(trajectory.p_world_m), q_new)
+
+
+class AhrsMethod(str, Enum):
+    """IMU-only attitude filters from the ``ahrs`` package."""
+
+    MADGWICK = "madgwick"
+    MAHONY = "mahony"
+
+
+def _initial_orientation_from_gravity(seq: ImuSequence, init_s: float) -> np.ndarray:
+    """Level start: the smallest rotation taking the first sample's "up" to world +z.
+
+    "Up" is the mean specific force over the first ``init_s`` seconds, each sample first rotated
+    back into the first sample's device frame with the integrated gyro, so that a device that is
+    already turning at the start does not smear the estimate.
+    """
+    n_first = max(1, int(np.searchsorted(seq.t_s, seq.t_s[0] + init_s, side="right")))
+    steps = Rotation.from_rotvec(seq.gyro_rad_s[1:n_first] * np.diff(seq.t_s[:n_first])[:, None])
+    R_first_k = [Rotation.identity()]
+    for step in steps:
+        R_first_k.append(R_first_k[-1] * step)
+    mean_acc = Rotation.concatenate(R_first_k).apply(seq.acc_m_s2[:n_first]).mean(axis=0)
+    norm = float(np.linalg.norm(mean_acc))
+    if not np.isfinite(norm) or norm < 1e-6:
+        raise DataFormatError(
+            f"sequence {seq.name!r}: the specific force of the first {init_s} s averages to "
+            f"{mean_acc.tolist()} m/s^2, so gravity (and the initial tilt) cannot be found"
+        )
+    rotation, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [mean_acc / norm])
+    return frames.wxyz_from_rotation(rotation)
+
+
+def estimate_orientation(
+    seq: ImuSequence,
+    method: AhrsMethod | str = AhrsMethod.MADGWICK,
+    init_s: float = 0.5,
+    align_window_s: float = 2.0,
+    **filter_options: float,
+) -> ImuSequence:
+    """Estimate ``q_world_device_wxyz`` with an IMU-only AHRS filter (no magnetometer).
+
+    ``filter_options`` go to the ``ahrs`` filter (``gain`` for Madgwick; ``k_P``, ``k_I`` for
+    Mahony). Conventions checked against the ``ahrs`` source and by a test on a synthetic rotating
+    device: its quaternions are scalar-first and rotate sensor-frame vectors into an Earth frame
+    whose +z is the direction of the measured specific force at rest, i.e. exactly our
+    ``q_world_device`` with z up; accelerometer units do not matter (it normalises). The filter
+    starts level from the gyro-compensated mean specific force of the first ``init_s`` seconds
+    (yaw 0) and uses each sample's real time step. Without a magnetometer the heading is arbitrary
+    and drifts with the gyro bias; a warning says so.
+
+    Ground truth, if any, must stay in the sequence's world frame: when the sequence already had an
+    orientation, the gt is turned by the yaw between the new and the old world frame over the first
+    ``align_window_s`` seconds; without one there is nothing to align against and a warning says so.
+    """
+    from ahrs.filters import Madgwick, Mahony  # deferred: only this function needs the package
+
+    try:
+        method = AhrsMethod(method)
+    except ValueError:
+        choices = ", ".join(m.value for m in AhrsMethod)
+        raise ValueError(f"method must be one of {choices}; got {method!r}") from None
+    if len(seq) < 2:
+        raise DataFormatError(f"sequence {seq.name!r} has {len(seq)} samples: AHRS needs at least 2")
+    _require_increasing_time(seq)
+    rate_hz = seq.rate_hz
+    if method is AhrsMethod.MADGWICK:
+        ahrs_filter = Madgwick(frequency=rate_hz, **filter_options)
+    else:
+        ahrs_filter = Mahony(frequency=rate_hz, **filter_options)
+
+    q = np.empty((len(seq), 4))
+    q[0] = _initial_orientation_from_gravity(seq, init_s)
+    dt_s = np.diff(seq.t_s)
+    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
+    for k in range(1, len(seq)):
+        # ahrs integrates gyr[k] over the step that ends at sample k.
+        q[k] = ahrs_filter.updateIMU(q[k - 1], gyr=gyro[k], acc=acc[k], dt=float(dt_s[k - 1]))
+    q = frames.make_continuous(q)
+
+    warnings = [
+        f"orientation estimated by the {method.value} AHRS filter without magnetometer: "
+        "heading is arbitrary and drifts"
+    ]
+    gt = seq.gt
+    if gt is not None and seq.q_world_device_wxyz is not None:
+        yaw, _ = yaw_offset_rad(seq.t_s, q, seq.q_world_device_wxyz, align_window_s)
+        gt = rotate_trajectory_about_z(gt, yaw)
+        warnings.append(
+            f"ground truth turned by {np.degrees(yaw):.1f} deg about z to the estimated world frame "
+            f"(aligned over the first {align_window_s} s)"
+        )
+    elif gt is not None:
+        warnings.append(
+            "ground-truth heading is not aligned with the estimated world frame "
+            "(the sequence had no orientation to align against)"
+        )
+    meta = _meta_with_warning(seq.meta, *warnings, orientation_source="estimated")
+    return seq.with_(q_world_device_wxyz=q, gt=gt, meta=meta)
+
+
+def ensure_orientation(seq: ImuSequence, method: AhrsMethod | str = AhrsMethod.MADGWICK) -> ImuSequence:
+    """``seq`` itself when it has an orientation, else :func:`estimate_orientation`."""
+    if seq.q_world_device_wxyz is not None:
+        return seq
+    return estimate_orientation(seq, method)

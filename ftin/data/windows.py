@@ -1,0 +1,258 @@
+"""World-frame IMU windows, velocity targets, input normalisation and the training Dataset.
+
+Decisions (design §2):
+- Window ``k`` starts at sample ``s = k * stride``; its input is samples ``s .. s + L - 1`` and its
+  target is the mean velocity over the same ``L`` sample intervals,
+  ``(p[s + L] - p[s]) / (t[s + L] - t[s])``. A window therefore needs sample ``s + L`` and starts run
+  while ``s + L <= N - 1``; inference uses the same starts, so a window's velocity always belongs to
+  the span ``[t[s], t[s + L]]``.
+- Inputs are ``(6, L)`` float32, channels gyro xyz then acc xyz, rotated into the gravity-aligned
+  world frame by ``ftin.data.preprocess.world_frame_imu`` (the sequence must carry an orientation and
+  be at the intended rate: ``ensure_orientation`` and ``resample`` come first).
+- Windows are strided views of one ``(N, 6)`` array (``sliding_window_view``) or gathered with one
+  fancy index per batch; no per-window Python loop.
+- Yaw augmentation rotates gyro, acc and the target about world z by the same angle, which keeps
+  the physics consistent and makes the network heading-agnostic (RoNIN). Angles are drawn per epoch
+  from ``(seed, epoch)``, indexed by window, so a batch's augmentation does not depend on the order
+  or the process that draws it: resumed and multi-process runs see the same data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+import torch
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy.spatial.transform import Rotation
+
+from ftin.data.errors import DataFormatError
+from ftin.data.types import ImuSequence
+
+N_CHANNELS = 6  # gyro xyz, acc xyz
+
+
+@dataclass(frozen=True)
+class Windows:
+    """The windows of one sequence: inputs, targets and where each window starts."""
+
+    x: np.ndarray  # (M, 6, L) float32, world frame
+    v: np.ndarray  # (M, D) float32, world-frame velocity target in m/s
+    start: np.ndarray  # (M,) int64 first sample of each window
+    window: int
+    stride: int
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+
+def window_starts(n_samples: int, window: int, stride: int) -> np.ndarray:
+    """First sample of every window of ``window`` samples whose end sample ``s + window`` exists."""
+    _check_window_args(window, stride)
+    last = n_samples - 1 - window
+    if last < 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.arange(0, last + 1, stride, dtype=np.int64)
+
+
+def world_imu(seq: ImuSequence) -> np.ndarray:
+    """``(N, 6)`` float32 gyro xyz then acc xyz in the gravity-aligned world frame."""
+    from ftin.data.preprocess import world_frame_imu  # deferred: preprocess pulls in the AHRS stack
+
+    if seq.q_world_device_wxyz is None:
+        raise DataFormatError(
+            f"sequence {seq.name!r} has no device orientation; call "
+            "ftin.data.preprocess.ensure_orientation before making world-frame windows"
+        )
+    gyro_world, acc_world = world_frame_imu(seq)
+    return np.concatenate([gyro_world, acc_world], axis=1).astype(np.float32)
+
+
+def window_view(imu: np.ndarray, window: int) -> np.ndarray:
+    """Read-only ``(N - window + 1, 6, window)`` view of an ``(N, 6)`` array: window k = rows k.."""
+    return sliding_window_view(imu, window, axis=0)  # (N - L + 1, 6, L)
+
+
+def velocity_targets(
+    t_s: np.ndarray, p_world_m: np.ndarray, starts: np.ndarray, window: int, out_dim: int = 2
+) -> np.ndarray:
+    """``(M, out_dim)`` float32 mean velocity over each window: ``(p[s+L] - p[s]) / (t[s+L] - t[s])``."""
+    if out_dim not in (2, 3):
+        raise ValueError(f"out_dim must be 2 (horizontal) or 3, got {out_dim}")
+    dt = t_s[starts + window] - t_s[starts]
+    dp = p_world_m[starts + window, :out_dim] - p_world_m[starts, :out_dim]
+    return (dp / dt[:, None]).astype(np.float32)
+
+
+def make_windows(seq: ImuSequence, window: int, stride: int, out_dim: int = 2) -> Windows:
+    """World-frame windows of ``seq`` and their velocity targets (needs ground truth)."""
+    _check_training_sequence(seq, window)
+    imu = world_imu(seq)
+    starts = window_starts(len(seq), window, stride)
+    x = np.ascontiguousarray(window_view(imu, window)[starts])  # (M, 6, L)
+    v = velocity_targets(seq.t_s, seq.gt.p_world_m, starts, window, out_dim)
+    return Windows(x=x, v=v, start=starts, window=window, stride=stride)
+
+
+def rotate_yaw(x: np.ndarray, v: np.ndarray, angle_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate windows ``(B, 6, L)`` and targets ``(B, D)`` about world z by ``angle_rad (B,)``.
+
+    Returns new arrays (inputs are not modified). Gyro and acc are rotated as 3-vectors; a 2-D
+    target is the horizontal part of a 3-vector, which a rotation about z keeps horizontal.
+    """
+    angles = np.asarray(angle_rad, dtype=np.float64).reshape(-1, 1)  # (B, 1): one axis per rotation
+    R = Rotation.from_euler("z", angles).as_matrix()  # (B, 3, 3)
+    R = R.astype(x.dtype, copy=False)
+    gyro = np.einsum("bij,bjl->bil", R, x[:, 0:3, :])
+    acc = np.einsum("bij,bjl->bil", R, x[:, 3:6, :])
+    d = v.shape[1]
+    v_rot = np.einsum("bij,bj->bi", R[:, :d, :d], v).astype(v.dtype, copy=False)
+    return np.concatenate([gyro, acc], axis=1), v_rot
+
+
+class Normalization(str, Enum):
+    """Input normalisation, stored in the checkpoint so inference applies the same one."""
+
+    NONE = "none"  # RoNIN feeds raw world-frame IMU; the models' batch-norm stems absorb the scale
+    CHANNEL_STATS = "channel_stats"  # per-channel mean / std of the training data
+
+
+@dataclass(frozen=True)
+class InputNormalization:
+    """``x -> (x - mean) / std`` per channel; identity for ``Normalization.NONE``."""
+
+    kind: Normalization = Normalization.NONE
+    mean: tuple[float, ...] = (0.0,) * N_CHANNELS
+    std: tuple[float, ...] = (1.0,) * N_CHANNELS
+
+    def apply(self, x: torch.Tensor) -> torch.Tensor:
+        """Normalise a ``(B, 6, L)`` batch (returns a new tensor; identity returns ``x``)."""
+        if self.kind is Normalization.NONE:
+            return x
+        mean = torch.tensor(self.mean, dtype=x.dtype, device=x.device)[None, :, None]
+        std = torch.tensor(self.std, dtype=x.dtype, device=x.device)[None, :, None]
+        return (x - mean) / std
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind.value, "mean": list(self.mean), "std": list(self.std)}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> InputNormalization:
+        kind = Normalization(data.get("kind", Normalization.NONE.value))
+        mean = tuple(float(m) for m in data.get("mean", (0.0,) * N_CHANNELS))
+        std = tuple(float(s) for s in data.get("std", (1.0,) * N_CHANNELS))
+        if len(mean) != N_CHANNELS or len(std) != N_CHANNELS or min(std) <= 0:
+            raise ValueError(f"normalization needs 6 means and 6 positive stds, got {mean} / {std}")
+        return cls(kind, mean, std)
+
+
+def fit_normalization(imu_arrays: Sequence[np.ndarray], kind: Normalization) -> InputNormalization:
+    """Statistics over every sample of the training sequences' ``(N, 6)`` world-frame arrays.
+
+    Horizontal axes share one statistic per sensor (mean 0, pooled std) because yaw augmentation
+    makes x and y interchangeable; z keeps its own mean (gravity on acc z).
+    """
+    kind = Normalization(kind)
+    if kind is Normalization.NONE:
+        return InputNormalization()
+    data = np.concatenate([np.asarray(a, dtype=np.float64) for a in imu_arrays], axis=0)
+    mean = np.zeros(N_CHANNELS)
+    std = np.ones(N_CHANNELS)
+    for first in (0, 3):  # gyro, acc
+        horizontal = data[:, first : first + 2]
+        std[first : first + 2] = np.sqrt(np.mean(horizontal**2))
+        mean[first + 2] = data[:, first + 2].mean()
+        std[first + 2] = data[:, first + 2].std()
+    std = np.maximum(std, 1e-6)  # a constant channel (simulated data) must not divide by zero
+    return InputNormalization(kind, tuple(mean.tolist()), tuple(std.tolist()))
+
+
+class WindowDataset(torch.utils.data.Dataset):
+    """Windows of several sequences (already oriented and resampled) with seeded yaw augmentation.
+
+    Items are ``(x (6, L), v (D,))`` float32 tensors; ``get_batch(indices)`` builds a whole batch with
+    one gather. Call ``set_epoch`` before each epoch to draw that epoch's augmentation angles.
+    """
+
+    def __init__(
+        self,
+        sequences: Sequence[ImuSequence],
+        window: int,
+        stride: int,
+        out_dim: int = 2,
+        *,
+        augment_yaw: bool = True,
+        seed: int = 0,
+    ) -> None:
+        _check_window_args(window, stride)
+        if not sequences:
+            raise ValueError("WindowDataset needs at least one sequence")
+        imu_parts, start_parts, target_parts = [], [], []
+        offset = 0
+        for seq in sequences:
+            _check_training_sequence(seq, window)
+            imu = world_imu(seq)
+            starts = window_starts(len(seq), window, stride)
+            imu_parts.append(imu)
+            target_parts.append(velocity_targets(seq.t_s, seq.gt.p_world_m, starts, window, out_dim))
+            start_parts.append(starts + offset)
+            offset += len(seq)
+        self.imu = np.concatenate(imu_parts, axis=0)  # (N_total, 6) float32
+        self.imu_per_sequence = imu_parts
+        self.starts = np.concatenate(start_parts)  # (M,) index into self.imu
+        self.targets = np.concatenate(target_parts, axis=0)  # (M, D)
+        self.window = window
+        self.stride = stride
+        self.out_dim = out_dim
+        self.augment_yaw = augment_yaw
+        self.seed = seed
+        self.names = [seq.name for seq in sequences]
+        self._angles = np.zeros(len(self.starts))
+        self.set_epoch(0)
+
+    def set_epoch(self, epoch: int) -> None:
+        """Draw this epoch's yaw angle for every window (deterministic from seed and epoch)."""
+        self.epoch = epoch
+        if self.augment_yaw:
+            rng = np.random.default_rng([self.seed, epoch])
+            self._angles = rng.uniform(-np.pi, np.pi, size=len(self.starts))
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def get_batch(self, indices: Sequence[int] | np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(x (B, 6, L), v (B, D))`` float32 tensors for window indices."""
+        indices = np.asarray(indices, dtype=np.int64)
+        rows = self.starts[indices][:, None] + np.arange(self.window)[None, :]  # (B, L)
+        x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
+        v = self.targets[indices]
+        if self.augment_yaw:
+            x, v = rotate_yaw(x, v, self._angles[indices])
+        return torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(np.ascontiguousarray(v))
+
+    def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
+        x, v = self.get_batch([index])
+        return x[0], v[0]
+
+
+def _check_window_args(window: int, stride: int) -> None:
+    if int(window) != window or window < 1:
+        raise ValueError(f"window must be a positive number of samples, got {window}")
+    if int(stride) != stride or stride < 1:
+        raise ValueError(f"stride must be a positive number of samples, got {stride}")
+
+
+def _check_training_sequence(seq: ImuSequence, window: int) -> None:
+    if seq.gt is None:
+        raise DataFormatError(
+            f"sequence {seq.name!r} has no ground truth; training windows need positions for their "
+            "velocity targets"
+        )
+    if len(seq) < window + 1:
+        raise DataFormatError(
+            f"sequence {seq.name!r} has {len(seq)} samples, fewer than one window of {window} samples "
+            "plus its end sample"
+        )
