@@ -1,0 +1,286 @@
+"""``ftin train``, ``ftin evaluate`` and ``ftin predict``: thin callers of ``ftin.train``,
+``ftin.evaluate`` and ``ftin.infer``.
+
+``--data`` (and ``--val``) take any file or folder the readers understand; repeat the option for
+several. Expected failures (bad data, bad options, unreadable checkpoints) print one ``error:`` line
+and exit with status 2. Under ``torchrun`` only rank 0 prints.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import torch
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from ftin.cli import app
+from ftin.cli.common import err_console, user_errors
+from ftin.data.errors import DataFormatError
+from ftin.metrics import Convention
+from ftin.models import UnknownModelError
+from ftin.train.checkpoint import CheckpointError, atomic_write_text, load_model
+from ftin.train.config import ConfigError, TrainConfig
+from ftin.train.loop import CONFIG_FILE, load_sequences, run_training
+
+EXPECTED_ERRORS = (
+    DataFormatError,
+    ConfigError,
+    CheckpointError,
+    UnknownModelError,
+    FloatingPointError,
+    OSError,
+)
+PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
+
+
+def _is_main_process() -> bool:
+    return os.environ.get("RANK", "0") == "0"
+
+
+def _given(**options: Any) -> dict[str, Any]:
+    return {key: value for key, value in options.items() if value is not None}
+
+
+def _model_kwargs(text: str | None) -> dict[str, Any] | None:
+    if text is None:
+        return None
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"--model-kwargs: not valid JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise ConfigError(f"--model-kwargs must be a JSON object like '{{\"window\": 100}}', got {text!r}")
+    return value
+
+
+def resolve_config(options: dict[str, Any], out: Path, resume: bool) -> TrainConfig:
+    """The run's config: from the options, or (``--resume``) from ``out/config.json`` with them applied.
+
+    A resumed run keeps its config; only budget options (epochs, minutes, steps, device) may change,
+    and ``train`` names any other option that differs. ``--max-minutes`` and ``--max-steps`` bound one
+    invocation, so a resumed run does not inherit them.
+    """
+    if resume:
+        saved = TrainConfig.load(out / CONFIG_FILE)
+        return saved.with_(**{"max_minutes": None, "max_steps": None, **options})
+    missing = [flag for flag, key in (("--model", "model"), ("--data", "data")) if key not in options]
+    if missing:
+        raise ConfigError(f"{' and '.join(missing)} required (or --resume to continue the run in {out})")
+    return TrainConfig(out_dir=str(out), **options)
+
+
+@app.command("train")
+def train_command(
+    out: Annotated[Path, typer.Option("--out", help="Run folder: config, checkpoints, resume state.")],
+    model: Annotated[str | None, typer.Option("--model", help="Registered model name (ftin models).")] = None,
+    data: Annotated[
+        list[Path] | None, typer.Option("--data", help="Training data: a file or folder (repeatable).")
+    ] = None,
+    val: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--val", help="Validation data (repeatable); default: hold out 10% of --data sequences."
+        ),
+    ] = None,
+    epochs: Annotated[int | None, typer.Option("--epochs", min=1, help="Max epochs (default: 100).")] = None,
+    max_minutes: Annotated[
+        float | None, typer.Option("--max-minutes", min=0.0, help="Stop after this long (this invocation).")
+    ] = None,
+    max_steps: Annotated[
+        int | None, typer.Option("--max-steps", min=1, help="Stop once the run has made this many steps.")
+    ] = None,
+    batch_size: Annotated[
+        int | None, typer.Option("--batch-size", min=1, help="Global batch (default: 512).")
+    ] = None,
+    lr: Annotated[float | None, typer.Option("--lr", help="Adam learning rate (default: 1e-4).")] = None,
+    rate_hz: Annotated[
+        float | None, typer.Option("--rate-hz", help="IMU rate to resample to (default: the data's).")
+    ] = None,
+    window: Annotated[
+        int | None, typer.Option("--window", min=1, help="Window in samples (default: 1 s).")
+    ] = None,
+    stride: Annotated[
+        int | None, typer.Option("--stride", min=1, help="Window step in samples (default: 10).")
+    ] = None,
+    out_dim: Annotated[
+        int | None, typer.Option("--out-dim", help="2 (horizontal) or 3 (default: the model's).")
+    ] = None,
+    model_kwargs: Annotated[
+        str | None, typer.Option("--model-kwargs", help="Model config as JSON, e.g. '{\"fc_dim\": 256}'.")
+    ] = None,
+    normalization: Annotated[
+        str | None, typer.Option("--normalization", help="none or channel_stats (default: none).")
+    ] = None,
+    name: Annotated[
+        str | None, typer.Option("--name", help="Checkpoint name (default: the model name).")
+    ] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help="Seed of init, order and augmentation (default: 0).")
+    ] = None,
+    half: Annotated[bool, typer.Option("--half", help="Store the checkpoint's weights as float16.")] = False,
+    device: Annotated[str | None, typer.Option("--device", help="torch device (default: cpu).")] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue the run in --out where it stopped.")
+    ] = False,
+    progress: Annotated[bool, typer.Option("--progress/--no-progress", help="Show a progress bar.")] = True,
+    threads: Annotated[
+        int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
+    ] = None,
+) -> None:
+    """Train a registered model on IMU recordings with ground truth; resumable, torchrun-aware."""
+    if threads is not None:  # on a busy machine one thread per process is often the fastest
+        torch.set_num_threads(threads)
+    with user_errors(*EXPECTED_ERRORS):
+        options = _given(
+            model=model,
+            data=tuple(str(p) for p in data) if data else None,
+            val=tuple(str(p) for p in val) if val else None,
+            max_epochs=epochs,
+            max_minutes=max_minutes,
+            max_steps=max_steps,
+            batch_size=batch_size,
+            lr=lr,
+            imu_rate_hz=rate_hz,
+            window=window,
+            stride=stride,
+            out_dim=out_dim,
+            model_kwargs=_model_kwargs(model_kwargs),
+            normalization=normalization,
+            name=name,
+            seed=seed,
+            weights_dtype="float16" if half else None,
+            device=device,
+        )
+        config = resolve_config(options, out, resume)
+        result = run_training(config, resume=resume, progress=progress)
+    if not _is_main_process():
+        return
+    best = "-" if result.best_val_loss is None else f"{result.best_val_loss:.4g}"
+    typer.echo(
+        f"{result.stop_reason}: {result.epochs_done} epoch(s), {result.steps} steps, "
+        f"best monitored loss {best}"
+    )
+    typer.echo(f"checkpoint: {result.checkpoint}")
+    if not result.finished:
+        typer.echo(f"continue with: ftin train --out {out} --resume")
+
+
+def _progress() -> Progress:
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+        transient=True,
+    )
+
+
+@app.command("evaluate")
+def evaluate_command(
+    checkpoint: Annotated[Path, typer.Option("--checkpoint", help="A .safetensors, its .json, or the stem.")],
+    data: Annotated[list[Path], typer.Option("--data", help="Sequences with ground truth (repeatable).")],
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the report as JSON here.")
+    ] = None,
+    convention: Annotated[
+        Convention, typer.Option("--convention", help="How trajectories are compared.")
+    ] = Convention.RONIN,
+    rte_window_s: Annotated[float, typer.Option("--rte-window-s", min=0.0, help="RTE window.")] = 60.0,
+) -> None:
+    """ATE / RTE / PDE of a checkpoint per sequence and their mean, under a stated convention."""
+    from ftin.evaluate import evaluate_checkpoint
+
+    with user_errors(*EXPECTED_ERRORS):
+        loaded = load_model(checkpoint)
+        sequences = load_sequences(data, "--data")
+        with _progress() as bar:
+            task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
+
+            def advance(name: str) -> None:
+                bar.update(task, description=f"evaluating {escape(name)}", advance=1)
+
+            report = evaluate_checkpoint(
+                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance
+            )
+        if json_out is not None:
+            atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
+    table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
+    table.add_column("sequence", overflow="fold")
+    for header in ("duration", "ATE (m)", "RTE (m)", "PDE"):
+        table.add_column(header, justify="right", no_wrap=True)
+    for r in report.sequences:
+        m = r.metrics
+        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}")
+    table.add_section()
+    m = report.mean
+    table.add_row("mean", "", f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}")
+    console = Console()
+    console.print(table)
+    console.print(report.describe(), highlight=False, soft_wrap=True)
+    if json_out is not None:
+        typer.echo(f"wrote {json_out}")
+
+
+@app.command("predict")
+def predict_command(
+    checkpoint: Annotated[Path, typer.Option("--checkpoint", help="A .safetensors, its .json, or the stem.")],
+    input_path: Annotated[Path, typer.Argument(metavar="INPUT", help="One recording (file or folder).")],
+    out: Annotated[Path, typer.Option("--out", help="Trajectory CSV to write (t,x,y,z).")],
+    stride: Annotated[
+        int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
+    ] = None,
+) -> None:
+    """Predict the trajectory of one recording and write it as CSV (t,x,y,z)."""
+    from ftin.data.readers import read_sequence
+    from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+
+    with user_errors(*EXPECTED_ERRORS):
+        loaded = load_model(checkpoint)
+        seq = read_sequence(input_path)
+        with _progress() as bar:
+            task = None
+
+            def report(done: int, total: int) -> None:
+                nonlocal task
+                if task is None:
+                    task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
+                bar.update(task, completed=done)
+
+            prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
+        if prediction.frame == FRAME_GROUND_TRUTH:
+            frame = "ground-truth world frame (the input has ground truth; the estimate starts at its start)"
+        else:
+            frame = "device world frame (gravity-aligned, z up, arbitrary heading; starts at the origin)"
+        header = [
+            f"ftin predict: checkpoint {loaded.name} ({loaded.model_name}), input {input_path}",
+            f"frame: {frame}",
+            f"orientation: {prediction.orientation_source}; units: t in s, x y z in m",
+        ]
+        atomic_write_text(
+            out, trajectory_csv(prediction.trajectory.t_s, prediction.trajectory.p_world_m, header)
+        )
+    for warning in prediction.warnings:
+        err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
+    typer.echo(
+        f"wrote {len(prediction.trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)"
+    )
+    if prediction.metrics is not None:
+        m = prediction.metrics
+        typer.echo(f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention)")
+
+
+def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:
+    """``# `` comment lines, then ``t,x,y,z`` rows (µs and µm resolution)."""
+    lines = [f"# {line}" for line in header] + ["t,x,y,z"]
+    rows = np.column_stack([t_s, p_world_m])
+    lines += [f"{t:.6f},{x:.6f},{y:.6f},{z:.6f}" for t, x, y, z in rows]
+    return "\n".join(lines) + "\n"

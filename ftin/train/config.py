@@ -1,0 +1,184 @@
+"""The training configuration: one typed dataclass, resolved once at the edge, saved as JSON.
+
+Defaults follow the paper (Adam, lr 1e-4, batch 512, at most 100 epochs, MSE on velocity, learning
+rate reduced on plateau, stop once it falls below 1e-6). Decisions where the paper is silent:
+- Plateau schedule: RoNIN's ReduceLROnPlateau values (factor 0.1, patience 10 epochs), monitored on
+  the validation velocity MSE (not the training loss, which changes meaning when an uncertainty
+  model switches to NLL). Without validation data the training MSE is monitored.
+- Window: 1 s (``window = imu_rate_hz`` samples); stride 10 samples (RoNIN's step).
+- ``imu_rate_hz`` ``None`` means the median rate of the training data, rounded to 1 Hz; every
+  sequence is resampled to it and the checkpoint records it.
+- Loss ``auto``: MSE for models without uncertainty; for ``has_uncertainty`` models a Gaussian NLL
+  with log-std clamped to ``log_std_range``; during the first ``nll_warmup_epochs`` epochs the
+  velocity gets a pure MSE gradient and the log-std is trained on the detached error (TLIO's
+  "MSE first" idea, but the uncertainty head learns from the start).
+- Normalisation: none by default, as RoNIN (see ``ftin.data.windows.Normalization``).
+- Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
+  there are two or more) is held out whole, so no validation window overlaps a training window.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+from ftin.data.windows import Normalization
+
+
+class ConfigError(ValueError):
+    """A training option has an invalid value; the message names the option."""
+
+
+class LossKind(str, Enum):
+    AUTO = "auto"  # MSE, or Gaussian NLL (after a warm-up) for models with uncertainty
+    MSE = "mse"
+    NLL = "nll"
+
+
+# Options that only bound the compute of a run; a resumed run may change them.
+BUDGET_FIELDS = ("max_epochs", "max_minutes", "max_steps", "device", "save_every_min")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    model: str
+    data: tuple[str, ...]
+    out_dir: str
+    val: tuple[str, ...] = ()
+    model_kwargs: dict[str, Any] = field(default_factory=dict)
+    name: str | None = None  # checkpoint stem in out_dir; None: the model name
+    imu_rate_hz: float | None = None
+    window: int | None = None  # samples; None: 1 s at imu_rate_hz
+    stride: int = 10
+    out_dim: int | None = None  # None: the model's own default (2 for most, 3 for TLIO / RNIN)
+    batch_size: int = 512
+    lr: float = 1e-4
+    min_lr: float = 1e-6
+    plateau_factor: float = 0.1
+    plateau_patience: int = 10
+    max_epochs: int = 100
+    max_minutes: float | None = None
+    max_steps: int | None = None  # total optimizer steps (a budget, e.g. for smoke tests)
+    seed: int = 0
+    normalization: Normalization = Normalization.NONE
+    augment_yaw: bool = True
+    loss: LossKind = LossKind.AUTO
+    nll_warmup_epochs: int = 10
+    log_std_range: tuple[float, float] = (-5.0, 3.0)
+    val_fraction: float = 0.1
+    device: str = "cpu"
+    save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
+    weights_dtype: str = "float32"  # storage of the best checkpoint: float32 or float16
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "data", tuple(str(p) for p in self.data))
+        object.__setattr__(self, "val", tuple(str(p) for p in self.val))
+        object.__setattr__(self, "log_std_range", tuple(float(v) for v in self.log_std_range))
+        object.__setattr__(self, "model_kwargs", dict(self.model_kwargs))
+        for name, kind in (("normalization", Normalization), ("loss", LossKind)):
+            try:
+                object.__setattr__(self, name, kind(getattr(self, name)))
+            except ValueError:
+                choices = ", ".join(k.value for k in kind)
+                raise ConfigError(f"{name} must be one of {choices}, got {getattr(self, name)!r}") from None
+        self._validate()
+
+    def _validate(self) -> None:
+        if not self.model:
+            raise ConfigError("model: a registered model name is required")
+        if not self.data:
+            raise ConfigError("data: at least one training data path is required")
+        _positive("batch_size", self.batch_size, integer=True)
+        _positive("lr", self.lr)
+        _positive("min_lr", self.min_lr)
+        _positive("max_epochs", self.max_epochs, integer=True)
+        _positive("stride", self.stride, integer=True)
+        _positive("plateau_patience", self.plateau_patience, integer=True, allow_zero=True)
+        _positive("nll_warmup_epochs", self.nll_warmup_epochs, integer=True, allow_zero=True)
+        _positive("save_every_min", self.save_every_min)
+        for name in ("imu_rate_hz", "max_minutes"):
+            if getattr(self, name) is not None:
+                _positive(name, getattr(self, name))
+        for name in ("window", "max_steps"):
+            if getattr(self, name) is not None:
+                _positive(name, getattr(self, name), integer=True)
+        if not 0.0 < self.plateau_factor < 1.0:
+            raise ConfigError(f"plateau_factor must be in (0, 1), got {self.plateau_factor}")
+        if not 0.0 <= self.val_fraction < 1.0:
+            raise ConfigError(f"val_fraction must be in [0, 1), got {self.val_fraction}")
+        if self.out_dim is not None and self.out_dim not in (2, 3):
+            raise ConfigError(f"out_dim must be 2 (horizontal velocity) or 3, got {self.out_dim}")
+        if self.weights_dtype not in ("float32", "float16"):
+            raise ConfigError(f"weights_dtype must be 'float32' or 'float16', got {self.weights_dtype!r}")
+        low, high = self.log_std_range
+        if not low < high:
+            raise ConfigError(f"log_std_range must be (low, high) with low < high, got {self.log_std_range}")
+
+    @property
+    def checkpoint_name(self) -> str:
+        return self.name or self.model
+
+    @property
+    def resolved_window(self) -> int:
+        """Window length in samples (needs ``imu_rate_hz`` resolved)."""
+        if self.window is not None:
+            return self.window
+        if self.imu_rate_hz is None:
+            raise ConfigError("window: cannot default to 1 s before imu_rate_hz is known")
+        return int(round(self.imu_rate_hz))
+
+    def with_(self, **changes: Any) -> TrainConfig:
+        return replace(self, **changes)
+
+    def to_json(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["normalization"] = self.normalization.value
+        data["loss"] = self.loss.value
+        data["data"] = list(self.data)
+        data["val"] = list(self.val)
+        data["log_std_range"] = list(self.log_std_range)
+        return data
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> TrainConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(
+                f"unknown training option(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+            )
+        try:
+            return cls(**data)
+        except TypeError as exc:  # a required option is missing
+            raise ConfigError(str(exc)) from None
+
+    def save(self, path: Path) -> None:
+        from ftin.train.checkpoint import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.to_json(), indent=2) + "\n")
+
+    @classmethod
+    def load(cls, path: Path) -> TrainConfig:
+        try:
+            data = json.loads(Path(path).read_text())
+        except FileNotFoundError:
+            raise ConfigError(f"{path}: no training config (not a run folder of ftin train?)") from None
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"{path}: not valid JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: expected a JSON object of training options")
+        return cls.from_json(data)
+
+
+def _positive(name: str, value: Any, *, integer: bool = False, allow_zero: bool = False) -> None:
+    ok_type = isinstance(value, int) if integer else isinstance(value, (int, float))
+    if isinstance(value, bool) or not ok_type or (not integer and not math.isfinite(value)):
+        kind = "an integer" if integer else "a number"
+        raise ConfigError(f"{name} must be {kind}, got {value!r}")
+    if value < 0 or (value == 0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ConfigError(f"{name} must be {bound}, got {value}")

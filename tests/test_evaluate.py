@@ -1,0 +1,62 @@
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from ftin.data.errors import DataFormatError
+from ftin.evaluate import evaluate_checkpoint
+from ftin.infer import predict_trajectory
+from ftin.metrics import Convention, evaluate_trajectory
+from ftin.models import create_model
+from ftin.sim import SimConfig, simulate
+from ftin.train.checkpoint import load_model, save_checkpoint
+
+
+@pytest.fixture(scope="module")
+def loaded(tmp_path_factory):
+    torch.manual_seed(0)
+    model = create_model("ronin_tcn", channels=(8, 8))
+    stem = tmp_path_factory.mktemp("ckpt") / "tiny"
+    save_checkpoint(stem, model, {"model_name": "ronin_tcn", "imu_rate_hz": 50.0, "window": 25, "stride": 5})
+    return load_model(stem)
+
+
+@pytest.fixture(scope="module")
+def walks():
+    return [simulate(SimConfig(duration_s=15.0, rate_hz=50.0, seed=seed)) for seed in (5, 6)]
+
+
+def test_per_sequence_and_mean(loaded, walks):
+    report = evaluate_checkpoint(loaded, walks)
+    assert report.convention is Convention.RONIN and report.checkpoint == "tiny"
+    assert [r.name for r in report.sequences] == [w.name for w in walks]
+    for result, walk in zip(report.sequences, walks, strict=True):
+        expected = evaluate_trajectory(predict_trajectory(loaded, walk).trajectory, walk.gt)
+        assert result.metrics == expected
+        assert result.duration_s == pytest.approx(walk.duration_s)
+    assert report.mean.ate == pytest.approx(np.mean([r.metrics.ate for r in report.sequences]))
+    assert report.mean.rte == pytest.approx(np.mean([r.metrics.rte for r in report.sequences]))
+    assert report.mean.pde == pytest.approx(np.mean([r.metrics.pde for r in report.sequences]))
+    data = json.loads(json.dumps(report.to_json()))
+    assert data["convention"] == "ronin" and set(data["mean"]) == {"ate", "rte", "pde"}
+    assert [set(s) >= {"name", "ate", "rte", "pde"} for s in data["sequences"]] == [True, True]
+    assert data["sequences"][0]["ate"] == report.sequences[0].metrics.ate
+    assert "RoNIN convention" in data["description"]
+
+
+def test_convention_is_applied(loaded, walks):
+    ronin = evaluate_checkpoint(loaded, walks[:1])
+    se2 = evaluate_checkpoint(loaded, walks[:1], Convention.SE2)
+    assert se2.convention is Convention.SE2 and se2.to_json()["convention"] == "se2"
+    assert se2.sequences[0].metrics.ate <= np.sqrt(2) * ronin.sequences[0].metrics.ate + 1e-9
+    assert "SE(2)" in se2.describe()
+
+
+def test_needs_ground_truth(loaded, walks):
+    with pytest.raises(DataFormatError, match="has no ground truth"):
+        evaluate_checkpoint(loaded, [walks[0].with_(gt=None)])
+    with pytest.raises(ValueError, match="at least one sequence"):
+        evaluate_checkpoint(loaded, [])

@@ -1,0 +1,147 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from ftin.data.errors import DataFormatError
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.windows import InputNormalization, make_windows
+from ftin.infer import integrate_windows, predict_trajectory
+from ftin.models import VelocityModel, VelocityOutput, create_model
+from ftin.sim import SimConfig, simulate
+from ftin.train.checkpoint import LoadedModel, load_model, save_checkpoint
+
+RATE_HZ = 50.0
+WINDOW = 25
+
+
+class GyroIsVelocity(VelocityModel):
+    """Oracle for a sequence whose world-frame gyro x, y carry the velocity of each sample interval."""
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        if features is not None:
+            features["window_mean"] = x.mean(dim=2)
+        return VelocityOutput(x[:, 0:2, :].mean(dim=2))
+
+
+def _oracle(rate_hz: float = 100.0, window: int = 100, stride: int = 100) -> LoadedModel:
+    model = GyroIsVelocity().eval()
+    model.dummy = torch.nn.Parameter(torch.zeros(1))  # inference looks up the model's device
+    return LoadedModel(model, "oracle", "oracle", rate_hz, window, stride, 2, InputNormalization(), {})
+
+
+def _circle_walk(rate_hz: float = 100.0, duration_s: float = 70.0) -> ImuSequence:
+    """A 5 m circle at 1 m/s, z = 1 m; gyro x, y = the exact velocity over each sample interval."""
+    t = np.arange(int(duration_s * rate_hz) + 1) / rate_hz
+    angle = 0.2 * t
+    p = np.column_stack([5 * np.cos(angle) + 2.0, 5 * np.sin(angle) - 1.0, np.ones_like(t)])
+    v = np.diff(p, axis=0) * rate_hz
+    gyro = np.vstack([v, v[-1:]])
+    gyro[:, 2] = 0.0
+    acc = np.tile([0.0, 0.0, 9.81], (len(t), 1))
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1))
+    return ImuSequence("circle", t, gyro, acc, q, Trajectory(t, p), {"orientation_source": "device"})
+
+
+@pytest.fixture(scope="module")
+def tiny_checkpoint(tmp_path_factory):
+    torch.manual_seed(0)
+    model = create_model("ronin_tcn", channels=(8, 8))
+    stem = tmp_path_factory.mktemp("ckpt") / "tiny"
+    save_checkpoint(
+        stem, model, {"model_name": "ronin_tcn", "imu_rate_hz": RATE_HZ, "window": WINDOW, "stride": 5}
+    )
+    return load_model(stem)
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return simulate(SimConfig(duration_s=20.0, rate_hz=RATE_HZ, seed=4))
+
+
+def test_integrate_windows():
+    t = np.arange(11) * 0.1
+    # Two windows of 4 samples every 2: intervals 0-1 from window 0, 2-3 averaged, 4-5 from window 1,
+    # the uncovered tail (intervals 6-9) keeps window 1's velocity.
+    p = integrate_windows(
+        t, np.array([0, 2]), 4, np.array([[1.0, 0.0], [3.0, 2.0]]), np.array([1.0, 2.0, 3.0])
+    )
+    steps = np.diff(p, axis=0) / 0.1
+    np.testing.assert_allclose(steps[:, 0], [1, 1, 2, 2, 3, 3, 3, 3, 3, 3])
+    np.testing.assert_allclose(steps[:, 1], [0, 0, 1, 1, 2, 2, 2, 2, 2, 2])
+    np.testing.assert_allclose(p[:, 2], 3.0)  # 2-D velocity: z stays at the start height
+    np.testing.assert_allclose(p[0], [1.0, 2.0, 3.0])
+
+
+def test_oracle_velocities_reproduce_the_ground_truth():
+    seq = _circle_walk()
+    pred = predict_trajectory(_oracle(), seq)
+    assert pred.frame == "ground_truth" and pred.orientation_source == "device" and pred.warnings == []
+    traj = pred.trajectory
+    np.testing.assert_array_equal(traj.t_s, seq.t_s)
+    # Non-overlapping windows: exact at every window boundary, and the start is the GT start.
+    boundaries = np.arange(0, len(seq) - 1, 100)
+    # (float32 windows: 1e-7 relative per velocity)
+    np.testing.assert_allclose(traj.p_world_m[boundaries], seq.gt.p_world_m[boundaries], atol=1e-5)
+    np.testing.assert_allclose(traj.p_world_m[:, 2], 1.0)
+    assert pred.metrics is not None and pred.metrics.ate < 0.02 and pred.metrics.pde < 1e-3
+    assert pred.velocity_m_s.shape == (len(boundaries), 2)
+    np.testing.assert_allclose(pred.window_t_s, (seq.t_s[boundaries] + seq.t_s[boundaries + 100]) / 2)
+    chord_speed = 2 * 5 * np.sin(0.2 / 2)  # mean velocity over 1 s of a 5 m circle at 0.2 rad/s
+    np.testing.assert_allclose(np.linalg.norm(pred.velocity_m_s, axis=1), chord_speed, rtol=1e-6)
+    # Overlapping windows average their velocities: still close.
+    overlapping = predict_trajectory(_oracle(), seq, stride=10)
+    assert overlapping.metrics.ate < 0.05 and len(overlapping.velocity_m_s) > 9 * len(boundaries)
+
+
+def test_without_ground_truth_starts_at_origin_in_device_world():
+    seq = _circle_walk()
+    pred = predict_trajectory(_oracle(), seq.with_(gt=None))
+    assert pred.frame == "device_world" and pred.metrics is None
+    np.testing.assert_allclose(pred.trajectory.p_world_m[0], 0.0)
+    expected = seq.gt.p_world_m[:, :2] - seq.gt.p_world_m[0, :2]
+    np.testing.assert_allclose(pred.trajectory.p_world_m[::100, :2], expected[::100], atol=1e-5)
+
+
+def test_resamples_to_the_checkpoint_rate():
+    seq = _circle_walk(rate_hz=100.0)
+    pred = predict_trajectory(_oracle(rate_hz=50.0, window=50, stride=50), seq)
+    assert np.allclose(np.diff(pred.trajectory.t_s), 0.02)
+    assert any("resampled from 100 Hz to the checkpoint's 50 Hz" in w for w in pred.warnings)
+    assert pred.metrics.ate < 0.05
+
+
+def test_velocities_are_the_model_on_training_windows(tiny_checkpoint, walk):
+    pred = predict_trajectory(tiny_checkpoint, walk, batch_size=7)
+    windows = make_windows(walk, WINDOW, 5)
+    with torch.inference_mode():
+        expected = tiny_checkpoint.model(torch.from_numpy(windows.x)).velocity.double().numpy()
+    np.testing.assert_allclose(pred.velocity_m_s, expected, rtol=1e-5, atol=1e-7)
+    assert pred.features is None
+    assert len(pred.trajectory) == len(walk)
+
+
+def test_streaming_progress_and_features(tiny_checkpoint, walk):
+    calls = []
+    pred = predict_trajectory(
+        tiny_checkpoint, walk, batch_size=50, progress=lambda done, total: calls.append((done, total))
+    )
+    total = len(pred.velocity_m_s)
+    assert calls[-1] == (total, total) and [c[0] for c in calls] == sorted(c[0] for c in calls)
+    assert len(calls) == -(-total // 50)
+    big = predict_trajectory(tiny_checkpoint, walk, batch_size=4096, return_features=True)
+    np.testing.assert_allclose(big.velocity_m_s, pred.velocity_m_s, rtol=1e-6, atol=1e-9)
+    assert big.features["per_frame_velocity"].shape == (total, WINDOW, 2)
+    assert big.features["per_frame_velocity"].dtype == np.float32
+
+
+def test_missing_orientation_is_estimated_with_a_warning(tiny_checkpoint, walk):
+    pred = predict_trajectory(tiny_checkpoint, walk.with_(q_world_device_wxyz=None))
+    assert pred.orientation_source == "estimated"
+    assert any("no device orientation" in w for w in pred.warnings)
+
+
+def test_too_short_input(tiny_checkpoint, walk):
+    with pytest.raises(DataFormatError, match="too short.*at least 26"):
+        predict_trajectory(tiny_checkpoint, walk.slice(0, 20))

@@ -1,0 +1,206 @@
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import numpy as np
+import pytest
+import torch
+
+from ftin.models import VelocityOutput
+from ftin.train import ConfigError, TrainConfig, load_model, train
+from ftin.train.loop import _stop_signals, build_model, split_validation, velocity_loss
+
+RATE_HZ = 50.0  # the sim_sequences fixture's rate
+WINDOW = 25
+TINY_TCN = {"channels": (8, 8), "kernel_size": 3}
+
+
+def _config(tmp_path, **changes) -> TrainConfig:
+    base = dict(
+        model="ronin_tcn",
+        model_kwargs=TINY_TCN,
+        data=("sim",),
+        out_dir=str(tmp_path / "run"),
+        window=WINDOW,
+        stride=5,
+        batch_size=64,
+        lr=1e-3,
+        max_epochs=2,
+        seed=7,
+    )
+    base.update(changes)
+    return TrainConfig(**base)
+
+
+def _weights(run_dir):
+    return {k: v.clone() for k, v in load_model(run_dir / "ronin_tcn").model.state_dict().items()}
+
+
+def test_training_writes_a_run_folder(tmp_path, sim_sequences):
+    config = _config(tmp_path, max_epochs=3)
+    result = train(config, sim_sequences, progress=False)
+    run = tmp_path / "run"
+    assert result.stop_reason == "max_epochs" and result.finished and result.epochs_done == 3
+    assert {p.name for p in run.iterdir()} == {
+        "config.json",
+        "history.json",
+        "resume.safetensors",
+        "ronin_tcn.safetensors",
+        "ronin_tcn.json",
+    }
+    saved = TrainConfig.load(run / "config.json")
+    assert saved.imu_rate_hz == RATE_HZ and saved.window == WINDOW and saved.out_dim == 2
+    history = json.loads((run / "history.json").read_text())
+    assert [h["epoch"] for h in history] == [1, 2, 3]
+    assert history[-1]["train_loss"] < history[0]["train_loss"]  # it learns something
+    loaded = load_model(result.checkpoint)
+    assert loaded.imu_rate_hz == RATE_HZ and loaded.window == WINDOW and loaded.stride == 5
+    meta = loaded.meta
+    assert meta["split"]["val_source"] == "held_out" and len(meta["split"]["val"]) == 1
+    assert sorted(meta["split"]["train"] + meta["split"]["val"]) == sorted(s.name for s in sim_sequences)
+    best = min(history, key=lambda h: h["val_mse"])
+    assert meta["metrics"]["epoch"] == best["epoch"] and meta["metrics"]["val_mse"] == pytest.approx(
+        best["val_mse"]
+    )
+    assert meta["epochs"] == best["epoch"] and meta["train_config"]["lr"] == 1e-3
+    assert meta["wall_time_s"] > 0 and not meta["metrics"]["partial"]
+
+
+def test_stopped_and_resumed_run_matches_an_uninterrupted_one(tmp_path, sim_sequences):
+    whole = train(_config(tmp_path / "a"), sim_sequences, progress=False)
+    assert whole.steps > 6
+    stopped = train(_config(tmp_path / "b", max_steps=5), sim_sequences, progress=False)
+    assert stopped.stop_reason == "max_steps" and stopped.steps == 5 and not stopped.finished
+    partial = load_model(tmp_path / "b" / "run" / "ronin_tcn")  # something to load even mid-epoch
+    assert partial.meta["metrics"]["partial"]
+    # Another budget stop in the second epoch, then run to the end.
+    again = train(
+        _config(tmp_path / "b", max_steps=whole.steps - 2), sim_sequences, resume=True, progress=False
+    )
+    assert again.steps == whole.steps - 2 and again.epochs_done == 1
+    resumed = train(_config(tmp_path / "b"), sim_sequences, resume=True, progress=False)
+    assert resumed.stop_reason == "max_epochs" and resumed.steps == whole.steps
+    a, b = _weights(tmp_path / "a" / "run"), _weights(tmp_path / "b" / "run")
+    for key in a:
+        torch.testing.assert_close(b[key], a[key], rtol=0, atol=0)
+    assert [h["val_mse"] for h in resumed.history] == [h["val_mse"] for h in whole.history]
+    # A finished run resumed with a larger epoch budget continues.
+    more = train(_config(tmp_path / "b", max_epochs=3), sim_sequences, resume=True, progress=False)
+    assert more.epochs_done == 3
+
+
+def test_resume_guards(tmp_path, sim_sequences):
+    with pytest.raises(ConfigError, match="no resume.safetensors"):
+        train(_config(tmp_path), sim_sequences, resume=True, progress=False)
+    train(_config(tmp_path, max_steps=1), sim_sequences, progress=False)
+    with pytest.raises(ConfigError, match="already holds a run"):
+        train(_config(tmp_path), sim_sequences, progress=False)
+    with pytest.raises(ConfigError, match=r"lr: 0\.001 -> 0\.01"):
+        train(_config(tmp_path, lr=1e-2), sim_sequences, resume=True, progress=False)
+
+
+def test_stops_when_the_learning_rate_falls_below_min_lr(tmp_path, sim_sequences):
+    # A learning rate too small to change the loss: the second epoch does not improve, the plateau
+    # schedule (patience 0) cuts the rate below min_lr and training ends.
+    config = _config(tmp_path, lr=1e-6, min_lr=5e-7, plateau_patience=0, max_epochs=10)
+    result = train(config, sim_sequences, progress=False)
+    assert result.stop_reason == "min_lr" and result.epochs_done == 2
+    assert result.history[-1]["lr"] == pytest.approx(1e-7)
+
+
+def test_explicit_validation_and_progress_output(tmp_path, sim_sequences, capsys):
+    result = train(_config(tmp_path, max_epochs=1), sim_sequences[:2], sim_sequences[2:], progress=True)
+    meta = load_model(result.checkpoint).meta
+    assert meta["split"] == {
+        "train": [s.name for s in sim_sequences[:2]],
+        "val": [sim_sequences[2].name],
+        "val_source": "paths",
+    }
+    assert "epoch 1/1: train" in capsys.readouterr().err
+
+
+def test_uncertainty_model_trains_with_nll(tmp_path, sim_sequences):
+    config = _config(
+        tmp_path,
+        model="tlio",
+        model_kwargs={"fc_dim": 16, "trans_channels": 8},
+        max_steps=2,
+        nll_warmup_epochs=0,
+    )
+    result = train(config, sim_sequences[:1], progress=False)
+    loaded = load_model(result.checkpoint)
+    assert loaded.out_dim == 3 and loaded.model_name == "tlio" and loaded.window == WINDOW
+
+
+def test_config_errors(tmp_path, sim_sequences):
+    with pytest.raises(ConfigError, match="batch_size must be > 0"):
+        _config(tmp_path, batch_size=0)
+    with pytest.raises(ConfigError, match="out_dim"):
+        _config(tmp_path, out_dim=4)
+    with pytest.raises(ConfigError, match="normalization must be one of none, channel_stats, got 'bogus'"):
+        _config(tmp_path, normalization="bogus")
+    with pytest.raises(ConfigError, match="needs a model with an uncertainty head"):
+        train(_config(tmp_path, loss="nll"), sim_sequences, progress=False)
+    with pytest.raises(ConfigError, match="unknown config key"):
+        train(_config(tmp_path, model_kwargs={"nope": 1}), sim_sequences, progress=False)
+    with pytest.raises(ConfigError, match="--window 30"):
+        train(_config(tmp_path, model="rnin", model_kwargs={"sub_window": 25}, window=30), sim_sequences)
+    with pytest.raises(ConfigError, match="unknown training option"):
+        TrainConfig.from_json({**_config(tmp_path).to_json(), "extra": 1})
+    as_json = json.loads(json.dumps(_config(tmp_path).to_json()))
+    assert TrainConfig.from_json(as_json).to_json() == as_json
+
+
+def test_build_model_passes_window_and_out_dim_only_where_taken():
+    assert build_model("ronin_resnet", 50, 3, {}).config["window"] == 50
+    assert build_model("ronin_resnet", 50, None, {}).out_dim == 2
+    lstm = build_model("ronin_lstm", 50, 3, {"hidden_size": 4, "num_layers": 1})
+    assert "window" not in lstm.config and lstm.out_dim == 3
+    assert build_model("ronin_resnet", 50, None, {"window": 64}).config["window"] == 64  # the user's wins
+
+
+def test_split_validation_holds_out_whole_sequences(sim_sequences):
+    train_seqs, val_seqs = split_validation(sim_sequences, 0.1, seed=0)
+    assert len(val_seqs) == 1 and len(train_seqs) == 2
+    assert {s.name for s in train_seqs}.isdisjoint(s.name for s in val_seqs)
+    assert split_validation(sim_sequences[:1], 0.5, seed=0) == (sim_sequences[:1], [])
+    assert split_validation(sim_sequences, 0.0, seed=0)[1] == []
+
+
+def test_velocity_loss():
+    target = torch.tensor([[1.0, -1.0]])
+    mean = torch.tensor([[2.0, 1.0]], requires_grad=True)
+    log_std = torch.tensor([[0.0, np.log(2.0)]], requires_grad=True)
+    out = VelocityOutput(mean, log_std)
+    mse = velocity_loss(out, target, use_nll=False, warmup=False, log_std_range=(-5, 3))
+    assert mse.item() == pytest.approx(2.5)
+    nll = velocity_loss(out, target, use_nll=True, warmup=False, log_std_range=(-5, 3))
+    assert nll.item() == pytest.approx((0.5 * 1 + 0.0 + 0.5 * 4 / 4 + np.log(2.0)) / 2)
+    # Warm-up: the velocity's gradient is exactly the MSE gradient.
+    warm = velocity_loss(out, target, use_nll=True, warmup=True, log_std_range=(-5, 3))
+    (grad_warm,) = torch.autograd.grad(warm, mean)
+    (grad_mse,) = torch.autograd.grad(velocity_loss(out, target, False, False, (-5, 3)), mean)
+    torch.testing.assert_close(grad_warm, grad_mse)
+    clamped = velocity_loss(
+        VelocityOutput(mean, torch.full((1, 2), -50.0)), target, True, False, log_std_range=(-1, 3)
+    )
+    assert np.isfinite(clamped.item())
+
+
+def test_max_minutes_stops_and_leaves_a_partial_checkpoint(tmp_path, sim_sequences):
+    result = train(_config(tmp_path, max_minutes=1e-9), sim_sequences, progress=False)
+    assert result.stop_reason == "max_minutes" and result.steps == 0 and not result.finished
+    assert load_model(result.checkpoint).meta["metrics"]["partial"]
+
+
+def test_ctrl_c_asks_for_a_clean_stop_and_a_second_one_interrupts():
+    before = signal.getsignal(signal.SIGINT)
+    flag = {"stop": False}
+    with _stop_signals(flag):
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert flag["stop"]  # stop at the next step boundary, after saving the resume state
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is before
