@@ -1,1 +1,118 @@
-"""(being written)"""
+"""RNIN's network (Chen et al., ISMAR 2021, "RNIN-VIO"): a ResNet encoder per 1 s sub-window and an
+LSTM over the sequence of sub-windows, with mean and log-std heads.
+
+Structure as the public reference (100 Hz, 1 s sub-windows of 100 samples): conv7/s2 + BN + ReLU with
+no maxpool, ResBlocks [2, 2, 2, 2] (64..512), 1x1 conv 512 -> 128 + BN, flatten (128 x 7 = 896),
+LSTM(896 -> 256, 1 layer), then two heads per sub-window, each FC 256 -> 256 -> 256 -> 3 (ReLU,
+dropout 0.2). 5,358,342 parameters with 3 outputs; the count does not depend on how many sub-windows
+the LSTM sees, only on ``sub_window`` (which sets the flatten size).
+
+Decisions:
+* The reference feeds (B, 10, 6, 100): 10 consecutive, non-overlapping 1 s windows, one displacement
+  (and log-std) per window. Here the input is one window (B, 6, L) with L a multiple of ``sub_window``;
+  it is cut into L / sub_window consecutive sub-windows that the LSTM runs over (zero initial state per
+  window). The layer sizes do not depend on L, so ``window`` is not in the config: L = 10 x sub_window
+  reproduces the reference's sequence of 10; the paper's 1 s window at 100 Hz is a single sub-window
+  and the design's reference 6 x 200 input two. With one sub-window the LSTM sees one step and the
+  network reduces to a ResNet + LSTM cell + heads: short windows give it no sequence to exploit.
+* Each sub-window's displacement becomes a velocity (displacement / sub-window duration), exposed as
+  the ``per_window_velocity`` tap (B, n, D). The model returns their mean, which equals the whole
+  window's displacement / duration, i.e. the window's velocity target.
+* Uncertainty: each sub-window's head gives a log-std s_i of its velocity. Treating the n estimates as
+  independent, the mean has variance sum(exp(2 s_i)) / n**2, so the returned
+  ``log_std = 0.5 * logsumexp(2 s) - log n`` (exactly s for a single sub-window).
+* LSTM initialisation as the reference: orthogonal weights, zero biases, forget-gate bias 1.
+
+Feature taps (detached, only when a ``features`` dict is passed): ``backbone`` (B, n, 128, L_res), the
+encoder code of every sub-window, ``per_window_velocity`` and ``per_window_log_std`` (B, n, D).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+from ftin.models.base import VelocityModel, VelocityOutput
+from ftin.models.layers.checks import check_input, make_config, require
+from ftin.models.layers.heads import MLPHead
+from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
+from ftin.models.registry import register_model
+
+IN_CHANNELS = 6  # gyro xyz, acc xyz
+
+
+@dataclass(frozen=True)
+class RNINConfig:
+    sub_window: int = 100  # samples per LSTM step (1 s at the reference's 100 Hz); sets the flatten size
+    out_dim: int = 3
+    trans_channels: int = 128
+    lstm_size: int = 256
+    lstm_layers: int = 1
+    fc_dim: int = 256
+    dropout: float = 0.2
+
+    def __post_init__(self) -> None:
+        require(self.sub_window >= 1, "rnin", f"sub_window must be >= 1 sample, got {self.sub_window}")
+        require(self.out_dim >= 1, "rnin", f"out_dim must be >= 1, got {self.out_dim}")
+        require(self.lstm_layers >= 1, "rnin", f"lstm_layers must be >= 1, got {self.lstm_layers}")
+        require(0.0 <= self.dropout < 1.0, "rnin", f"dropout must be in [0, 1), got {self.dropout}")
+
+
+class RNINNet(VelocityModel):
+    """``(B, 6, n * sub_window) -> VelocityOutput(velocity (B, D), log_std (B, D))``."""
+
+    has_uncertainty = True
+
+    def __init__(self, config: RNINConfig) -> None:
+        super().__init__(**asdict(config))
+        self.sub_window = config.sub_window
+        self.min_window = config.sub_window
+        self.window_multiple = config.sub_window
+        self.backbone = ResNet1DBackbone(IN_CHANNELS, stem_maxpool=False)
+        self.transition = nn.Sequential(
+            nn.Conv1d(self.backbone.out_channels, config.trans_channels, 1, bias=False),
+            nn.BatchNorm1d(config.trans_channels),
+        )
+        code_size = config.trans_channels * self.backbone.output_length(config.sub_window)
+        self.lstm = nn.LSTM(code_size, config.lstm_size, config.lstm_layers, batch_first=True)
+        hidden = (config.fc_dim, config.fc_dim)
+        self.mean_head = MLPHead(config.lstm_size, config.out_dim, hidden=hidden, dropout=config.dropout)
+        self.log_std_head = MLPHead(config.lstm_size, config.out_dim, hidden=hidden, dropout=config.dropout)
+        init_resnet_weights(self)
+        self._init_lstm()
+
+    def _init_lstm(self) -> None:
+        for name, param in self.lstm.named_parameters():
+            if name.startswith("weight"):
+                nn.init.orthogonal_(param)
+            else:
+                nn.init.zeros_(param)
+                if name.startswith("bias_hh"):  # gate order i, f, g, o: remember by default
+                    size = param.shape[0] // 4
+                    nn.init.ones_(param[size : 2 * size])
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        length = check_input(x, "rnin", min_window=self.min_window, window_multiple=self.window_multiple)
+        batch, n = x.shape[0], length // self.sub_window
+        # (B, 6, n * S) -> (B, 6, n, S) -> (B, n, 6, S) -> (B * n, 6, S): one ResNet pass per sub-window
+        subs = x.reshape(batch, IN_CHANNELS, n, self.sub_window).transpose(1, 2)
+        subs = subs.reshape(batch * n, IN_CHANNELS, self.sub_window)
+        code = self.transition(self.backbone(subs))  # (B * n, 128, L_res)
+        hidden, _ = self.lstm(code.reshape(batch, n, -1))  # (B, n, lstm_size)
+        flat = hidden.reshape(batch * n, -1)
+        velocity = self.mean_head(flat).reshape(batch, n, -1)  # (B, n, D)
+        log_std = self.log_std_head(flat).reshape(batch, n, -1)  # (B, n, D)
+        if features is not None:
+            features["backbone"] = code.reshape(batch, n, *code.shape[1:]).detach()  # (B, n, 128, L_res)
+            features["per_window_velocity"] = velocity.detach()
+            features["per_window_log_std"] = log_std.detach()
+        mean_log_std = 0.5 * torch.logsumexp(2.0 * log_std, dim=1) - math.log(n)  # (B, D)
+        return VelocityOutput(velocity.mean(dim=1), mean_log_std)
+
+
+@register_model("rnin")
+def rnin(**cfg) -> RNINNet:
+    return RNINNet(make_config(RNINConfig, "rnin", cfg))

@@ -1,1 +1,186 @@
-"""(being written)"""
+"""The three RoNIN baselines (Herath et al., ICRA 2020): ResNet-1D, bilinear LSTM and TCN.
+
+Re-implemented from the structure of the public reference code; parameter counts of the default
+configurations equal the reference's at 6 x 200 input and 2 outputs (tests/models/test_param_counts.py).
+
+* ``ronin_resnet``: conv7/s2 + BN + ReLU + maxpool, BasicBlock1D groups [2, 2, 2, 2] with 64..512
+  channels, head 1x1 conv 512 -> 128 + BN, flatten, FC 128 * L_res -> 512 -> 512 -> out (ReLU,
+  dropout 0.5). 4,634,882 parameters. The head is sized for ``window``; the reference computes
+  L_res as ``window // 32 + 1``, which is wrong when the window is a multiple of 32, so we take the
+  backbone's true output length (the same 7 for L = 200).
+* ``ronin_lstm``: per frame, a bilinear layer mixes the 6 inputs into 24 features, concatenated with
+  the input (30) -> 3-layer LSTM(100) -> concat with its input (130) -> Linear 10 -> Linear out
+  (no activation between the two linears, as the reference). 216,620 parameters.
+* ``ronin_tcn``: causal TCN, kernel 3, channels [32, 64, 128, 256, 72, 36], dilation 2**i, weight norm,
+  PReLU, dropout 0.2, then dropout + 1x1 conv to out. Receptive field 253 frames. 540,488 parameters.
+
+LSTM and TCN are sequence-to-sequence in the reference (one velocity per frame, window 400, loss on
+the cumulative sum of velocity). Here they still predict one velocity per frame internally (exposed as
+the ``per_frame_velocity`` feature tap, (B, L, D)) and return its mean over the window: the mean of
+the per-frame velocities is the displacement over the window divided by its duration, which is the
+window's velocity target, so the shared training loop and inference code serve them unchanged. Being
+recurrent / convolutional they accept any window length; the LSTM is unidirectional and the TCN
+causal, so early frames of a window see less context, exactly as in the reference.
+
+Feature taps (detached, only when a ``features`` dict is passed): ``backbone`` (B, 512, L_res) for the
+ResNet, ``per_frame_velocity`` (B, L, D) for the LSTM and the TCN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+from ftin.models.base import VelocityModel, VelocityOutput
+from ftin.models.layers.checks import check_input, make_config, require
+from ftin.models.layers.conv_head import ConvFlattenHead
+from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
+from ftin.models.layers.tcn import TemporalConvNet
+from ftin.models.registry import register_model
+
+IN_CHANNELS = 6  # gyro xyz, acc xyz
+
+
+# ---------------------------------------------------------------------------------------- ResNet-1D
+@dataclass(frozen=True)
+class RoninResNetConfig:
+    window: int = 200  # input length L; the FC head's input size depends on it
+    out_dim: int = 2
+    blocks_per_group: tuple[int, ...] = (2, 2, 2, 2)  # RoNIN's "resnet18"; (3, 4, 6, 3) is its "resnet50"
+    trans_channels: int = 128  # 1x1 transition conv before the flatten
+    fc_dim: int = 512
+    dropout: float = 0.5
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "blocks_per_group", tuple(int(n) for n in self.blocks_per_group))
+        require(self.window >= 1, "ronin_resnet", f"window must be >= 1 sample, got {self.window}")
+        require(self.out_dim >= 1, "ronin_resnet", f"out_dim must be >= 1, got {self.out_dim}")
+        require(
+            len(self.blocks_per_group) == 4 and min(self.blocks_per_group) >= 1,
+            "ronin_resnet",
+            f"blocks_per_group needs 4 positive counts, got {self.blocks_per_group}",
+        )
+
+
+class RoninResNet(VelocityModel):
+    """RoNIN ResNet-1D: ``(B, 6, window) -> velocity (B, out_dim)``."""
+
+    def __init__(self, config: RoninResNetConfig) -> None:
+        super().__init__(**asdict(config))
+        self.window = config.window
+        self.backbone = ResNet1DBackbone(IN_CHANNELS, blocks_per_group=config.blocks_per_group)
+        self.head = ConvFlattenHead(
+            self.backbone.out_channels,
+            self.backbone.output_length(config.window),
+            config.out_dim,
+            trans_channels=config.trans_channels,
+            hidden=(config.fc_dim, config.fc_dim),
+            dropout=config.dropout,
+        )
+        init_resnet_weights(self)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        check_input(x, "ronin_resnet", window=self.window)
+        h = self.backbone(x)  # (B, 512, L_res)
+        if features is not None:
+            features["backbone"] = h.detach()
+        return VelocityOutput(self.head(h))  # (B, D)
+
+
+@register_model("ronin_resnet")
+def ronin_resnet(**cfg) -> RoninResNet:
+    return RoninResNet(make_config(RoninResNetConfig, "ronin_resnet", cfg))
+
+
+# ------------------------------------------------------------------------------------ bilinear LSTM
+@dataclass(frozen=True)
+class RoninLSTMConfig:
+    out_dim: int = 2
+    hidden_size: int = 100
+    num_layers: int = 3
+    lstm_dropout: float = 0.0  # between LSTM layers (reference default 0)
+
+    def __post_init__(self) -> None:
+        require(self.out_dim >= 1, "ronin_lstm", f"out_dim must be >= 1, got {self.out_dim}")
+        require(self.hidden_size >= 1, "ronin_lstm", f"hidden_size must be >= 1, got {self.hidden_size}")
+        require(self.num_layers >= 1, "ronin_lstm", f"num_layers must be >= 1, got {self.num_layers}")
+        require(0.0 <= self.lstm_dropout < 1.0, "ronin_lstm", "lstm_dropout must be in [0, 1)")
+
+
+class RoninLSTM(VelocityModel):
+    """RoNIN bilinear LSTM: per-frame velocity from a unidirectional LSTM, averaged over the window."""
+
+    def __init__(self, config: RoninLSTMConfig) -> None:
+        super().__init__(**asdict(config))
+        mixed = IN_CHANNELS * 5  # input ++ bilinear(input, input) with 4x the input's width
+        self.bilinear = nn.Bilinear(IN_CHANNELS, IN_CHANNELS, IN_CHANNELS * 4)
+        self.lstm = nn.LSTM(
+            mixed, config.hidden_size, config.num_layers, batch_first=True, dropout=config.lstm_dropout
+        )
+        self.linear1 = nn.Linear(config.hidden_size + mixed, config.out_dim * 5)
+        self.linear2 = nn.Linear(config.out_dim * 5, config.out_dim)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        check_input(x, "ronin_lstm")
+        frames = x.transpose(1, 2)  # (B, L, 6)
+        mixed = torch.cat([frames, self.bilinear(frames, frames)], dim=2)  # (B, L, 30)
+        hidden, _ = self.lstm(mixed)  # (B, L, hidden), zero initial state per window
+        per_frame = self.linear2(self.linear1(torch.cat([mixed, hidden], dim=2)))  # (B, L, D)
+        if features is not None:
+            features["per_frame_velocity"] = per_frame.detach()
+        return VelocityOutput(per_frame.mean(dim=1))  # (B, D)
+
+
+@register_model("ronin_lstm")
+def ronin_lstm(**cfg) -> RoninLSTM:
+    return RoninLSTM(make_config(RoninLSTMConfig, "ronin_lstm", cfg))
+
+
+# ---------------------------------------------------------------------------------------------- TCN
+@dataclass(frozen=True)
+class RoninTCNConfig:
+    out_dim: int = 2
+    channels: tuple[int, ...] = (32, 64, 128, 256, 72, 36)
+    kernel_size: int = 3
+    dropout: float = 0.2
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
+        require(self.out_dim >= 1, "ronin_tcn", f"out_dim must be >= 1, got {self.out_dim}")
+        require(
+            len(self.channels) >= 1 and min(self.channels) >= 1,
+            "ronin_tcn",
+            f"channels needs at least one positive width, got {self.channels}",
+        )
+        require(self.kernel_size >= 2, "ronin_tcn", f"kernel_size must be >= 2, got {self.kernel_size}")
+        require(0.0 <= self.dropout < 1.0, "ronin_tcn", f"dropout must be in [0, 1), got {self.dropout}")
+
+
+class RoninTCN(VelocityModel):
+    """RoNIN TCN: per-frame velocity from a causal TCN, averaged over the window."""
+
+    def __init__(self, config: RoninTCNConfig) -> None:
+        super().__init__(**asdict(config))
+        self.tcn = TemporalConvNet(IN_CHANNELS, config.channels, config.kernel_size, config.dropout)
+        self.output_dropout = nn.Dropout(config.dropout)
+        self.output_layer = nn.Conv1d(self.tcn.out_channels, config.out_dim, 1)
+        nn.init.normal_(self.output_layer.weight, 0.0, 0.01)
+        nn.init.normal_(self.output_layer.bias, 0.0, 0.001)
+
+    @property
+    def receptive_field(self) -> int:
+        return self.tcn.receptive_field
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        check_input(x, "ronin_tcn")
+        per_frame = self.output_layer(self.output_dropout(self.tcn(x)))  # (B, D, L)
+        if features is not None:
+            features["per_frame_velocity"] = per_frame.transpose(1, 2).detach()  # (B, L, D)
+        return VelocityOutput(per_frame.mean(dim=2))  # (B, D)
+
+
+@register_model("ronin_tcn")
+def ronin_tcn(**cfg) -> RoninTCN:
+    return RoninTCN(make_config(RoninTCNConfig, "ronin_tcn", cfg))
