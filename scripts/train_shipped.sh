@@ -24,4 +24,8 @@ for model in "$@"; do
     --window $window --stride $stride --batch-size 128 --lr 1e-3 --max-minutes "$minutes" \
     --threads 1 --half --seed 0 --no-progress
   cp "$out/$model-oxiod.safetensors" "$out/$model-oxiod.json" checkpoints/
+  vals=(); for f in "${val[@]}"; do vals+=(--data "$oxiod/$f"); done
+  .venv/bin/python -m ftin evaluate --checkpoint "checkpoints/$model-oxiod" "${vals[@]}" --json "$out/val.json"
+  .venv/bin/python -m ftin.train.model_card "checkpoints/$model-oxiod.json" "$out/val.json" \
+    > "checkpoints/$model-oxiod.md"
 done
