@@ -1,1 +1,229 @@
-"""(being written)"""
+"""FTIN (Frequency-Time Integration Network) and its ablations, from one class with two switches.
+
+``(B, 6, L) -> ResNet-1D encoder -> (B, C_res, L_res) -> FDL -> (B, C_fre, L_fre) -> sLSTM -> MLP -> (B, D)``
+
+| registered name | FDL | sLSTM (TDL) | paper's ablation column |
+|---|---|---|---|
+| ``resnet1d``   | -   | -   | the ResNet-1D baseline (= RoNIN ResNet's structure) |
+| ``resnet_fdl`` | yes | -   | +FDL |
+| ``resnet_tdl`` | -   | yes | +TDL |
+| ``ftin``       | yes | yes | +FDL&TDL (FTIN) |
+
+A missing stage is simply skipped: without FDL the sLSTM / head see the encoder output
+``(B, C_res, L_res)`` (a sequence of L_res steps with C_res features).
+
+Decisions (paper Sec. 2 leaves them open; all are ``FTINConfig`` fields, kept in ``self.config``):
+
+* Encoder = the shared ``ResNet1DBackbone`` (64..512, [2,2,2,2]) + RoNIN's output-block transition
+  ``conv1x1 512 -> res_channels (128) + BN``, so ``C_res = 128``. FDL's tensors are
+  ``B x d x C_res x L_res``: on all 512 backbone channels FDL alone cost about as much as the whole
+  backbone on 2 CPU cores; with 128 (the width RoNIN itself hands its FC head) FTIN stays well above
+  half of RoNIN ResNet's throughput. ``res_channels = 0`` feeds FDL the raw 512 channels.
+* ``window`` is in the config (default 100: 1 s at 100 Hz, the paper's window = rate): FDL's FC
+  flattens ``L_res x d`` and the head flattens the sequence, so sizes depend on
+  ``L_res = backbone.output_length(window)``; forward rejects other lengths with the fix.
+* FDL: ``embed_dim`` d = 8, one complex layer per axis (``fdl_layers``), ReLU as in FreTS
+  (``fdl_activation``, also the FC's), residual on (``fdl_residual``), output ``fre_channels``
+  C_fre = 64 x ``fre_length`` L_fre = 8. FDL's cost is linear in d (FFTs, copies) plus d^2 (the
+  complex GEMMs); d = 16 measured only 0.60-0.69 of ``ronin_resnet``'s speed, too close to the
+  0.5 floor on a loaded 2-core machine, so d = 8.
+* The sLSTM scans **time** (``slstm_axis = "time"``: L_fre = 8 steps of C_fre = 64 features). Time is
+  the axis of "time-domain learning" and the only ordered one: after FDL's channel FC the channel
+  index has no order, so scanning it would invent one; and 8 steps keep the unavoidable loop short.
+  ``"channel"`` (C_fre steps of L_fre features) is there for experiments.
+* sLSTM: ``slstm_blocks`` = 1 residual block, ``slstm_heads`` = 4, gated FFN with projection factor
+  4/3, sigmoid forget gate, residuals on, ``slstm_dropout`` 0. The final state is dropped: each
+  window is independent, as for every other model behind the same interface.
+* Head: RoNIN's FC layout ``(L_seq x C_seq) -> 512 -> 512 -> D``, dropout 0.5, RoNIN's init.
+* No uncertainty head (``log_std`` is None): the paper trains FTIN with MSE on velocity.
+
+Speed target: at least half of ``ronin_resnet``'s windows/s (``torch.inference_mode``, eval, batch
+512, window 100, 2 threads). Measured with these defaults: 0.77-0.81 (FDL ~ +25%, sLSTM ~ +10% on
+top of the shared backbone, which dominates).
+
+Feature taps (``features`` dict; detached; nothing is computed when it is None): ``resnet``
+(B, C_res, L_res), the encoder output; with FDL ``fdl_channel_spectrum`` (B, C_res//2+1, L_res, d),
+``fdl_temporal_spectrum`` (B, C_res, L_res//2+1, d) (|rfft| right before each complex MLP, d kept)
+and ``fdl`` (B, C_fre, L_fre); with the sLSTM ``slstm`` (B, steps, features), the stack's output.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from enum import Enum
+
+import torch
+from torch import nn
+
+from ftin.models.base import VelocityModel, VelocityOutput
+from ftin.models.layers.fdl import FrequencyDomainLearning, parse_activation
+from ftin.models.layers.heads import MLPHead
+from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
+from ftin.models.layers.slstm import ForgetGate, SLSTMStack
+from ftin.models.registry import register_model
+
+
+class ScanAxis(str, Enum):
+    TIME = "time"  # sequence of L steps, C features
+    CHANNEL = "channel"  # sequence of C steps, L features
+
+
+@dataclass
+class FTINConfig:
+    window: int = 100
+    out_dim: int = 2
+    resnet_channels: tuple[int, ...] = (64, 128, 256, 512)
+    resnet_blocks: tuple[int, ...] = (2, 2, 2, 2)
+    res_channels: int = 128
+    embed_dim: int = 8
+    fdl_layers: int = 1
+    fdl_activation: str = "relu"
+    fdl_residual: bool = True
+    fre_channels: int = 64
+    fre_length: int = 8
+    slstm_axis: str = "time"
+    slstm_blocks: int = 1
+    slstm_heads: int = 4
+    slstm_proj_factor: float = 4 / 3
+    slstm_forget_gate: str = "sigmoid"
+    slstm_residual: bool = True
+    slstm_dropout: float = 0.0
+    head_hidden: tuple[int, ...] = (512, 512)
+    head_dropout: float = 0.5
+
+    def __post_init__(self) -> None:
+        # JSON checkpoints hand back lists; keep tuples so configs compare equal and stay immutable.
+        self.resnet_channels = tuple(int(c) for c in self.resnet_channels)
+        self.resnet_blocks = tuple(int(b) for b in self.resnet_blocks)
+        self.head_hidden = tuple(int(h) for h in self.head_hidden)
+        if self.res_channels < 0:
+            raise ValueError(f"res_channels must be >= 0 (0: no transition conv), got {self.res_channels}")
+        if self.window < 1:
+            raise ValueError(f"window must be >= 1 samples, got {self.window}")
+        if self.out_dim not in (2, 3):
+            raise ValueError(f"out_dim must be 2 (horizontal) or 3, got {self.out_dim}")
+        if len(self.resnet_channels) != len(self.resnet_blocks):
+            raise ValueError(
+                f"resnet_channels {self.resnet_channels} and resnet_blocks {self.resnet_blocks} "
+                "need the same length"
+            )
+        parse_activation(self.fdl_activation, "fdl_activation")
+        try:
+            ScanAxis(self.slstm_axis)
+            ForgetGate(self.slstm_forget_gate)
+        except ValueError as error:
+            raise ValueError(
+                f"{error}; slstm_axis must be 'time' or 'channel', slstm_forget_gate 'sigmoid' or 'exp'"
+            ) from None
+
+
+@register_model("ftin")
+class FTIN(VelocityModel):
+    """FTIN: ResNet-1D -> FDL -> sLSTM -> MLP head; subclasses switch ``use_fdl`` / ``use_tdl`` off."""
+
+    use_fdl: bool = True
+    use_tdl: bool = True
+
+    def __init__(self, **config) -> None:
+        names = {f.name for f in fields(FTINConfig)}
+        unknown = sorted(set(config) - names)
+        if unknown:
+            raise TypeError(f"unknown {type(self).__name__} config {unknown}; valid keys: {sorted(names)}")
+        cfg = FTINConfig(**config)
+        super().__init__(**{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()})
+        self.cfg = cfg
+        strides = (1,) + (2,) * (len(cfg.resnet_channels) - 1)  # RoNIN: stride 2 from the second group
+        self.backbone = ResNet1DBackbone(6, cfg.resnet_channels, cfg.resnet_blocks, strides)
+        self.res_length = self.backbone.output_length(cfg.window)
+        self.transition: nn.Module = nn.Identity()
+        c_res = self.backbone.out_channels
+        if cfg.res_channels:
+            # RoNIN's output-block conv (512 -> 128 + BN): the encoder output FDL works on.
+            self.transition = nn.Sequential(
+                nn.Conv1d(c_res, cfg.res_channels, 1, bias=False), nn.BatchNorm1d(cfg.res_channels)
+            )
+            init_resnet_weights(self.transition)
+            c_res = cfg.res_channels
+
+        self.fdl: FrequencyDomainLearning | None = None
+        seq_channels, seq_length = c_res, self.res_length
+        if self.use_fdl:
+            self.fdl = FrequencyDomainLearning(
+                c_res,
+                self.res_length,
+                cfg.embed_dim,
+                cfg.fre_channels,
+                cfg.fre_length,
+                cfg.fdl_layers,
+                cfg.fdl_activation,
+                cfg.fdl_residual,
+            )
+            seq_channels, seq_length = cfg.fre_channels, cfg.fre_length
+
+        self.scan_axis = ScanAxis(cfg.slstm_axis)
+        self.slstm: SLSTMStack | None = None
+        if self.use_tdl:
+            dim = seq_channels if self.scan_axis is ScanAxis.TIME else seq_length
+            if dim % cfg.slstm_heads != 0:
+                raise ValueError(
+                    f"slstm_heads ({cfg.slstm_heads}) must divide the sLSTM feature size {dim} "
+                    f"({'fre_channels' if self.scan_axis is ScanAxis.TIME else 'the sequence length'})"
+                )
+            self.slstm = SLSTMStack(
+                dim,
+                cfg.slstm_blocks,
+                heads=cfg.slstm_heads,
+                proj_factor=cfg.slstm_proj_factor,
+                dropout=cfg.slstm_dropout,
+                forget_gate=cfg.slstm_forget_gate,
+                residual=cfg.slstm_residual,
+            )
+        self.head = MLPHead(seq_channels * seq_length, cfg.out_dim, cfg.head_hidden, cfg.head_dropout)
+        init_resnet_weights(self.head)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        if x.dim() != 3 or x.shape[1] != 6:
+            raise ValueError(f"{type(self).__name__} input must be (B, 6, L), got {tuple(x.shape)}")
+        window = x.shape[-1]
+        if self.backbone.output_length(window) != self.res_length:  # lengths with the same L_res are fine
+            raise ValueError(
+                f"{type(self).__name__} was built for window {self.cfg.window} (L_res {self.res_length}), "
+                f"got L = {window} (L_res {self.backbone.output_length(window)}); "
+                f"rebuild it with window={window}"
+            )
+        seq = self.transition(self.backbone(x))  # (B, 512, L_res) -> (B, C_res, L_res)
+        if features is not None:
+            features["resnet"] = seq.detach()
+        if self.fdl is not None:
+            seq = self.fdl(seq, features)  # (B, C_fre, L_fre)
+            if features is not None:
+                features["fdl"] = seq.detach()
+        if self.slstm is not None:
+            time_major = self.scan_axis is ScanAxis.TIME
+            seq = seq.transpose(1, 2) if time_major else seq  # (B, steps, features)
+            seq, _ = self.slstm(seq)  # (B, steps, features); one window, so a fresh state each call
+            if features is not None:
+                features["slstm"] = seq.detach()
+        return VelocityOutput(self.head(seq), None)  # head flattens (B, ...) -> (B, D)
+
+
+@register_model("resnet_fdl")
+class ResNetFDL(FTIN):
+    """Ablation +FDL: ResNet-1D encoder -> FDL -> MLP head."""
+
+    use_tdl = False
+
+
+@register_model("resnet_tdl")
+class ResNetTDL(FTIN):
+    """Ablation +TDL: ResNet-1D encoder -> sLSTM over its L_res steps -> MLP head."""
+
+    use_fdl = False
+
+
+@register_model("resnet1d")
+class ResNet1D(FTIN):
+    """Ablation baseline: ResNet-1D encoder -> MLP head (RoNIN ResNet's structure)."""
+
+    use_fdl = False
+    use_tdl = False
