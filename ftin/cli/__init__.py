@@ -12,7 +12,7 @@ app = typer.Typer(
 )
 
 # Sub-modules add their commands to `app` on import.
-from ftin.cli import data, models, sim, train  # noqa: E402,F401
+from ftin.cli import data, models, report, sim, train  # noqa: E402,F401
 
 
 def main() -> None:
