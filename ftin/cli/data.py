@@ -88,6 +88,8 @@ def sequence_summary(ref: SequenceRef, seq: ImuSequence) -> dict[str, Any]:
         "path": str(ref.path),
         "samples": len(seq),
         "duration_s": round(seq.duration_s, 3),
+        # Readers that trim (OxIOD) say how long the recording was; others use all of it.
+        "recorded_duration_s": round(float(seq.meta.get("recorded_duration_s", seq.duration_s)), 3),
         "rate_hz": round(seq.rate_hz, 3),
         "has_gt": seq.gt is not None,
         "has_orientation": seq.q_world_device_wxyz is not None,
@@ -108,6 +110,7 @@ def info(
     done, errors = _read_all(refs, "reading")
     summaries = [sequence_summary(ref, seq) for ref, seq in done]
     total_s = sum(s["duration_s"] for s in summaries)
+    recorded_s = sum(s["recorded_duration_s"] for s in summaries)
     formats = sorted({s["format"] for s in summaries})
     report = {
         "path": str(path),
@@ -118,6 +121,8 @@ def info(
             "count": len(summaries),
             "duration_s": round(total_s, 3),
             "duration_min": round(total_s / 60, 2),
+            "recorded_duration_s": round(recorded_s, 3),
+            "recorded_duration_min": round(recorded_s / 60, 2),
         },
         "errors": errors,
     }
@@ -155,6 +160,9 @@ def _print_table(report: dict[str, Any]) -> None:
     table.add_section()
     total_row = [f"total: {totals['count']}"] + ([] if one_format else [""])
     table.add_row(*total_row, f"{totals['duration_min']:.1f} min", "", "", "", "", "")
+    if totals["recorded_duration_s"] > totals["duration_s"] + 1e-6:
+        recorded_min = totals["recorded_duration_min"]
+        table.caption = f"durations after the reader's trimming; {recorded_min:.1f} min recorded"
     Console().print(table)
 
 

@@ -52,7 +52,13 @@ def test_info_json_on_a_folder(csv_folder):
     assert a["duration_s"] == pytest.approx(3.99) and a["rate_hz"] == pytest.approx(100.0)
     assert b["rate_hz"] == pytest.approx(200.0) and b["samples"] == 600
     assert a["has_gt"] and a["has_orientation"] and a["orientation_source"] == "device"
-    assert report["totals"] == {"count": 2, "duration_s": pytest.approx(6.985), "duration_min": 0.12}
+    assert report["totals"] == {
+        "count": 2,
+        "duration_s": pytest.approx(6.985),
+        "duration_min": 0.12,
+        "recorded_duration_s": pytest.approx(6.985),  # generic CSV: nothing trimmed
+        "recorded_duration_min": 0.12,
+    }
     assert report["errors"] == []
 
 
@@ -132,7 +138,11 @@ def test_info_on_shared_oxiod(shared_data):
     report = json.loads(result.stdout)
     assert report["format"] == "oxiod" and report["totals"]["count"] == 12
     # ~43 min recorded; the OxIOD reader trims 12 s + 3 s of standing still per sequence by default.
-    assert 38.0 <= report["totals"]["duration_min"] <= 44.0
+    assert 42.0 <= report["totals"]["recorded_duration_min"] <= 44.0
+    trimmed_min = 12 * (1200 + 300) / 100.0 / 60.0
+    assert report["totals"]["duration_min"] == pytest.approx(
+        report["totals"]["recorded_duration_min"] - trimmed_min, abs=0.1
+    )
     assert all(s["has_gt"] and s["rate_hz"] == pytest.approx(100.0) for s in report["sequences"])
     assert {s["carry"] for s in report["sequences"]} == {"handheld", "trolley"}
 

@@ -324,6 +324,8 @@ def read(
         "orientation_source": orientation.value,
         "rows": n,
         "trim_rows": [trim_start_rows, trim_end_rows],
+        # What the files hold, before trimming: `ftin data info` reports both.
+        "recorded_duration_s": float(t_s[n - 1] - t_s[0]),
         **meta_extra,
         "warnings": warnings,
     }
