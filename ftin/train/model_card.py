@@ -41,8 +41,9 @@ def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = 
         f"plateau factor {config.get('plateau_factor')} / patience {config.get('plateau_patience')}, "
         f"random yaw augmentation {config.get('augment_yaw')}, seed {config.get('seed')}, "
         f"budget {config.get('max_minutes')} min on CPU",
-        f"- **Trained:** {meta['epochs']} epochs, {meta['steps']} steps, "
-        f"{meta['wall_time_s'] / 60:.1f} min wall time, {meta.get('processes', 1)} process(es)",
+        # The checkpoint kept is the best one, so these count up to it, not to the end of the run.
+        f"- **Best checkpoint:** epoch {meta['epochs']}, {meta['steps']} steps, "
+        f"{meta['wall_time_s'] / 60:.1f} min into the run, {meta.get('processes', 1)} process(es)",
         f"- **Best validation velocity MSE:** {meta['metrics'].get('val_mse', float('nan')):.4f} (m/s)²",
         f"- **Weights:** {config.get('weights_dtype', 'float32')} safetensors, upcast to float32 at load",
     ]
