@@ -1,0 +1,1 @@
+"""HTTP layer: routers (one per resource), dependencies, error mapping and the upload size limit."""

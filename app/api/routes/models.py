@@ -1,0 +1,16 @@
+"""GET /models: the checkpoints loaded at start-up."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from app.api.deps import ServicesDep
+from app.schemas import ModelInfo
+
+router = APIRouter(tags=["models"])
+
+
+@router.get("/models", response_model=list[ModelInfo])
+def list_models(services: ServicesDep) -> list[ModelInfo]:
+    store = services.models
+    return [ModelInfo.from_entry(entry, store.default_name) for entry in store.entries.values()]

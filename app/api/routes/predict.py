@@ -1,0 +1,104 @@
+"""POST /predict: a recording in the request (CSV upload, raw CSV body, or JSON arrays) -> trajectory.
+
+The body format follows ``Content-Type``: ``multipart/form-data`` with a CSV in the field ``file``
+(the upload page, ``curl -F file=@walk.csv``), ``text/csv`` with the CSV as the body, or
+``application/json`` with the arrays of ``ArraysPredictRequest``. The model runs in the threadpool,
+under a deadline that starts when the request arrives (504 when it passes).
+"""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request
+from pydantic import ValidationError
+from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import UploadFile
+
+from app.api.deps import ModelQuery, RunIdQuery, ServicesDep
+from app.api.errors import BadRequestError, UnsupportedMediaError
+from app.schemas import ArraysPredictRequest, ErrorResponse, PredictionResponse
+from app.services.errors import InvalidInputError
+from app.services.limits import Deadline
+from app.services.prediction import PredictionService, sequence_from_arrays
+from app.services.runs import Run
+
+router = APIRouter(tags=["predict"])
+
+_CSV_SCHEMA = {"type": "string", "format": "binary", "description": "CSV in the generic schema"}
+_OPENAPI_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "multipart/form-data": {
+                "schema": {"type": "object", "properties": {"file": _CSV_SCHEMA}, "required": ["file"]}
+            },
+            "text/csv": {"schema": {"type": "string"}},
+            "application/json": {"schema": ArraysPredictRequest.model_json_schema()},
+        },
+    }
+}
+
+
+def _describe(exc: ValidationError) -> str:
+    parts = []
+    for error in exc.errors():
+        loc = ".".join(str(p) for p in error.get("loc", ())) or "(body)"
+        parts.append(f"body field {loc}: {error.get('msg', 'invalid')}")
+    return "; ".join(parts[:5]) + ("; ..." if len(parts) > 5 else "")
+
+
+def _predict_json(
+    predictor: PredictionService, raw: bytes, model: str | None, run_id: str | None, deadline: Deadline
+) -> Run:
+    try:
+        body = ArraysPredictRequest.model_validate_json(raw)
+    except ValidationError as exc:
+        raise InvalidInputError(_describe(exc)) from None
+    predictor.check_sample_count(len(body.t_s), "request body")
+    seq = sequence_from_arrays(
+        body.name, body.t_s, body.gyro_rad_s, body.acc_m_s2, body.q_world_device_wxyz, body.gt_p_world_m
+    )
+    return predictor.predict_imu(seq, model, run_id, deadline=deadline)
+
+
+@router.post(
+    "/predict",
+    response_model=PredictionResponse,
+    openapi_extra=_OPENAPI_BODY,
+    responses={
+        400: {"model": ErrorResponse},
+        404: {"model": ErrorResponse},
+        409: {"model": ErrorResponse},
+        413: {"model": ErrorResponse},
+        415: {"model": ErrorResponse},
+        422: {"model": ErrorResponse},
+        504: {"model": ErrorResponse},
+    },
+)
+async def predict(
+    request: Request, services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None
+) -> PredictionResponse:
+    content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    predictor = services.predictor
+    deadline = predictor.new_deadline()
+    if content_type == "multipart/form-data":
+        async with request.form(max_files=1, max_fields=8) as form:
+            upload = form.get("file")
+            if not isinstance(upload, UploadFile):
+                raise BadRequestError("multipart body needs a CSV file in the field 'file'")
+            data = await upload.read()
+            filename = upload.filename or "upload.csv"
+        run = await run_in_threadpool(predictor.predict_csv, data, filename, model, run_id, deadline=deadline)
+    elif content_type in ("text/csv", "text/plain"):
+        data = await request.body()
+        run = await run_in_threadpool(
+            predictor.predict_csv, data, "request.csv", model, run_id, deadline=deadline
+        )
+    elif content_type == "application/json":
+        raw = await request.body()
+        run = await run_in_threadpool(_predict_json, predictor, raw, model, run_id, deadline)
+    else:
+        raise UnsupportedMediaError(
+            f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"
+            " CSV in the field 'file', text/csv, or application/json arrays"
+        )
+    return PredictionResponse.from_run(run, services.scene_url)

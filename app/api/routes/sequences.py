@@ -1,0 +1,36 @@
+"""GET /sequences and POST /sequences/{sequence_id}/predict: the sequences of the data folders."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Path
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import ModelQuery, RunIdQuery, ServicesDep
+from app.schemas import ErrorResponse, PredictionResponse, SequenceInfo
+
+router = APIRouter(tags=["sequences"])
+
+SequenceIdPath = Annotated[str, Path(description="An id from GET /sequences.", max_length=300)]
+
+
+@router.get("/sequences", response_model=list[SequenceInfo])
+def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
+    # A sync route runs in the threadpool: reading files for the summaries never blocks the loop.
+    catalog = services.catalog
+    return [SequenceInfo.from_entry(entry, catalog.summary(entry.id)) for entry in catalog.list()]
+
+
+@router.post(
+    "/sequences/{sequence_id}/predict",
+    response_model=PredictionResponse,
+    responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 504)},
+)
+async def predict_sequence(
+    sequence_id: SequenceIdPath, services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None
+) -> PredictionResponse:
+    predictor = services.predictor
+    deadline = predictor.new_deadline()
+    run = await run_in_threadpool(predictor.predict_sequence, sequence_id, model, run_id, deadline)
+    return PredictionResponse.from_run(run, services.scene_url)

@@ -1,0 +1,97 @@
+"""``uvicorn app.main:app``: the REST API, the upload page at ``/`` and the viser 3D scene.
+
+Start-up (the lifespan) loads every checkpoint once, lists the data folders and starts the viser
+server; shutdown stops viser and its threads. ``create_app(settings)`` builds an app for tests.
+
+The OpenAPI page at ``/docs`` serves Swagger UI from the ``fastapi-offline`` package, because
+FastAPI's default page loads it from a CDN and the dashboard must work offline. Without that package
+the default (online) page is used and ``/health`` says so. ReDoc is not offered.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+import torch
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.staticfiles import StaticFiles
+from starlette.concurrency import run_in_threadpool
+
+import ftin
+from app.api.errors import BodySizeLimitMiddleware, install_error_handlers
+from app.api.routes import health, models, pages, predict, runs, sequences
+from app.api.routes.pages import STATIC_DIR
+from app.services import Services
+from app.services.errors import StartupError
+from app.settings import Settings
+
+try:
+    from fastapi_offline import FastAPIOffline as _FastAPI
+
+    OFFLINE_DOCS = True
+except ImportError:  # pragma: no cover - depends on the environment
+    _FastAPI = FastAPI
+    OFFLINE_DOCS = False
+
+log = logging.getLogger("ftin.app")
+
+
+@asynccontextmanager
+async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+    settings: Settings = app.state.settings
+    threads_before = torch.get_num_threads()
+    if settings.torch_threads:
+        torch.set_num_threads(settings.torch_threads)
+    scene = None
+    try:
+        try:
+            services = await run_in_threadpool(Services.build, settings)
+        except StartupError as exc:
+            log.error("FTIN Studio cannot start: %s", exc)
+            raise
+        if not OFFLINE_DOCS:
+            services.extra_notes.append(
+                "/docs loads Swagger UI from a CDN: install fastapi-offline to serve it"
+            )
+        for note in services.notes:
+            log.warning("%s", note)
+        if settings.viser_enabled:
+            from app.viz.scene import DashboardScene
+
+            scene = DashboardScene.start(services, settings.viser_host, settings.viser_port)
+            services.scene_url = scene.url
+        app.state.services, app.state.scene = services, scene
+        yield
+    finally:
+        if scene is not None:
+            scene.stop()
+        app.state.scene = None
+        torch.set_num_threads(threads_before)
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    app = _FastAPI(
+        title="FTIN Studio",
+        version=ftin.__version__,
+        description="Inertial odometry: IMU recording in, walked trajectory out. The 3D scene runs "
+        "beside the API (see GET /health for its URL).",
+        lifespan=lifespan,
+        redoc_url=None,
+    )
+    app.state.settings = settings or Settings()
+    if app.state.settings.cors_origins:
+        app.add_middleware(
+            CORSMiddleware, allow_origins=app.state.settings.cors_origins, allow_methods=["GET", "POST"]
+        )
+    app.add_middleware(BodySizeLimitMiddleware, max_body_bytes=app.state.settings.max_upload_bytes)
+    install_error_handlers(app)
+    for module in (health, models, sequences, predict, runs, pages):
+        app.include_router(module.router)
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    return app
+
+
+app = create_app()

@@ -1,0 +1,219 @@
+"""Request and response bodies of the REST API (pydantic), and their conversion from library types.
+
+Units follow the library: seconds, metres, m/s, rad/s, m/s². Trajectories travel as parallel arrays
+``{t, x, y, z}`` (compact, and what plotting code wants).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from app.services.catalog import SequenceEntry, SequenceSummary
+from app.services.models import ModelEntry
+from app.services.runs import Run, RunStatus
+from ftin.data import Trajectory
+
+
+class ErrorResponse(BaseModel):
+    detail: str = Field(description="What was wrong with the request, in plain words.")
+
+
+class HealthResponse(BaseModel):
+    status: str = "ok"
+    version: str
+    models: list[str]
+    default_model: str | None
+    sequences: int
+    scene_url: str | None = Field(description="URL of the viser 3D scene, when it runs.")
+    notes: list[str] = Field(description="Configuration problems worth knowing (empty folders, fallbacks).")
+    inferences_running: int = Field(0, description="Predictions running right now.")
+    max_upload_mb: float = Field(description="Largest upload accepted (FTIN_MAX_UPLOAD_MB), MiB.")
+    max_samples: int = Field(description="Most IMU samples one prediction reads (FTIN_MAX_SAMPLES).")
+    inference_timeout_s: float = Field(description="Time limit of one prediction (FTIN_INFERENCE_TIMEOUT_S).")
+
+
+class ModelInfo(BaseModel):
+    name: str
+    architecture: str
+    trained_on: str | None = Field(description="Training data recorded in the checkpoint.")
+    imu_rate_hz: float
+    window: int = Field(description="Window length in samples at imu_rate_hz.")
+    stride: int
+    out_dim: int
+    parameters: int
+    metrics: dict[str, Any] | None = Field(description="Evaluation metrics recorded in the checkpoint.")
+    default: bool
+
+    @classmethod
+    def from_entry(cls, entry: ModelEntry, default_name: str | None) -> ModelInfo:
+        loaded, meta = entry.loaded, entry.meta
+        return cls(
+            name=entry.name,
+            architecture=entry.architecture,
+            trained_on=entry.trained_on,
+            imu_rate_hz=float(loaded.imu_rate_hz),
+            window=int(loaded.window),
+            stride=int(loaded.stride),
+            out_dim=int(loaded.out_dim),
+            parameters=entry.n_parameters,
+            metrics=meta.get("metrics"),
+            default=entry.name == default_name,
+        )
+
+
+class SequenceInfo(BaseModel):
+    id: str = Field(description="Use in POST /sequences/{id}/predict.")
+    name: str
+    dataset: str
+    duration_s: float | None
+    rate_hz: float | None
+    samples: int | None
+    has_ground_truth: bool | None
+    error: str | None = Field(None, description="Why the sequence cannot be read, if it cannot.")
+
+    @classmethod
+    def from_entry(cls, entry: SequenceEntry, summary: SequenceSummary | str) -> SequenceInfo:
+        if isinstance(summary, str):
+            return cls(
+                id=entry.id,
+                name=entry.name,
+                dataset=entry.dataset,
+                duration_s=None,
+                rate_hz=None,
+                samples=None,
+                has_ground_truth=None,
+                error=summary,
+            )
+        return cls(
+            id=entry.id,
+            name=entry.name,
+            dataset=entry.dataset,
+            duration_s=round(summary.duration_s, 3),
+            rate_hz=round(summary.rate_hz, 3),
+            samples=summary.n_samples,
+            has_ground_truth=summary.has_ground_truth,
+        )
+
+
+class ArraysPredictRequest(BaseModel):
+    """An IMU recording as arrays (the JSON alternative to uploading a CSV)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field("request", max_length=200)
+    t_s: list[float] = Field(description="Timestamps in seconds, increasing, N values.")
+    gyro_rad_s: list[list[float]] = Field(description="N rows of device-frame angular rate x, y, z (rad/s).")
+    acc_m_s2: list[list[float]] = Field(
+        description="N rows of device-frame specific force x, y, z (m/s², +9.81 up when flat)."
+    )
+    q_world_device_wxyz: list[list[float]] | None = Field(
+        None, description="Optional N rows of device orientation (w, x, y, z); estimated when absent."
+    )
+    gt_p_world_m: list[list[float]] | None = Field(
+        None, description="Optional N rows of ground-truth position x, y, z (m); enables metrics."
+    )
+
+
+class TrajectoryPayload(BaseModel):
+    t: list[float]
+    x: list[float]
+    y: list[float]
+    z: list[float]
+
+    @classmethod
+    def from_trajectory(cls, traj: Trajectory) -> TrajectoryPayload:
+        p = np.asarray(traj.p_world_m)
+        return cls(t=traj.t_s.tolist(), x=p[:, 0].tolist(), y=p[:, 1].tolist(), z=p[:, 2].tolist())
+
+
+class VelocityPayload(BaseModel):
+    t: list[float] = Field(description="Window times in seconds.")
+    vx: list[float]
+    vy: list[float]
+    vz: list[float] | None = Field(description="Only for models that predict 3-D velocity.")
+
+
+class MetricsPayload(BaseModel):
+    """``None`` where a metric is undefined for this sequence (e.g. not finite)."""
+
+    ate: float | None = Field(description="Absolute trajectory error, m (RoNIN convention).")
+    rte: float | None = Field(description="Relative trajectory error over 60 s, m.")
+    pde: float | None = Field(description="Position drift error: final error / ground-truth path length.")
+
+
+class PredictionResponse(BaseModel):
+    run_id: str
+    model: str
+    sequence: str
+    source: str
+    trajectory: TrajectoryPayload
+    ground_truth: TrajectoryPayload | None
+    velocity: VelocityPayload
+    orientation_source: str
+    frame: str
+    warnings: list[str]
+    metrics: MetricsPayload | None
+    csv_url: str
+    scene_url: str | None
+
+    @classmethod
+    def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
+        pred = run.prediction
+        v = np.asarray(pred.velocity_m_s)
+        metrics = None
+        if pred.metrics is not None:
+            values = pred.metrics.as_dict()
+            metrics = MetricsPayload(**{k: _finite(values[k]) for k in ("ate", "rte", "pde")})
+        return cls(
+            run_id=run.run_id,
+            model=run.model_name,
+            sequence=run.sequence.name,
+            source=run.source,
+            trajectory=TrajectoryPayload.from_trajectory(pred.trajectory),
+            ground_truth=None
+            if run.sequence.gt is None
+            else TrajectoryPayload.from_trajectory(run.sequence.gt),
+            velocity=VelocityPayload(
+                t=np.asarray(pred.window_t_s).tolist(),
+                vx=v[:, 0].tolist(),
+                vy=v[:, 1].tolist(),
+                vz=v[:, 2].tolist() if v.shape[1] > 2 else None,
+            ),
+            orientation_source=str(pred.orientation_source),
+            frame=str(pred.frame),
+            warnings=[str(w) for w in pred.warnings],
+            metrics=metrics,
+            csv_url=f"/runs/{run.run_id}/trajectory.csv",
+            scene_url=scene_url,
+        )
+
+
+class RunStatusResponse(BaseModel):
+    run_id: str
+    state: str
+    model: str
+    sequence: str
+    done: int
+    total: int
+    message: str
+
+    @classmethod
+    def from_status(cls, status: RunStatus) -> RunStatusResponse:
+        return cls(
+            run_id=status.run_id,
+            state=status.state.value,
+            model=status.model_name,
+            sequence=status.sequence_name,
+            done=status.done,
+            total=status.total,
+            message=status.message,
+        )
+
+
+def _finite(value: Any) -> float | None:
+    value = float(value)
+    return value if math.isfinite(value) else None

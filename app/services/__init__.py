@@ -1,0 +1,45 @@
+"""The service layer: everything the routes and the 3D scene do, without HTTP or GUI concerns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from app.services.catalog import SequenceCatalog
+from app.services.models import ModelStore
+from app.services.prediction import PredictionService
+from app.services.runs import RunStore
+from app.settings import Settings
+
+
+@dataclass
+class Services:
+    settings: Settings
+    models: ModelStore
+    catalog: SequenceCatalog
+    runs: RunStore
+    predictor: PredictionService
+    scene_url: str | None = None  # set once the viser server runs
+    extra_notes: list[str] = field(default_factory=list)  # set by the app (e.g. missing offline docs)
+
+    @classmethod
+    def build(cls, settings: Settings) -> Services:
+        """Load every checkpoint and list every data folder (raises StartupError for a broken checkpoint)."""
+        models = ModelStore.load(
+            settings.checkpoint_dir, settings.default_model, settings.default_model_is_explicit
+        )
+        catalog = SequenceCatalog.scan(settings.data_dirs)
+        runs = RunStore(settings.max_runs, settings.max_kept_samples)
+        predictor = PredictionService(
+            models,
+            catalog,
+            runs,
+            settings.max_upload_bytes,
+            max_samples=settings.max_samples,
+            timeout_s=settings.inference_timeout_s,
+            max_concurrent=settings.max_concurrent_inferences,
+        )
+        return cls(settings, models, catalog, runs, predictor)
+
+    @property
+    def notes(self) -> list[str]:
+        return [*self.models.notes, *self.catalog.notes, *self.extra_notes]

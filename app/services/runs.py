@@ -1,0 +1,189 @@
+"""Runs: one model applied to one sequence. The store keeps the latest finished runs in memory,
+tracks progress of running ones (``GET /runs/{id}``), and tells listeners (the 3D scene) about
+every change, whichever door the run came in through (REST, upload page, viser GUI).
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import re
+import threading
+import time
+import uuid
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any
+
+from app.services.errors import ConflictError, InvalidInputError, NotFoundError
+from app.services.features import ModelInput
+from ftin.data import ImuSequence
+
+log = logging.getLogger(__name__)
+
+RUN_ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{6,64}$")
+
+
+class RunState(str, enum.Enum):
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True)
+class Run:
+    """A finished prediction and the sequence it came from (kept for the scene and the CSV)."""
+
+    run_id: str
+    model_name: str
+    sequence: ImuSequence
+    prediction: Any  # ftin.infer.Prediction
+    source: str  # "upload", "json", "sequence", "viser"
+    sequence_id: str | None = None
+    model_input: ModelInput | None = None  # what the model saw, for the scene's feature plots
+    created_s: float = field(default_factory=time.time)
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.sequence)
+
+
+@dataclass
+class RunStatus:
+    run_id: str
+    state: RunState
+    model_name: str
+    sequence_name: str
+    done: int = 0
+    total: int = 0
+    message: str = ""
+
+
+class RunListener:
+    """Override what you need; the store calls these from the thread that runs the model."""
+
+    def run_started(self, status: RunStatus) -> None: ...
+
+    def run_progress(self, status: RunStatus) -> None: ...
+
+    def run_finished(self, run: Run) -> None: ...
+
+    def run_failed(self, status: RunStatus) -> None: ...
+
+    def run_focused(self, run: Run) -> None: ...
+
+
+class RunStore:
+    """Thread-safe; finished runs beyond ``max_runs``, or beyond ``max_kept_samples`` input samples
+    in all, are dropped oldest first (the newest run is always kept)."""
+
+    def __init__(self, max_runs: int = 20, max_kept_samples: int | None = None) -> None:
+        self.max_runs = max_runs
+        self.max_kept_samples = max_kept_samples
+        self._runs: OrderedDict[str, Run] = OrderedDict()
+        self._status: OrderedDict[str, RunStatus] = OrderedDict()
+        self._listeners: list[RunListener] = []
+        self._lock = threading.Lock()
+
+    def subscribe(self, listener: RunListener) -> None:
+        with self._lock:
+            self._listeners.append(listener)
+
+    def unsubscribe(self, listener: RunListener) -> None:
+        with self._lock:
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+
+    def new_id(self, requested: str | None = None) -> str:
+        """A fresh run id, or the client's own (so that it can poll progress while it waits)."""
+        if requested is None:
+            return uuid.uuid4().hex[:12]
+        if not RUN_ID_PATTERN.match(requested):
+            raise InvalidInputError(
+                f"run_id {requested!r} must be 6-64 characters of letters, digits, '-' or '_'"
+            )
+        with self._lock:
+            if requested in self._status:
+                raise ConflictError(f"run_id {requested!r} is already in use; choose another")
+        return requested
+
+    def start(self, run_id: str, model_name: str, sequence_name: str) -> RunStatus:
+        status = RunStatus(run_id, RunState.RUNNING, model_name, sequence_name)
+        with self._lock:
+            if run_id in self._status:
+                raise ConflictError(f"run_id {run_id!r} is already in use; choose another")
+            self._status[run_id] = status
+            self._trim_status()
+        self._notify("run_started", status)
+        return status
+
+    def progress(self, run_id: str, done: int, total: int) -> None:
+        with self._lock:
+            status = self._status.get(run_id)
+            if status is None:
+                return
+            status.done, status.total = int(done), int(total)
+        self._notify("run_progress", status)
+
+    def finish(self, run: Run) -> None:
+        with self._lock:
+            self._runs[run.run_id] = run
+            while len(self._runs) > self.max_runs or (
+                len(self._runs) > 1
+                and self.max_kept_samples is not None
+                and sum(r.n_samples for r in self._runs.values()) > self.max_kept_samples
+            ):
+                self._runs.popitem(last=False)
+            status = self._status.get(run.run_id)
+            if status is not None:
+                status.state = RunState.DONE
+                status.done = status.total = max(status.total, status.done)
+        self._notify("run_finished", run)
+
+    def fail(self, run_id: str, message: str) -> None:
+        with self._lock:
+            status = self._status.get(run_id)
+            if status is None:
+                return
+            status.state, status.message = RunState.FAILED, message
+        self._notify("run_failed", status)
+
+    def focus(self, run_id: str) -> Run:
+        """Ask the viewers to show a finished run (the upload page's "open in 3D" link)."""
+        run = self.get(run_id)
+        self._notify("run_focused", run)
+        return run
+
+    def status(self, run_id: str) -> RunStatus:
+        with self._lock:
+            status = self._status.get(run_id)
+        if status is None:
+            raise NotFoundError(f"unknown run id {run_id!r}")
+        return status
+
+    def get(self, run_id: str) -> Run:
+        with self._lock:
+            run = self._runs.get(run_id)
+        if run is None:
+            raise NotFoundError(
+                f"unknown run id {run_id!r} (only the latest finished runs are kept, at most {self.max_runs})"
+            )
+        return run
+
+    def list(self) -> list[Run]:
+        with self._lock:
+            return list(self._runs.values())
+
+    def _trim_status(self) -> None:
+        # Statuses are tiny, but a long-lived server should not keep them forever.
+        while len(self._status) > 10 * self.max_runs:
+            self._status.popitem(last=False)
+
+    def _notify(self, method: str, arg: Any) -> None:
+        with self._lock:
+            listeners = list(self._listeners)
+        for listener in listeners:
+            try:
+                getattr(listener, method)(arg)
+            except Exception:  # a broken viewer must never fail the prediction itself
+                log.exception("run listener %r failed in %s", listener, method)

@@ -1,0 +1,95 @@
+"""All dashboard settings in one pydantic-settings object, read from ``FTIN_*`` environment variables.
+
+Decisions:
+- Both servers bind 127.0.0.1 unless told otherwise (``uvicorn --host`` for the REST API,
+  ``FTIN_VISER_HOST`` for the scene): the dashboard runs models on files users upload.
+- ``FTIN_DATA_DIRS`` is an ``os.pathsep``-separated list (``:`` on Linux), like ``PATH``, not JSON.
+- CORS is closed (no origins) unless ``FTIN_CORS_ORIGINS`` lists some (comma-separated): the upload
+  page is served by the API itself, so it never needs CORS.
+- ``FTIN_VISER_PORT=0`` lets the OS pick a free port (tests); viser moves to the next free port
+  when the configured one is taken, so the real URL is read back from the running server.
+- Model names are checkpoint file stems (``checkpoints/ftin-oxiod.safetensors`` is ``ftin-oxiod``)
+  and are matched case-insensitively, so the paper's spelling ``FTIN-OxIOD`` names the same model.
+- Limits (issue 6): one prediction reads at most ``FTIN_MAX_SAMPLES`` samples (default one hour at
+  200 Hz) and must finish within ``FTIN_INFERENCE_TIMEOUT_S`` (waiting for a free slot included);
+  at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
+  slow each other down, and each holds its windows in memory); finished runs are kept while they
+  hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs).
+- ``FTIN_TORCH_THREADS`` (default 1) sets torch's intra-op threads for the whole process while the
+  app runs. One thread, because the app shares its CPU with the event loop, viser and the drawing
+  thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
+  prediction took 0.6 s with one thread and 4.9 s with two, whose threads wait for each other.
+  ``0`` keeps torch's own choice (one per core), for a dedicated machine.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+import ftin
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
+DEFAULT_CHECKPOINT_DIR = REPO_ROOT / "checkpoints"
+DEFAULT_MODEL = "ftin-oxiod"  # checkpoints/ftin-oxiod.safetensors (+ .json)
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="FTIN_", extra="ignore")
+
+    data_dirs: Annotated[list[Path], NoDecode] = Field(
+        default_factory=lambda: [BUNDLED_SAMPLES_DIR],
+        description="Folders whose sequences GET /sequences lists (os.pathsep-separated).",
+    )
+    checkpoint_dir: Path = Field(DEFAULT_CHECKPOINT_DIR, description="Folder of *.safetensors checkpoints.")
+    default_model: str = Field(DEFAULT_MODEL, description="Model used when a request names none.")
+    max_upload_mb: float = Field(20.0, gt=0, description="Largest request body accepted, in MiB.")
+    viser_enabled: bool = Field(True, description="Start the viser 3D scene with the app.")
+    viser_host: str = "127.0.0.1"
+    viser_port: int = Field(8080, ge=0, le=65535)
+    cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    max_runs: int = Field(20, ge=1, description="Finished runs kept in memory (oldest dropped first).")
+    max_kept_samples: int = Field(
+        3_000_000, ge=1, description="Samples all kept runs may hold together (oldest dropped first)."
+    )
+    max_samples: int = Field(
+        720_000, ge=1, description="Most IMU samples one prediction may read (default: 1 h at 200 Hz)."
+    )
+    inference_timeout_s: float = Field(
+        120.0, gt=0, description="Longest a prediction may take, waiting for a slot included (504 after)."
+    )
+    max_concurrent_inferences: int = Field(1, ge=1, description="Predictions that may run at once.")
+    torch_threads: int = Field(1, ge=0, description="torch intra-op threads (0: torch's default).")
+
+    @field_validator("data_dirs", mode="before")
+    @classmethod
+    def _split_data_dirs(cls, value: object) -> object:
+        if isinstance(value, str):
+            return [Path(part).expanduser() for part in value.split(os.pathsep) if part.strip()]
+        return value
+
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _split_origins(cls, value: object) -> object:
+        if isinstance(value, str):
+            return [part.strip() for part in value.split(",") if part.strip()]
+        return value
+
+    @field_validator("checkpoint_dir", mode="after")
+    @classmethod
+    def _expand_checkpoint_dir(cls, value: Path) -> Path:
+        return value.expanduser()
+
+    @property
+    def max_upload_bytes(self) -> int:
+        return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def default_model_is_explicit(self) -> bool:
+        """True when the user set FTIN_DEFAULT_MODEL (then a missing model is a start-up error)."""
+        return "default_model" in self.model_fields_set

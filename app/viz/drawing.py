@@ -1,0 +1,100 @@
+"""Scene nodes for runs and ground truth. Paths: ``/runs/{run_id}/{pred,start,end,marker,window}``,
+``/truth/{path,start,end,marker,window}`` and ``/grid``.
+
+Sizes are relative to the extent of what is shown (markers ~1 % of it), so a 3 m test walk and a
+300 m trolley run both look right. Lines use screen-space thickness for the same reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import viser
+
+from app.viz.palette import END_COLOR, RGB, START_COLOR, WINDOW_COLOR
+from app.viz.spectra import decimate_indices, polyline_segments
+from ftin.data import Trajectory
+
+MAX_LINE_POINTS = 4000
+LINE_PX = 3.0
+WINDOW_LINE_PX = 7.0
+
+
+def extent_of(trajectories: list[Trajectory]) -> tuple[np.ndarray, float]:
+    """Centre ``(3,)`` and size (largest horizontal span, at least 1 m) of all positions."""
+    points = np.concatenate([t.p_world_m for t in trajectories], axis=0)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return (lo + hi) / 2.0, float(max(hi[0] - lo[0], hi[1] - lo[1], 1.0))
+
+
+@dataclass
+class PathNodes:
+    """Handles of one drawn trajectory: the moving marker and the current-window highlight."""
+
+    prefix: str
+    root: Any  # the frame at ``prefix``; removing it removes every child
+    marker: Any
+    window: Any | None = None
+
+    def remove(self) -> None:
+        self.root.remove()
+
+
+def draw_path(
+    scene: viser.SceneApi, prefix: str, path_name: str, traj: Trajectory, color: RGB, marker_radius: float
+) -> PathNodes:
+    """Polyline + start/end markers + a position marker at the start."""
+    root = scene.add_frame(prefix, show_axes=False)
+    keep = decimate_indices(len(traj), MAX_LINE_POINTS)
+    points = traj.p_world_m[keep]
+    scene.add_line_segments(
+        f"{prefix}/{path_name}",
+        polyline_segments(points),
+        color,
+        thickness=LINE_PX,
+        thickness_units="screen",
+    )
+    scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, START_COLOR, position=points[0])
+    scene.add_box(f"{prefix}/end", END_COLOR, (marker_radius * 1.4,) * 3, position=points[-1])
+    marker = scene.add_icosphere(f"{prefix}/marker", marker_radius, color, position=points[0])
+    return PathNodes(prefix, root, marker)
+
+
+def draw_grid(scene: viser.SceneApi, centre: np.ndarray, size_m: float) -> Any:
+    """A square grid under the trajectories with cells of a round size (0.5, 1, 2, 5, 10 m ...)."""
+    side = float(np.ceil(size_m * 1.3))
+    cell = float(_round_step(side / 20.0))
+    return scene.add_grid(
+        "/grid",
+        width=side,
+        height=side,
+        cell_size=cell,
+        section_size=cell * 5,
+        position=(float(centre[0]), float(centre[1]), 0.0),
+    )
+
+
+def set_window(scene: viser.SceneApi, nodes: PathNodes, points: np.ndarray) -> None:
+    """Show ``points`` (the current window along this path) as a thick highlight."""
+    segments = polyline_segments(points)
+    if nodes.window is None:
+        nodes.window = scene.add_line_segments(
+            f"{nodes.prefix}/window",
+            segments,
+            WINDOW_COLOR,
+            thickness=WINDOW_LINE_PX,
+            thickness_units="screen",
+        )
+    else:
+        nodes.window.points = segments
+
+
+def _round_step(value: float) -> float:
+    """The 1-2-5 step at or above ``value``."""
+    magnitude = 10.0 ** np.floor(np.log10(max(value, 1e-3)))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        if factor * magnitude >= value:
+            return factor * magnitude
+    return 10.0 * magnitude

@@ -1,0 +1,42 @@
+"""Colours of the scene and the upload page: one per model, ground truth in dark grey."""
+
+from __future__ import annotations
+
+RGB = tuple[int, int, int]
+
+# Tableau-10 order (its grey left out: ground truth is grey), then darker extras, so that all the
+# shipped checkpoints (ten) overlaid at once still get distinct colours; colours repeat only after 12.
+MODEL_COLORS: tuple[RGB, ...] = (
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (23, 190, 207),
+    (188, 189, 34),
+    (20, 40, 120),
+    (120, 0, 60),
+    (0, 100, 80),
+)
+TRUTH_COLOR: RGB = (60, 60, 60)
+WINDOW_COLOR: RGB = (255, 200, 0)  # the current window, on every trajectory
+START_COLOR: RGB = (0, 170, 90)
+END_COLOR: RGB = (200, 30, 30)
+
+
+def hex_color(rgb: RGB) -> str:
+    return "#{:02x}{:02x}{:02x}".format(*rgb)
+
+
+class ColorBook:
+    """Stable colour per model name for the life of the scene (the same model keeps its colour)."""
+
+    def __init__(self) -> None:
+        self._by_name: dict[str, RGB] = {}
+
+    def color(self, name: str) -> RGB:
+        if name not in self._by_name:
+            self._by_name[name] = MODEL_COLORS[len(self._by_name) % len(MODEL_COLORS)]
+        return self._by_name[name]

@@ -1,0 +1,87 @@
+"""Pure array helpers for the scene's plots: spectra of one window, heatmap images, error curves.
+
+Decisions:
+- The raw IMU spectrum removes each channel's mean first: gravity (≈9.8 m/s² on acc z) and gyro
+  bias are DC terms that would flatten every other bin on a shared axis. Amplitudes are single-sided
+  (``2 |X| / n``), in the channel's own unit.
+- FDL spectra are ``|rfft|`` taps averaged over the embedding axis ``d`` (``window_taps``):
+  one number per (frequency, position) cell.
+- Heatmaps use a log scale (``log1p(v / median)``) normalised per image, so a few strong bins do
+  not hide the structure; frequency grows upwards.
+- Per-window errors are horizontal (x, y): the models predict horizontal velocity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ftin.data import Trajectory
+
+
+def amplitude_spectrum(samples: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(n, C)`` samples at ``rate_hz`` -> frequencies ``(F,)`` in Hz and amplitudes ``(C, F)``."""
+    samples = np.asarray(samples, dtype=np.float64)
+    if samples.ndim != 2 or len(samples) < 2:
+        raise ValueError(f"samples must be (n >= 2, C), got shape {samples.shape}")
+    n = len(samples)
+    centred = samples - samples.mean(axis=0, keepdims=True)
+    amplitude = np.abs(np.fft.rfft(centred, axis=0)).T * (2.0 / n)  # (C, F)
+    return np.fft.rfftfreq(n, d=1.0 / rate_hz), amplitude
+
+
+def heatmap_rgb(values: np.ndarray, target_px: tuple[int, int] = (240, 320)) -> np.ndarray:
+    """``(rows, cols)`` non-negative values -> ``uint8`` RGB image, row 0 at the bottom (viridis).
+
+    Each cell becomes a block of whole pixels, as many as fit ``target_px`` (height, width).
+    """
+    from matplotlib import colormaps  # deferred: matplotlib adds ~1 s to the app's start-up
+
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim != 2 or values.size == 0:
+        raise ValueError(f"values must be a non-empty 2-D array, got shape {values.shape}")
+    values = np.nan_to_num(np.abs(values))
+    positive = values[values > 0]
+    scale = float(np.median(positive)) if positive.size else 1.0
+    logged = np.log1p(values / scale)
+    top = float(logged.max())
+    unit = logged / top if top > 0 else logged
+    rgb = (colormaps["viridis"](unit[::-1])[..., :3] * 255).astype(np.uint8)  # (rows, cols, 3)
+    ch = max(1, target_px[0] // rgb.shape[0])
+    cw = max(1, target_px[1] // rgb.shape[1])
+    return np.repeat(np.repeat(rgb, ch, axis=0), cw, axis=1)
+
+
+def interpolate_positions(traj: Trajectory, t_s: np.ndarray) -> np.ndarray:
+    """Positions ``(len(t_s), 3)`` linearly interpolated (held constant outside the trajectory)."""
+    t_s = np.asarray(t_s, dtype=np.float64)
+    return np.stack([np.interp(t_s, traj.t_s, traj.p_world_m[:, k]) for k in range(3)], axis=1)
+
+
+def position_error_per_window(window_t_s: np.ndarray, estimate: Trajectory, truth: Trajectory) -> np.ndarray:
+    """Horizontal distance between estimate and truth at each window time, in metres."""
+    diff = interpolate_positions(estimate, window_t_s) - interpolate_positions(truth, window_t_s)
+    return np.linalg.norm(diff[:, :2], axis=1)
+
+
+def velocity_error_per_window(
+    window_start_s: np.ndarray, window_end_s: np.ndarray, velocity_m_s: np.ndarray, truth: Trajectory
+) -> np.ndarray:
+    """Horizontal speed of (predicted - true mean velocity over each window), in m/s."""
+    start = interpolate_positions(truth, window_start_s)
+    end = interpolate_positions(truth, window_end_s)
+    duration = np.maximum(np.asarray(window_end_s) - np.asarray(window_start_s), 1e-9)
+    v_true = (end - start)[:, :2] / duration[:, None]
+    return np.linalg.norm(np.asarray(velocity_m_s)[:, :2] - v_true, axis=1)
+
+
+def decimate_indices(n: int, max_points: int) -> np.ndarray:
+    """At most ``max_points`` evenly spread indices of ``range(n)``, always keeping the last one."""
+    if n <= max_points:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_points).round().astype(np.int64))
+
+
+def polyline_segments(points: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` points -> ``(N - 1, 2, 3)`` line segments joining consecutive points."""
+    points = np.asarray(points, dtype=np.float32)
+    return np.stack([points[:-1], points[1:]], axis=1)

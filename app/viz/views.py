@@ -1,0 +1,119 @@
+"""What the scene needs from a run, computed once when the run arrives (not on every slider move).
+
+Decisions:
+- The timeline runs in seconds from the sequence's first sample, shared by every shown run.
+- A window's span is ``window / imu_rate_hz`` seconds (the checkpoint's window) placed around its
+  time stamp as ``ftin.infer`` defines ``window_t_s``: the middle of ``[t[s], t[s + L]]``.
+- The FDL spectra are recomputed for the window on screen from the run's ``ModelInput``
+  (``app.services.features``); whether a model has them at all is found once, on window 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from app.services.features import CHANNEL_SPECTRUM, TEMPORAL_SPECTRUM, ModelInput, window_taps
+from app.services.runs import Run
+from app.viz.palette import RGB
+from app.viz.spectra import (
+    amplitude_spectrum,
+    interpolate_positions,
+    position_error_per_window,
+    velocity_error_per_window,
+)
+from ftin.data import ImuSequence, Trajectory
+
+# Where window_t_s sits inside its window (ftin.infer: the middle of [t[s], t[s + L]]).
+WINDOW_T_ANCHOR = 0.5
+
+RAW_CHANNELS = ("gyro x", "gyro y", "gyro z", "acc x", "acc y", "acc z")
+
+
+@dataclass(frozen=True)
+class RunView:
+    run_id: str
+    model_name: str
+    color: RGB
+    sequence: ImuSequence
+    trajectory: Trajectory
+    window_t_s: np.ndarray  # (M,)
+    window_start_s: np.ndarray  # (M,)
+    window_end_s: np.ndarray  # (M,)
+    metrics: dict[str, float] | None
+    position_error_m: np.ndarray | None  # (M,) horizontal, at window times
+    velocity_error_m_s: np.ndarray | None  # (M,)
+    loaded: Any | None  # ftin.train.checkpoint.LoadedModel, to recompute feature taps
+    model_input: ModelInput | None
+    has_spectra: bool  # the model has FDL spectra to show
+
+    @classmethod
+    def from_run(cls, run: Run, color: RGB, window_s: float, loaded: Any | None = None) -> RunView:
+        pred = run.prediction
+        t = np.asarray(pred.window_t_s, dtype=np.float64)
+        start = t - WINDOW_T_ANCHOR * window_s
+        end = start + window_s
+        gt = run.sequence.gt
+        model_input = run.model_input if loaded is not None and len(t) > 0 else None
+        has_spectra = model_input is not None and window_taps(loaded, model_input, 0) is not None
+        metrics = (
+            None
+            if pred.metrics is None
+            else {k: float(pred.metrics.as_dict()[k]) for k in ("ate", "rte", "pde")}
+        )
+        return cls(
+            run_id=run.run_id,
+            model_name=run.model_name,
+            color=color,
+            sequence=run.sequence,
+            trajectory=pred.trajectory,
+            window_t_s=t,
+            window_start_s=start,
+            window_end_s=end,
+            metrics=metrics,
+            position_error_m=None if gt is None else position_error_per_window(t, pred.trajectory, gt),
+            velocity_error_m_s=(
+                None if gt is None else velocity_error_per_window(start, end, pred.velocity_m_s, gt)
+            ),
+            loaded=loaded,
+            model_input=model_input,
+            has_spectra=has_spectra,
+        )
+
+    @property
+    def t0_s(self) -> float:
+        return float(self.sequence.t_s[0])
+
+    def spectra_at(self, index: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """FDL ``(channel-axis (C_res // 2 + 1, L_res), temporal-axis (C_res, L_res // 2 + 1))`` |FFT|
+        of window ``index``, mean over ``d``; ``(None, None)`` for a model without FDL."""
+        if not self.has_spectra:
+            return None, None
+        taps = window_taps(self.loaded, self.model_input, index) or {}
+        return taps.get(CHANNEL_SPECTRUM), taps.get(TEMPORAL_SPECTRUM)
+
+    def window_at(self, t_s: float) -> int:
+        """Index of the window whose time stamp is nearest to ``t_s``."""
+        return int(np.argmin(np.abs(self.window_t_s - t_s)))
+
+    def position_at(self, t_s: float) -> np.ndarray:
+        return interpolate_positions(self.trajectory, np.array([t_s]))[0]
+
+    def window_points(self, index: int, truth: bool = False) -> np.ndarray:
+        """Positions along window ``index`` (estimate, or ground truth), at least two points."""
+        traj = self.sequence.gt if truth else self.trajectory
+        assert traj is not None
+        t0, t1 = self.window_start_s[index], self.window_end_s[index]
+        inside = traj.t_s[(traj.t_s > t0) & (traj.t_s < t1)]
+        return interpolate_positions(traj, np.concatenate([[t0], inside, [t1]]))
+
+    def raw_spectrum(self, index: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """Amplitude spectra ``(freq_hz, (6, F))`` of the raw device-frame IMU inside window ``index``."""
+        seq = self.sequence
+        mask = (seq.t_s >= self.window_start_s[index]) & (seq.t_s < self.window_end_s[index])
+        if mask.sum() < 4:
+            return None
+        samples = np.concatenate([seq.gyro_rad_s[mask], seq.acc_m_s2[mask]], axis=1)
+        return amplitude_spectrum(samples, seq.rate_hz)

@@ -1,0 +1,154 @@
+"""Time ``POST /predict`` on a one-minute 100 Hz simulated walk with the dashboard's default model.
+
+    .venv/bin/python scripts/bench_predict.py                # real uvicorn + viser, in-process
+    .venv/bin/python scripts/bench_predict.py --runs 30 --testclient --no-viser
+
+Starts nothing external: the app runs in this process (uvicorn on a free 127.0.0.1 port, or
+FastAPI's TestClient), on the checkpoint folder the app would use (``FTIN_CHECKPOINT_DIR`` or
+``checkpoints/``) and its default model (``ftin-oxiod``); when that checkpoint is missing, the
+app's own fallback (the first FTIN checkpoint, else the first one) is timed and the script says so.
+The scene is on by default, as in ``uvicorn app.main:app``, because a finished run is drawn before
+the response leaves. Two uploads are timed: the simulated CSV as is (device orientation and
+ground truth, so metrics too) and its IMU columns only (orientation estimated by the AHRS filter).
+Each upload is a multipart form in the field ``file``, as the upload page sends it; the time is
+the full round trip including the JSON response.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import statistics
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import httpx
+import numpy as np
+import torch
+import uvicorn
+
+from app.main import create_app
+from app.settings import Settings
+from ftin.data.readers.generic_csv import write_csv
+from ftin.sim.config import CarryMode, SimConfig
+from ftin.sim.simulator import simulate
+
+Post = Callable[[bytes], httpx.Response]
+
+
+def simulated_csvs(duration_s: float, rate_hz: float, seed: int) -> dict[str, bytes]:
+    """The simulated walk as CSV: full (orientation + ground truth) and IMU columns only."""
+    seq = simulate(SimConfig(duration_s=duration_s, rate_hz=rate_hz, carry=CarryMode.HANDHELD, seed=seed))
+    full, imu_only = io.StringIO(), io.StringIO()
+    write_csv(seq, full)
+    write_csv(seq.with_(q_world_device_wxyz=None, gt=None), imu_only)
+    return {
+        "orientation + ground truth": full.getvalue().encode(),
+        "IMU only (AHRS estimates orientation)": imu_only.getvalue().encode(),
+    }
+
+
+@contextmanager
+def uvicorn_poster(settings: Settings) -> Iterator[tuple[Post, object]]:
+    app = create_app(settings)
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
+    thread = threading.Thread(target=server.run, name="bench-uvicorn", daemon=True)
+    thread.start()
+    while not server.started:
+        if not thread.is_alive():
+            raise SystemExit("the app did not start (see the log above)")
+        time.sleep(0.05)
+    base = f"http://127.0.0.1:{server.servers[0].sockets[0].getsockname()[1]}"
+    try:
+        with httpx.Client(base_url=base, timeout=600) as client:
+            yield (lambda data: client.post("/predict", files={"file": ("walk.csv", data, "text/csv")})), app
+    finally:
+        server.should_exit = True
+        thread.join(30)
+
+
+@contextmanager
+def testclient_poster(settings: Settings) -> Iterator[tuple[Post, object]]:
+    from fastapi.testclient import TestClient
+
+    app = create_app(settings)
+    with TestClient(app) as client:
+        yield (lambda data: client.post("/predict", files={"file": ("walk.csv", data, "text/csv")})), app
+
+
+def time_requests(post: Post, data: bytes, runs: int, warmup: int) -> list[float]:
+    for _ in range(warmup):
+        post(data).raise_for_status()
+    seconds = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        response = post(data)
+        seconds.append(time.perf_counter() - start)
+        if response.status_code != 200:
+            raise SystemExit(f"POST /predict answered {response.status_code}: {response.text}")
+    return seconds
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--runs", type=int, default=20, help="timed requests per CSV (default 20)")
+    parser.add_argument("--warmup", type=int, default=2, help="untimed requests first (default 2)")
+    parser.add_argument("--duration-s", type=float, default=60.0, help="length of the walk (default 60)")
+    parser.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate of the walk (default 100)")
+    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--checkpoint-dir", type=Path, help="default: the app's (FTIN_CHECKPOINT_DIR)")
+    parser.add_argument(
+        "--threads",
+        type=int,
+        help="torch threads: FTIN_TORCH_THREADS (default: the app's, 1; 0: one per core)",
+    )
+    parser.add_argument("--testclient", action="store_true", help="FastAPI TestClient instead of uvicorn")
+    parser.add_argument("--no-viser", action="store_true", help="without the 3D scene")
+    args = parser.parse_args()
+    if args.runs < 1 or args.warmup < 0:
+        parser.error("--runs must be >= 1 and --warmup >= 0")
+    overrides: dict[str, object] = {"viser_enabled": not args.no_viser, "viser_port": 0}
+    if args.threads is not None:
+        overrides["torch_threads"] = args.threads
+    if args.checkpoint_dir is not None:
+        overrides["checkpoint_dir"] = args.checkpoint_dir
+    settings = Settings(**overrides)
+    csvs = simulated_csvs(args.duration_s, args.rate_hz, args.seed)
+    poster = testclient_poster if args.testclient else uvicorn_poster
+    with poster(settings) as (post, app):
+        services = app.state.services
+        if services.models.default_name is None:
+            raise SystemExit(f"no model to time: {'; '.join(services.notes)}")
+        entry = services.models.get(None)
+        fallback = services.models.default_name.casefold() != settings.default_model.casefold()
+        size = f"{entry.architecture}, {entry.n_parameters:,} parameters"
+        print(f"model     {entry.name} ({size}) from {entry.path}")
+        if fallback:
+            missing = settings.checkpoint_dir / f"{settings.default_model}.safetensors"
+            print(f"          FALLBACK: the default model's checkpoint {missing} is missing")
+        print(
+            f"input     {args.duration_s:g} s at {args.rate_hz:g} Hz ({int(args.duration_s * args.rate_hz)} "
+            f"samples), window {entry.loaded.window}, stride {entry.loaded.stride}"
+        )
+        print(
+            f"server    {'TestClient' if args.testclient else 'uvicorn 127.0.0.1'}, viser "
+            f"{'off' if args.no_viser else 'on'}, torch threads {torch.get_num_threads()}, "
+            f"{args.runs} runs after {args.warmup} warm-up"
+        )
+        print(f"{'CSV':<40} {'size':>8} {'median':>9} {'p90':>9} {'max':>9}")
+        for label, data in csvs.items():
+            seconds = time_requests(post, data, args.runs, args.warmup)
+            p90 = float(np.percentile(seconds, 90))
+            print(
+                f"{label:<40} {len(data) / 2**20:>6.2f}MB {statistics.median(seconds):>8.3f}s "
+                f"{p90:>8.3f}s {max(seconds):>8.3f}s"
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,201 @@
+"""Fixtures of the dashboard tests: tiny real checkpoints, a small data folder, app factories and a
+live uvicorn + viser server. Everything runs on 127.0.0.1 with OS-assigned ports."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import torch
+import uvicorn
+from fastapi import FastAPI
+from fastapi.testclient import TestClient
+
+from app.main import create_app
+from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from ftin.models import create_model
+from ftin.train.checkpoint import save_checkpoint
+
+RATE_HZ = 100.0
+WINDOW = 50
+# A few thousand parameters: real FTIN structure (ResNet -> FDL -> sLSTM -> head), fast on one core.
+TINY_FTIN = {
+    "window": WINDOW,
+    "resnet_channels": (8, 16),
+    "resnet_blocks": (1, 1),
+    "res_channels": 16,
+    "embed_dim": 4,
+    "fre_channels": 8,
+    "fre_length": 4,
+    "slstm_heads": 2,
+    "head_hidden": (16,),
+}
+DEFAULT_MODEL = "ftin-oxiod"
+OTHER_MODEL = "resnet-tiny"
+SAMPLE_ROWS = 2000  # 20 s at 100 Hz
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _one_torch_thread() -> Iterator[None]:
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)
+
+
+def write_checkpoint(
+    folder: Path, name: str, model_name: str, seed: int = 0, training_data: object = None
+) -> Path:
+    torch.manual_seed(seed)
+    model = create_model(model_name, **TINY_FTIN)
+    meta = {
+        "model_name": model_name,
+        "imu_rate_hz": RATE_HZ,
+        "window": WINDOW,
+        "stride": WINDOW // 2,
+        "training_data": training_data or "simulated walks (test fixture)",
+        "metrics": {"ate": 1.5, "rte": 2.5, "pde": 0.05},
+    }
+    return save_checkpoint(folder / name, model, meta)
+
+
+@pytest.fixture(scope="session")
+def checkpoint_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("checkpoints")
+    write_checkpoint(folder, DEFAULT_MODEL, "ftin")
+    # As `ftin train` records it.
+    training_data = {"paths": ["/data/sim/"], "sequences": ["walk_1", "walk_2"]}
+    write_checkpoint(folder, OTHER_MODEL, "resnet1d", seed=1, training_data=training_data)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def sample_frame() -> pd.DataFrame:
+    """The first 20 s of a bundled simulated walk: orientation and ground truth included."""
+    return pd.read_csv(BUNDLED_SAMPLES_DIR / "sim_handheld.csv", nrows=SAMPLE_ROWS)
+
+
+@pytest.fixture(scope="session")
+def csv_with_gt(sample_frame: pd.DataFrame) -> bytes:
+    return sample_frame.to_csv(index=False).encode()
+
+
+@pytest.fixture(scope="session")
+def csv_without_gt(sample_frame: pd.DataFrame) -> bytes:
+    """IMU only, like a phone logger's export: no orientation, no ground truth."""
+    columns = ["t", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z"]
+    return sample_frame[columns].to_csv(index=False).encode()
+
+
+@pytest.fixture(scope="session")
+def data_dir(tmp_path_factory: pytest.TempPathFactory, csv_with_gt: bytes, csv_without_gt: bytes) -> Path:
+    """walks/walk_gt.csv, walks/imu_only.csv and a broken CSV the listing must survive."""
+    root = tmp_path_factory.mktemp("data") / "walks"
+    (root / "more").mkdir(parents=True)
+    (root / "walk_gt.csv").write_bytes(csv_with_gt)
+    (root / "more" / "imu_only.csv").write_bytes(csv_without_gt)
+    (root / "broken.csv").write_text("t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z\n0.0,1,2,3,4,5\n")
+    return root
+
+
+@pytest.fixture(scope="session")
+def make_settings(checkpoint_dir: Path, data_dir: Path) -> Callable[..., Settings]:
+    def make(**overrides: object) -> Settings:
+        values: dict[str, object] = {
+            "checkpoint_dir": checkpoint_dir,
+            "data_dirs": [data_dir],
+            "viser_enabled": False,
+            "viser_port": 0,
+        }
+        values.update(overrides)
+        return Settings(**values)
+
+    return make
+
+
+@pytest.fixture(scope="module")
+def client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    """The app without the viser scene (its own tests start that)."""
+    with TestClient(create_app(make_settings())) as test_client:
+        yield test_client
+
+
+@pytest.fixture
+def sample_csv_path(tmp_path: Path, csv_with_gt: bytes) -> Path:
+    path = tmp_path / "walk.csv"
+    path.write_bytes(csv_with_gt)
+    return path
+
+
+@dataclass
+class LiveServer:
+    app: FastAPI
+    server: uvicorn.Server
+    thread: threading.Thread
+    base_url: str
+
+    @property
+    def scene(self):  # app.viz.scene.DashboardScene
+        return self.app.state.scene
+
+
+def start_live_server(settings: Settings) -> LiveServer:
+    """The real app under uvicorn in a thread, on a free port (the OS picks it)."""
+    app = create_app(settings)
+    config = uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning", lifespan="on")
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name="test-uvicorn", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 60
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            raise RuntimeError("uvicorn did not start")
+        time.sleep(0.02)
+    port = server.servers[0].sockets[0].getsockname()[1]
+    return LiveServer(app, server, thread, f"http://127.0.0.1:{port}")
+
+
+def stop_live_server(live: LiveServer) -> None:
+    live.server.should_exit = True
+    live.thread.join(timeout=30)
+    assert not live.thread.is_alive(), "uvicorn did not stop"
+
+
+@dataclass(frozen=True)
+class ServerControl:
+    start: Callable[[Settings], LiveServer]
+    stop: Callable[[LiveServer], None]
+
+
+@pytest.fixture(scope="session")
+def server_control() -> ServerControl:
+    """Start and stop extra live servers inside a test (``server_control.start(settings)``)."""
+    return ServerControl(start_live_server, stop_live_server)
+
+
+@pytest.fixture(scope="module")
+def live_server(make_settings: Callable[..., Settings]) -> Iterator[LiveServer]:
+    live = start_live_server(make_settings(viser_enabled=True))
+    try:
+        yield live
+    finally:
+        stop_live_server(live)
+
+
+def _wait_for(predicate: Callable[[], bool], timeout_s: float = 10.0, what: str = "condition") -> None:
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+@pytest.fixture(scope="session")
+def wait_for() -> Callable[..., None]:
+    """``wait_for(predicate, timeout_s=10, what=...)``: poll until true or fail the test."""
+    return _wait_for

@@ -1,0 +1,401 @@
+"""Every REST route and every error class, through FastAPI's TestClient (no viser scene here)."""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pandas as pd
+import pytest
+from fastapi.testclient import TestClient
+
+from app.main import create_app
+from app.settings import Settings
+
+DEFAULT_MODEL = "ftin-oxiod"
+OTHER_MODEL = "resnet-tiny"
+
+
+def upload(client: TestClient, data: bytes, name: str = "walk.csv", **params: str):
+    return client.post("/predict", params=params, files={"file": (name, data, "text/csv")})
+
+
+def detail(response) -> str:
+    body = response.json()
+    assert set(body) == {"detail"}, body
+    assert isinstance(body["detail"], str)
+    return body["detail"]
+
+
+# --- health, models, sequences, page -------------------------------------------------------------
+
+
+def test_health_reports_what_was_loaded(client: TestClient) -> None:
+    body = client.get("/health").json()
+    assert body["status"] == "ok"
+    assert body["models"] == [DEFAULT_MODEL, OTHER_MODEL]
+    assert body["default_model"] == DEFAULT_MODEL
+    assert body["sequences"] == 3
+    assert body["scene_url"] is None  # viser disabled in this app
+    assert body["notes"] == []
+    assert body["inferences_running"] == 0
+    assert body["max_upload_mb"] == 20.0 and body["max_samples"] == 720_000
+    assert body["inference_timeout_s"] == 120.0
+
+
+def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
+    models = {m["name"]: m for m in client.get("/models").json()}
+    assert set(models) == {DEFAULT_MODEL, OTHER_MODEL}
+    ftin = models[DEFAULT_MODEL]
+    assert ftin["architecture"] == "ftin" and models[OTHER_MODEL]["architecture"] == "resnet1d"
+    assert ftin["default"] is True and models[OTHER_MODEL]["default"] is False
+    assert ftin["imu_rate_hz"] == 100.0 and ftin["window"] == 50 and ftin["stride"] == 25
+    assert ftin["trained_on"] == "simulated walks (test fixture)"
+    assert models[OTHER_MODEL]["trained_on"] == "/data/sim (2 sequences)"
+    assert ftin["metrics"] == {"ate": 1.5, "rte": 2.5, "pde": 0.05}
+    assert ftin["parameters"] > 1000 and ftin["out_dim"] == 2
+
+
+def test_sequences_lists_the_data_folder(client: TestClient) -> None:
+    sequences = {s["name"]: s for s in client.get("/sequences").json()}
+    assert set(sequences) == {"walk_gt", "more/imu_only", "broken"}
+    walk = sequences["walk_gt"]
+    assert walk["id"] == "walks--walk_gt" and walk["dataset"] == "csv"
+    assert walk["duration_s"] == pytest.approx(19.99) and walk["rate_hz"] == pytest.approx(100.0)
+    assert walk["samples"] == 2000 and walk["has_ground_truth"] is True and walk["error"] is None
+    assert sequences["more/imu_only"]["has_ground_truth"] is False
+    assert "/" not in sequences["more/imu_only"]["id"]
+    # An unreadable file is listed with the reader's reason instead of failing the whole listing.
+    broken = sequences["broken"]
+    assert broken["duration_s"] is None and "broken" in broken["error"]
+
+
+def test_upload_page_and_static_files_are_served(client: TestClient) -> None:
+    page = client.get("/")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "FTIN Studio" in page.text and "/static/app.js" in page.text
+    for asset in ("/static/app.js", "/static/plot.js", "/static/style.css"):
+        assert client.get(asset).status_code == 200
+    # Nothing on the page may come from the internet.
+    assert "http://" not in page.text.replace("http://www.w3.org", "")
+    assert "https://" not in page.text
+
+
+def test_docs_page_works_offline(client: TestClient) -> None:
+    pytest.importorskip("fastapi_offline", reason="fastapi-offline serves Swagger UI without a CDN")
+    page = client.get("/docs")
+    assert page.status_code == 200 and "swagger-ui-bundle.js" in page.text
+    assert "cdn." not in page.text and "https://" not in page.text
+    for asset in ("swagger-ui-bundle.js", "swagger-ui.css"):
+        assert client.get(f"/static-offline-docs/{asset}").status_code == 200
+    assert client.get("/redoc").status_code == 404
+
+
+def test_openapi_documents_both_predict_bodies(client: TestClient) -> None:
+    assert client.get("/docs").status_code == 200
+    spec = client.get("/openapi.json").json()
+    content = spec["paths"]["/predict"]["post"]["requestBody"]["content"]
+    assert {"multipart/form-data", "application/json", "text/csv"} <= set(content)
+    assert "t_s" in content["application/json"]["schema"]["properties"]
+    assert "/sequences/{sequence_id}/predict" in spec["paths"]
+
+
+# --- predictions ---------------------------------------------------------------------------------
+
+
+def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: bytes) -> None:
+    response = upload(client, csv_with_gt)
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["model"] == DEFAULT_MODEL and body["sequence"] == "walk" and body["source"] == "upload"
+    traj = body["trajectory"]
+    assert len(traj["t"]) == len(traj["x"]) == len(traj["y"]) == len(traj["z"]) == 2000
+    gt = body["ground_truth"]
+    # RoNIN convention: the estimate starts at the ground-truth start.
+    assert traj["x"][0] == pytest.approx(gt["x"][0]) and traj["y"][0] == pytest.approx(gt["y"][0])
+    velocity = body["velocity"]
+    assert len(velocity["t"]) == len(velocity["vx"]) == len(velocity["vy"]) > 10
+    assert velocity["vz"] is None  # a 2-D model
+    metrics = body["metrics"]
+    assert set(metrics) == {"ate", "rte", "pde"} and all(np.isfinite(v) and v >= 0 for v in metrics.values())
+    assert body["orientation_source"] == "device" and body["frame"] == "ground_truth"
+    assert body["csv_url"] == f"/runs/{body['run_id']}/trajectory.csv"
+
+    status = client.get(f"/runs/{body['run_id']}").json()
+    assert status["state"] == "done" and status["done"] == status["total"] == len(velocity["t"])
+
+    csv = client.get(body["csv_url"])
+    assert csv.status_code == 200 and csv.headers["content-type"].startswith("text/csv")
+    assert "attachment" in csv.headers["content-disposition"]
+    table = pd.read_csv(io.StringIO(csv.text))
+    assert list(table.columns) == ["t_s", "x_m", "y_m", "z_m"] and len(table) == 2000
+    assert table["x_m"].to_numpy() == pytest.approx(np.array(traj["x"]), abs=1e-6)
+
+
+def test_predict_without_ground_truth_estimates_orientation(
+    client: TestClient, csv_without_gt: bytes
+) -> None:
+    body = upload(client, csv_without_gt, "phone.csv", model=OTHER_MODEL).json()
+    assert body["model"] == OTHER_MODEL
+    assert body["metrics"] is None and body["ground_truth"] is None
+    assert body["orientation_source"] == "estimated" and body["frame"] == "device_world"
+    assert any("AHRS" in w for w in body["warnings"])
+    assert body["trajectory"]["x"][0] == 0.0  # no ground truth: starts at the origin
+
+
+def test_client_paths_and_unicode_names_are_harmless(client: TestClient, csv_with_gt: bytes) -> None:
+    body = upload(client, csv_with_gt, "C:\\Users\\me\\wälk ü.csv").json()
+    assert body["sequence"] == "wälk ü"
+    csv = client.get(body["csv_url"])
+    assert csv.status_code == 200
+    assert 'filename="w_lk__ftin-oxiod_trajectory.csv"' in csv.headers["content-disposition"]
+
+
+def test_predict_raw_csv_body(client: TestClient, csv_with_gt: bytes) -> None:
+    response = client.post("/predict", content=csv_with_gt, headers={"content-type": "text/csv"})
+    assert response.status_code == 200, response.text
+    assert response.json()["metrics"] is not None
+
+
+def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> None:
+    body = {
+        "name": "arrays",
+        "t_s": sample_frame["t"].tolist(),
+        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
+        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
+        "q_world_device_wxyz": sample_frame[["q_w", "q_x", "q_y", "q_z"]].to_numpy().tolist(),
+        "gt_p_world_m": sample_frame[["gt_x", "gt_y", "gt_z"]].to_numpy().tolist(),
+    }
+    response = client.post("/predict", json=body, params={"model": DEFAULT_MODEL})
+    assert response.status_code == 200, response.text
+    result = response.json()
+    assert result["sequence"] == "arrays" and result["source"] == "json"
+    assert result["orientation_source"] == "device" and result["metrics"] is not None
+
+
+def test_predict_listed_sequence(client: TestClient) -> None:
+    response = client.post("/sequences/walks--walk_gt/predict", params={"model": OTHER_MODEL})
+    assert response.status_code == 200, response.text
+    body = response.json()
+    assert body["sequence"] == "walk_gt" and body["source"] == "sequence" and body["model"] == OTHER_MODEL
+
+
+def test_client_chosen_run_id_can_be_polled(client: TestClient, csv_with_gt: bytes) -> None:
+    body = upload(client, csv_with_gt, run_id="page-run-0001").json()
+    assert body["run_id"] == "page-run-0001"
+    assert client.get("/runs/page-run-0001").json()["state"] == "done"
+    assert client.post("/runs/page-run-0001/show").status_code == 200
+
+
+# --- every error class ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("csv", "expected"),
+    [
+        (b"time,foo\n0,1\n", "gyro"),  # reader: required columns missing
+        (b"t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z\n0,0,0,0,0,0,9.8\n", "samples"),  # too few rows
+        (b"\xff\xfe\x00\x01binary", "not a UTF-8 text file"),
+        (b"   \n", "is empty"),
+    ],
+)
+def test_bad_csv_is_422_with_the_readers_message(client: TestClient, csv: bytes, expected: str) -> None:
+    response = upload(client, csv, "bad.csv")
+    assert response.status_code == 422
+    message = detail(response)
+    assert expected in message and "bad.csv" in message
+
+
+def test_recording_shorter_than_a_window_is_422(client: TestClient, sample_frame: pd.DataFrame) -> None:
+    # JSON arrays skip the CSV reader's own minimum, so this reaches the model's window check.
+    short = sample_frame.head(40)
+    body = {
+        "name": "short",
+        "t_s": short["t"].tolist(),
+        "gyro_rad_s": short[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
+        "acc_m_s2": short[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
+        "q_world_device_wxyz": short[["q_w", "q_x", "q_y", "q_z"]].to_numpy().tolist(),
+    }
+    response = client.post("/predict", json=body)
+    assert response.status_code == 422
+    message = detail(response)
+    assert "too short" in message and "51" in message
+
+
+def test_unknown_model_is_404_naming_the_valid_ones(client: TestClient, csv_with_gt: bytes) -> None:
+    response = upload(client, csv_with_gt, model="NoSuchModel")
+    assert response.status_code == 404
+    message = detail(response)
+    assert "NoSuchModel" in message and DEFAULT_MODEL in message and OTHER_MODEL in message
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/sequences/nope/predict",
+        "/sequences/..%2F..%2Fetc%2Fpasswd/predict",
+        "/sequences/%2Fetc%2Fpasswd/predict",
+        "/sequences/walks--..--..--etc--passwd/predict",
+        "/sequences/../../etc/passwd/predict",
+        "/sequences/%2e%2e%2f%2e%2e%2fetc%2fpasswd/predict",
+        "/sequences/walks--walk_gt%2F..%2F..%2Fbroken/predict",
+        "/sequences/..%5C..%5Cwindows%5Cwin.ini/predict",
+        "/sequences/%252e%252e%252fetc%252fpasswd/predict",
+    ],
+)
+def test_sequence_ids_cannot_escape_the_data_folders(client: TestClient, path: str) -> None:
+    response = client.post(path)
+    assert response.status_code == 404
+    assert "passwd" not in response.text or "unknown sequence id" in response.text
+
+
+@pytest.mark.parametrize("filename", ["../../etc/passwd", "/etc/passwd", "..\\..\\boot.ini", ".."])
+def test_upload_file_names_are_only_labels(client: TestClient, csv_with_gt: bytes, filename: str) -> None:
+    """A client's file name never becomes a path: nothing is read or written under it."""
+    response = upload(client, csv_with_gt, filename)
+    assert response.status_code == 200, response.text
+    name = response.json()["sequence"]
+    assert "/" not in name and "\\" not in name and ".." not in name
+
+
+def test_cross_origin_predict_gets_no_cors_header(client: TestClient, csv_with_gt: bytes) -> None:
+    response = client.post(
+        "/predict",
+        files={"file": ("walk.csv", csv_with_gt, "text/csv")},
+        headers={"Origin": "http://evil.example"},
+    )
+    assert "access-control-allow-origin" not in response.headers
+
+
+def test_unknown_sequence_names_the_id(client: TestClient) -> None:
+    message = detail(client.post("/sequences/nope/predict"))
+    assert "nope" in message and "GET /sequences" in message
+
+
+def test_unreadable_listed_sequence_is_422(client: TestClient) -> None:
+    response = client.post("/sequences/walks--broken/predict")
+    assert response.status_code == 422 and "broken" in detail(response)
+
+
+def test_unknown_runs_are_404(client: TestClient) -> None:
+    for response in (
+        client.get("/runs/nosuchrun"),
+        client.get("/runs/nosuchrun/trajectory.csv"),
+        client.post("/runs/nosuchrun/show"),
+    ):
+        assert response.status_code == 404 and "nosuchrun" in detail(response)
+
+
+def test_run_id_conflicts_and_format(client: TestClient, csv_with_gt: bytes) -> None:
+    assert upload(client, csv_with_gt, run_id="same-id-123").status_code == 200
+    again = upload(client, csv_with_gt, run_id="same-id-123")
+    assert again.status_code == 409 and "same-id-123" in detail(again)
+    bad = upload(client, csv_with_gt, run_id="no spaces!")
+    assert bad.status_code == 422 and "run_id" in detail(bad)
+
+
+def test_multipart_without_file_field_is_400(client: TestClient, csv_with_gt: bytes) -> None:
+    response = client.post("/predict", files={"data": ("walk.csv", csv_with_gt, "text/csv")})
+    assert response.status_code == 400 and "'file'" in detail(response)
+    # A plain text field named "file" (no file name) is no upload either.
+    response = client.post("/predict", files={"file": (None, "t,gyro_x")})
+    assert response.status_code == 400 and "'file'" in detail(response)
+
+
+def test_unsupported_content_type_is_415(client: TestClient) -> None:
+    response = client.post("/predict", content=b"<xml/>", headers={"content-type": "application/xml"})
+    assert response.status_code == 415 and "application/xml" in detail(response)
+    form = client.post("/predict", data={"file": "not a file"})  # urlencoded form
+    assert form.status_code == 415 and "multipart/form-data" in detail(form)
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (
+            {"t_s": [0.0, 0.01, 0.01, 0.03]},
+            "sample 2, column 't_s': timestamp",
+        ),
+        ({"gyro_rad_s": [[0, 0]] * 4}, "gyro_rad_s: expected a list of rows of 3 numbers"),
+        ({"acc_m_s2": [[0, 0, 9.8]] * 3}, "acc_m_s2 has 3 rows, t_s has 4"),
+        ({"acc_m_s2": [[0, 0, 1.0]] * 4}, "looks like g"),
+        ({"q_world_device_wxyz": [[0, 0, 0, 0]] * 4}, "sample 0: orientation quaternion has norm 0"),
+        ({"t_s": [0.0, 1.0, 2.0, 3.0]}, "sample rate 1 Hz"),
+        ({"t_s": "soon"}, "body field t_s"),
+        ({"extra": 1}, "body field extra"),
+        ({"acc_m_s2": None}, "body field acc_m_s2"),
+    ],
+)
+def test_bad_json_arrays_are_422_naming_the_field(client: TestClient, change: dict, expected: str) -> None:
+    body = {"t_s": [0.0, 0.01, 0.02, 0.03], "gyro_rad_s": [[0, 0, 0]] * 4, "acc_m_s2": [[0, 0, 9.8]] * 4}
+    body.update(change)
+    response = client.post("/predict", json=body)
+    assert response.status_code == 422
+    assert expected in detail(response)
+
+
+def test_malformed_json_is_422(client: TestClient) -> None:
+    response = client.post("/predict", content=b"{not json", headers={"content-type": "application/json"})
+    assert response.status_code == 422 and "body" in detail(response)
+
+
+def test_query_validation_errors_are_plain_sentences(client: TestClient) -> None:
+    response = client.post("/predict", params={"model": "x" * 300}, json={})
+    assert response.status_code == 422
+    assert detail(response).startswith("query parameter model:")
+
+
+# --- upload limit, CORS, startup errors ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_limit_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    with TestClient(create_app(make_settings(max_upload_mb=0.1))) as test_client:  # 100 KiB
+        yield test_client
+
+
+def test_upload_above_the_limit_is_413(small_limit_client: TestClient, csv_with_gt: bytes) -> None:
+    assert len(csv_with_gt) > 200 * 1024  # well above limit + multipart allowance: refused from the header
+    response = upload(small_limit_client, csv_with_gt)
+    assert response.status_code == 413 and "0.1 MiB" in detail(response)
+
+
+def test_file_just_above_the_limit_is_413(small_limit_client: TestClient, csv_with_gt: bytes) -> None:
+    data = csv_with_gt[: 110 * 1024]  # inside the multipart allowance: the service checks the file
+    response = upload(small_limit_client, data)
+    assert response.status_code == 413 and "walk.csv" in detail(response)
+
+
+def test_chunked_upload_above_the_limit_is_413(small_limit_client: TestClient, csv_with_gt: bytes) -> None:
+    def chunks() -> Iterator[bytes]:  # no Content-Length: the middleware counts the bytes
+        for start in range(0, len(csv_with_gt), 16 * 1024):
+            yield csv_with_gt[start : start + 16 * 1024]
+
+    response = small_limit_client.post("/predict", content=chunks(), headers={"content-type": "text/csv"})
+    assert response.status_code == 413 and "upload limit" in detail(response)
+
+
+def test_json_above_the_limit_is_413(small_limit_client: TestClient) -> None:
+    body = json.dumps({"t_s": list(range(60000))}).encode()
+    response = small_limit_client.post("/predict", content=body, headers={"content-type": "application/json"})
+    assert response.status_code == 413
+
+
+def test_cors_is_closed_by_default(client: TestClient) -> None:
+    response = client.options(
+        "/health", headers={"Origin": "http://evil.example", "Access-Control-Request-Method": "GET"}
+    )
+    assert "access-control-allow-origin" not in response.headers
+    get = client.get("/health", headers={"Origin": "http://evil.example"})
+    assert "access-control-allow-origin" not in get.headers
+
+
+def test_cors_opens_only_for_configured_origins(make_settings: Callable[..., Settings]) -> None:
+    app = create_app(make_settings(cors_origins=["http://lab.example"]))
+    with TestClient(app) as test_client:
+        ok = test_client.get("/health", headers={"Origin": "http://lab.example"})
+        assert ok.headers["access-control-allow-origin"] == "http://lab.example"
+        other = test_client.get("/health", headers={"Origin": "http://evil.example"})
+        assert "access-control-allow-origin" not in other.headers

@@ -1,0 +1,209 @@
+"""End to end in a real browser (Debian's chromium driven by Playwright): upload a CSV on the page,
+see the trajectory plot, the metrics and the links; API errors in plain words; the 3D scene renders.
+
+Without chromium or the playwright package these tests skip with the reason, except when
+``FTIN_REQUIRE_BROWSER=1`` (CI sets it): then they fail, so a broken CI image cannot pass silently.
+Set ``FTIN_SCREENSHOT_DIR`` (e.g. ``docs/screenshots``) to save screenshots of the page and scene.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+CHROMIUM = Path(os.environ.get("FTIN_CHROMIUM", "/usr/bin/chromium"))
+REQUIRE_BROWSER_ENV = "FTIN_REQUIRE_BROWSER"
+
+
+def browser_missing(reason: str) -> None:
+    """Skip with ``reason``, or fail when ``FTIN_REQUIRE_BROWSER=1`` says the browser must be there."""
+    if os.environ.get(REQUIRE_BROWSER_ENV, "").strip() == "1":
+        pytest.fail(f"{reason} ({REQUIRE_BROWSER_ENV}=1: the browser tests must run)", pytrace=False)
+    pytest.skip(reason)
+
+
+def browser_problem(chromium: Path) -> str | None:
+    """Why the browser tests cannot run here, or None."""
+    if importlib.util.find_spec("playwright") is None:
+        return "the playwright package is not installed (pip install playwright)"
+    if not chromium.exists():
+        return (
+            f"no chromium at {chromium}: install Debian's (apt-get install -y chromium) or set FTIN_CHROMIUM"
+        )
+    return None
+
+
+DEFAULT_MODEL = "ftin-oxiod"
+# No sandbox (containers, root), no GPU, and nothing that phones home: the test runs offline.
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+    "--enable-unsafe-swiftshader",  # software WebGL for the 3D scene
+]
+SCREENSHOT_DIR = os.environ.get("FTIN_SCREENSHOT_DIR")
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[object]:
+    problem = browser_problem(CHROMIUM)
+    if problem is not None:
+        browser_missing(problem)
+    from playwright import sync_api
+
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS)
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+@pytest.fixture
+def page(browser) -> Iterator[object]:
+    context = browser.new_context(viewport={"width": 1360, "height": 860})
+    page = context.new_page()
+    external: list[str] = []
+    page.on(
+        "request",
+        lambda r: (
+            external.append(r.url) if not r.url.startswith(("http://127.0.0.1", "data:", "blob:")) else None
+        ),
+    )
+    try:
+        yield page
+    finally:
+        context.close()
+    assert external == [], f"the page fetched from outside: {external}"
+
+
+def screenshot(page, name: str) -> None:
+    if SCREENSHOT_DIR:
+        Path(SCREENSHOT_DIR).mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(Path(SCREENSHOT_DIR) / name))
+
+
+def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Path) -> None:
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    assert page.input_value("#model-select") == DEFAULT_MODEL  # the default is preselected
+    assert page.is_disabled("#run-button")
+    page.set_input_files("#file-input", str(sample_csv_path))
+    assert "walk.csv" in page.inner_text("#drop-text")
+    page.click("#run-button")
+    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series >> nth=1", timeout=60_000)
+
+    labels = page.eval_on_selector_all("#plot polyline.series", "els => els.map(e => e.dataset.label)")
+    assert labels == ["ground truth", f"{DEFAULT_MODEL} (predicted)"]
+    points = page.get_attribute("#plot polyline.series >> nth=1", "points")
+    assert len(points.split()) == 2000  # every sample of the 20 s walk
+    metrics = page.inner_text("#metrics")
+    assert "ATE" in metrics and "RTE" in metrics and "PDE" in metrics and " m" in metrics
+    assert page.is_hidden("#error")
+
+    run_id = page.get_attribute("#scene-link", "data-run-id")
+    assert page.get_attribute("#download-link", "href") == f"/runs/{run_id}/trajectory.csv"
+    download = httpx.get(f"{live_server.base_url}/runs/{run_id}/trajectory.csv", timeout=10)
+    assert download.text.startswith("t_s,x_m,y_m,z_m")
+    scene_href = page.get_attribute("#scene-link", "href")
+    assert scene_href.rstrip("/") == live_server.scene.url
+    live_server.scene.flush()
+    assert run_id in live_server.scene.shown_run_ids()  # the same run is in the 3D scene
+    screenshot(page, "upload_page.png")
+
+
+def test_dropping_a_file_selects_it(live_server, page, csv_with_gt: bytes) -> None:
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    transfer = page.evaluate_handle(
+        "(text) => { const dt = new DataTransfer();"
+        " dt.items.add(new File([text], 'dropped.csv', {type: 'text/csv'})); return dt; }",
+        csv_with_gt.decode(),
+    )
+    page.dispatch_event("#drop-zone", "drop", {"dataTransfer": transfer})
+    assert "dropped.csv" in page.inner_text("#drop-text")
+    assert page.is_enabled("#run-button")
+
+
+def test_api_errors_are_shown_in_plain_words(live_server, page, tmp_path: Path) -> None:
+    bad = tmp_path / "notes.csv"
+    bad.write_text("time,comment\n0,hello\n")
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    page.set_input_files("#file-input", str(bad))
+    page.click("#run-button")
+    page.wait_for_selector("#error:not([hidden])", timeout=30_000)
+    message = page.inner_text("#error")
+    assert "notes.csv" in message and "gyro" in message
+    assert "{" not in message  # the detail text, not raw JSON
+    assert page.is_hidden("#result")
+
+
+def test_a_file_above_the_upload_limit_is_refused_before_sending(
+    make_settings, server_control, page, tmp_path: Path
+) -> None:
+    big = tmp_path / "big.csv"
+    big.write_bytes(b"t,gyro_x\n" + b"0" * (200 * 1024))
+    live = server_control.start(make_settings(max_upload_mb=0.1, viser_enabled=False))
+    try:
+        page.goto(live.base_url)
+        page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+        page.set_input_files("#file-input", str(big))
+        message = page.inner_text("#error")
+        assert "big.csv is 0.2 MB" in message and "0.1 MB" in message and "FTIN_MAX_UPLOAD_MB" in message
+        assert page.is_disabled("#run-button")
+    finally:
+        server_control.stop(live)
+
+
+def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> None:
+    response = httpx.post(
+        f"{live_server.base_url}/predict", files={"file": ("walk.csv", csv_with_gt, "text/csv")}, timeout=60
+    )
+    run_id = response.json()["run_id"]
+    live_server.scene.flush()
+    page.goto(live_server.scene.url)
+    page.wait_for_selector("canvas", timeout=30_000)
+    live_server.scene.gui_time.value = 12.0  # move the timeline: markers and spectra follow
+    live_server.scene._update_time()
+    page.wait_for_function("() => document.body.innerText.includes('Spectra')", timeout=30_000)
+    body = page.inner_text("body")
+    assert "FTIN Studio" in body and "ATE (m)" in body and f"{DEFAULT_MODEL} — walk" in body
+    assert run_id in live_server.scene.shown_run_ids()
+    if SCREENSHOT_DIR:
+        for close in page.query_selector_all("button.mantine-Notification-closeButton"):
+            close.click()  # the "software WebGL" notice
+        page.wait_for_timeout(12_000)  # viser fades the scene in; software WebGL is slow
+        screenshot(page, "scene_3d.png")
+
+
+def test_api_docs_render_offline(live_server, page) -> None:
+    pytest.importorskip("fastapi_offline", reason="fastapi-offline serves Swagger UI without a CDN")
+    page.goto(f"{live_server.base_url}/docs")
+    page.wait_for_selector(".swagger-ui .opblock", timeout=30_000)
+    assert "/predict" in page.inner_text(".swagger-ui")
+
+
+def test_missing_browser_skips_or_fails_as_the_environment_says(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Runs everywhere (no browser needed): the skip-or-fail rule itself."""
+    problem = browser_problem(tmp_path / "no-chromium")
+    assert problem is not None
+    monkeypatch.delenv(REQUIRE_BROWSER_ENV, raising=False)
+    with pytest.raises(pytest.skip.Exception, match="chromium|playwright"):
+        browser_missing(problem)
+    monkeypatch.setenv(REQUIRE_BROWSER_ENV, "1")
+    with pytest.raises(pytest.fail.Exception, match="FTIN_REQUIRE_BROWSER=1"):
+        browser_missing(problem)
+    monkeypatch.setenv(REQUIRE_BROWSER_ENV, "0")
+    with pytest.raises(pytest.skip.Exception):
+        browser_missing(problem)

@@ -1,0 +1,247 @@
+"""Issue 6 limits: sample count (413), inference time (504), concurrent inferences, kept runs, and the
+JSON shape of unexpected errors. Each test builds its own app or services, so patched models and
+small limits never leak into other tests."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+import pandas as pd
+import pytest
+import torch
+from fastapi.testclient import TestClient
+
+import app.services.prediction as prediction_module
+from app.main import create_app
+from app.services import Services
+from app.services.errors import InferenceTimeoutError
+from app.services.limits import Deadline, InferenceSlots
+from app.services.runs import RunState, RunStore
+from app.settings import Settings
+
+DEFAULT_MODEL = "ftin-oxiod"
+
+
+def upload(client: TestClient, data: bytes, name: str = "walk.csv", **params: str):
+    return client.post("/predict", params=params, files={"file": (name, data, "text/csv")})
+
+
+def detail(response) -> str:
+    body = response.json()
+    assert set(body) == {"detail"} and isinstance(body["detail"], str), body
+    return body["detail"]
+
+
+@contextmanager
+def app_client(settings: Settings) -> Iterator[TestClient]:
+    with TestClient(create_app(settings)) as client:
+        yield client
+
+
+def slow_forward(model, seconds: float, calls: list[float]) -> Callable:
+    """``model.forward`` that sleeps first (an instance attribute shadows the class method)."""
+    real = model.forward
+
+    def forward(x, features=None):
+        calls.append(time.monotonic())
+        time.sleep(seconds)
+        return real(x, features=features)
+
+    return forward
+
+
+# --- sample count ----------------------------------------------------------------------------------
+
+
+def test_too_many_samples_is_413_for_every_door(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, sample_frame: pd.DataFrame
+) -> None:
+    with app_client(make_settings(max_samples=1500)) as client:
+        csv = upload(client, csv_with_gt)
+        assert csv.status_code == 413
+        message = detail(csv)
+        assert "walk.csv has 2000 samples" in message and "1500" in message and "FTIN_MAX_SAMPLES" in message
+
+        body = {
+            "t_s": sample_frame["t"].tolist(),
+            "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
+            "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
+        }
+        arrays = client.post("/predict", json=body)
+        assert arrays.status_code == 413 and "request body has 2000 samples" in detail(arrays)
+
+        listed = client.post("/sequences/walks--walk_gt/predict")
+        assert listed.status_code == 413 and "'walks--walk_gt' has 2000 samples" in detail(listed)
+
+        # At the limit is fine.
+        assert upload(client, sample_frame.head(1500).to_csv(index=False).encode()).status_code == 200
+
+
+# --- inference time --------------------------------------------------------------------------------
+
+
+def test_inference_over_the_time_limit_is_504_and_really_stops(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(prediction_module, "BATCH_WINDOWS", 8)  # 2000 samples -> 78 windows -> 10 batches
+    with app_client(make_settings(inference_timeout_s=0.3)) as client:
+        model = client.app.state.services.models.get(DEFAULT_MODEL).loaded.model
+        calls: list[float] = []
+        monkeypatch.setattr(model, "forward", slow_forward(model, 0.1, calls))
+        started = time.monotonic()
+        response = upload(client, csv_with_gt, run_id="slow-run-1")
+        elapsed = time.monotonic() - started
+        assert response.status_code == 504
+        message = detail(response)
+        assert "0.3 s limit" in message and "FTIN_INFERENCE_TIMEOUT_S" in message and DEFAULT_MODEL in message
+        # Stopped between batches: it did not run all ten, and it did not run long past the limit.
+        assert 1 <= len(calls) < 10 and elapsed < 2.0
+        status = client.get("/runs/slow-run-1").json()
+        assert status["state"] == "failed" and "limit" in status["message"]
+        # The slot was released: a fast model answers at once.
+        monkeypatch.undo()
+        assert upload(client, csv_with_gt).status_code == 200
+
+
+def test_waiting_for_a_busy_slot_counts_against_the_deadline(make_settings: Callable[..., Settings]) -> None:
+    services = Services.build(make_settings(inference_timeout_s=0.2, max_concurrent_inferences=1))
+    predictor = services.predictor
+    holder_started, release = threading.Event(), threading.Event()
+
+    def hold() -> None:
+        with predictor.slots.acquire(Deadline.after(5)):
+            holder_started.set()
+            release.wait(10)
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    try:
+        assert holder_started.wait(5)
+        assert predictor.slots.busy == 1
+        started = time.monotonic()
+        with pytest.raises(InferenceTimeoutError, match="server is busy.*FTIN_MAX_CONCURRENT_INFERENCES=1"):
+            predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL, run_id="waiting-run")
+        assert 0.15 < time.monotonic() - started < 2.0
+        assert services.runs.status("waiting-run").state is RunState.FAILED
+    finally:
+        release.set()
+        holder.join(10)
+    assert predictor.slots.busy == 0
+    assert predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL).model_name == DEFAULT_MODEL
+
+
+def test_slots_cap_concurrency_and_survive_errors() -> None:
+    slots = InferenceSlots(2)
+    with slots.acquire(Deadline.after(1)), slots.acquire(Deadline.after(1)):
+        assert slots.busy == 2
+        with pytest.raises(InferenceTimeoutError, match="FTIN_MAX_CONCURRENT_INFERENCES=2"):
+            with slots.acquire(Deadline.after(0.05)):
+                pass
+    with pytest.raises(RuntimeError):
+        with slots.acquire(Deadline.after(1)):
+            raise RuntimeError("model crashed")
+    assert slots.busy == 0
+    with slots.acquire(Deadline.after(0.05)), slots.acquire(Deadline.after(0.05)):
+        assert slots.busy == 2
+    with pytest.raises(ValueError, match="at least one"):
+        InferenceSlots(0)
+
+
+def test_concurrent_requests_never_run_more_models_than_slots(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with app_client(make_settings(max_concurrent_inferences=1)) as client:
+        predictor = client.app.state.services.predictor
+        model = predictor.models.get(DEFAULT_MODEL).loaded.model
+        real = model.forward
+        running, peak, lock = [0], [0], threading.Lock()
+
+        def counting_forward(x, features=None):
+            with lock:
+                running[0] += 1
+                peak[0] = max(peak[0], running[0])
+            try:
+                time.sleep(0.05)
+                return real(x, features=features)
+            finally:
+                with lock:
+                    running[0] -= 1
+
+        monkeypatch.setattr(model, "forward", counting_forward)
+        results: list[int] = []
+        threads = [
+            threading.Thread(target=lambda: results.append(upload(client, csv_with_gt).status_code))
+            for _ in range(3)
+        ]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(60)
+        assert results == [200, 200, 200] and peak[0] == 1
+
+
+def test_deadline() -> None:
+    deadline = Deadline.after(0.05)
+    assert not deadline.expired and 0 < deadline.remaining_s() <= 0.05
+    deadline.check("reading")
+    time.sleep(0.06)
+    assert deadline.expired and deadline.remaining_s() == 0.0
+    with pytest.raises(InferenceTimeoutError, match="reading took longer than the 0.05 s limit"):
+        deadline.check("reading")
+
+
+# --- memory kept by finished runs ------------------------------------------------------------------
+
+
+def test_finished_runs_are_dropped_beyond_the_sample_budget(make_settings: Callable[..., Settings]) -> None:
+    services = Services.build(make_settings(max_kept_samples=4500))
+    predictor = services.predictor
+    runs = [predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL) for _ in range(3)]  # 2000 each
+    assert [r.run_id for r in services.runs.list()] == [runs[1].run_id, runs[2].run_id]
+    # The newest run is kept even when it alone is over the budget.
+    store = RunStore(max_runs=5, max_kept_samples=10)
+    store.finish(runs[0])
+    assert store.list() == [runs[0]]
+
+
+# --- unexpected errors -----------------------------------------------------------------------------
+
+
+def test_an_unexpected_error_is_json_500_without_internals(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    app = create_app(make_settings())
+    with TestClient(app, raise_server_exceptions=False) as client:
+        predictor = client.app.state.services.predictor
+
+        def broken(*args, **kwargs):
+            raise RuntimeError("secret internal state")
+
+        monkeypatch.setattr(predictor, "predict_csv", broken)
+        response = upload(client, csv_with_gt)
+        assert response.status_code == 500
+        message = detail(response)
+        assert "RuntimeError" in message and "secret" not in message
+
+
+def test_predictions_run_with_the_configured_torch_threads(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes
+) -> None:
+    """torch's thread count is per OS thread once a thread has used it, so check it where it matters:
+    inside the worker thread that runs a prediction."""
+    for threads in (2, 1):
+        with app_client(make_settings(torch_threads=threads)) as client:
+            predictor = client.app.state.services.predictor
+            seen: list[int] = []
+            real_run = predictor.run
+
+            def recording_run(*args, seen=seen, real_run=real_run, **kwargs):
+                seen.append(torch.get_num_threads())
+                return real_run(*args, **kwargs)
+
+            predictor.run = recording_run
+            assert upload(client, csv_with_gt).status_code == 200
+            assert seen == [threads]
