@@ -20,6 +20,10 @@ Decisions:
   the one (s, ms, us or ns) whose median interval means a 20–1000 Hz rate, and it is reported in
   ``meta["warnings"]``; accelerations that look like g or gyro values that look like deg/s are
   rejected with the factor to apply, because converting them on a hunch could corrupt good data.
+* Every sample must lie within physical limits (``check_physical_range``: |gyro| <= 350 rad/s,
+  |acc| <= 1600 m/s², |gt| <= 1e7 m per component, 10x beyond real IMUs): fuzzing showed that one
+  corrupt cell such as ``1e308`` passes the median-based unit checks and then overflows the
+  orientation filter; such a file is refused naming the cell.
 * Every violation raises ``DataFormatError`` naming the column and the data row / file line.
   Fully blank lines are skipped; line numbers in messages are the file's own.
 * ``write_csv`` writes floats in their shortest round-trip form, so ``read_csv(write_csv(seq))``
@@ -54,8 +58,14 @@ DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz (design §2)
 MAX_GAP_FACTOR = 5.0  # an interval above 5x the median is a gap, not jitter
 STANDARD_GRAVITY_M_S2 = 9.80665
 GYRO_FULL_SCALE_RAD_S = 35.0  # 2000 deg/s, the usual phone full scale: more is not rad/s
+# Per-sample plausibility limits, 10x beyond what IMUs measure (2000 deg/s, 16 g) and beyond any
+# position on Earth: larger values are corrupt, and near 1e154 their squares overflow downstream.
+MAX_ABS_GYRO_RAD_S = 350.0
+MAX_ABS_ACC_M_S2 = 1600.0
+MAX_ABS_POSITION_M = 1e7
 
 RowLabel = Callable[[int], str]
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
 @dataclass(frozen=True)
@@ -291,7 +301,7 @@ def _map_columns(headers: Sequence[str], source: str) -> tuple[dict[str, _Header
         match = _match_header(i, header)
         if match is None:
             if header.strip():
-                unknown.append(header.strip())
+                unknown.append(_shown(header.strip()))
             continue
         candidates.setdefault(match.canonical, []).append(match)
     chosen: dict[str, _HeaderMatch] = {}
@@ -309,6 +319,12 @@ def _map_columns(headers: Sequence[str], source: str) -> tuple[dict[str, _Header
     if unknown:
         warnings.append("ignored columns: " + ", ".join(unknown))
     return chosen, warnings
+
+
+def _shown(cell: str) -> str:
+    """A header cell as messages show it: as written, or quoted with escapes when it holds line breaks or
+    control characters (messages stay one line)."""
+    return cell if cell.isprintable() else repr(cell)
 
 
 def _missing_required(chosen: dict[str, _HeaderMatch]) -> list[str]:
@@ -435,9 +451,26 @@ def check_imu_units(gyro_rad_s: np.ndarray, acc_m_s2: np.ndarray, source: str) -
         )
 
 
+def check_physical_range(
+    values: np.ndarray, columns: Sequence[str], limit: float, unit: str, source: str, row_label: RowLabel
+) -> None:
+    """Raise on the first value whose magnitude exceeds ``limit`` (a corrupt cell), naming its row and
+    column. ``values`` is ``(N, len(columns))`` in canonical units."""
+    bad = np.abs(values) > limit
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        count = int(bad.sum())
+        more = f" ({count} such values)" if count > 1 else ""
+        raise DataFormatError(
+            f"{source}: {row_label(int(row))}, column {columns[col]!r}: {values[row, col]:.4g} {unit} is "
+            f"implausible (the limit is {limit:g} {unit} in magnitude); a corrupt value or a wrong unit{more}"
+        )
+
+
 def check_quaternions(q_wxyz: np.ndarray, source: str, row_label: RowLabel) -> np.ndarray:
     """Unit-norm check (5 % tolerance, then normalised); returns the normalised quaternions."""
-    norms = np.linalg.norm(q_wxyz, axis=1)
+    with np.errstate(over="ignore"):  # a huge component gives an infinite norm: reported below
+        norms = np.linalg.norm(q_wxyz, axis=1)
     bad = np.flatnonzero(np.abs(norms - 1.0) > 0.05)
     if bad.size:
         i = int(bad[0])
@@ -505,7 +538,9 @@ def _read_text(path_or_buffer: Any, source: str) -> str:
 
 def _parse_table(text: str, source: str) -> tuple[list[str], pd.DataFrame]:
     """Header cells and the data rows as strings; index = 0-based file line of each row."""
-    lines = text.splitlines()
+    # Split lines as pandas' C parser does (\n, \r, \r\n): str.splitlines also breaks at form feeds,
+    # \x1c-\x1e and U+2028, which shifted the header row off pandas' rows (found by schemathesis).
+    lines = _LINE_BREAK.split(text)
     header_at = next((i for i, line in enumerate(lines) if line.strip()), None)
     if header_at is None:
         raise DataFormatError(f"{source}: the file is empty; expected a header row and samples")
@@ -521,7 +556,7 @@ def _parse_table(text: str, source: str) -> tuple[list[str], pd.DataFrame]:
             engine="c",
         )
     except pd.errors.ParserError as exc:
-        raise DataFormatError(f"{source}: not a well-formed CSV table: {exc}") from exc
+        raise DataFormatError(f"{source}: not a well-formed CSV table: {str(exc).strip()}") from exc
     except pd.errors.EmptyDataError as exc:
         raise DataFormatError(f"{source}: the file is empty; expected a header row and samples") from exc
     headers = [str(h) for h in table.iloc[header_at].tolist()]
@@ -585,7 +620,8 @@ def _scaled(
         )
     if factors[unit] != 1.0:
         warnings.append(f"{group} converted from {unit} (unit in header)")
-    return values * factors[unit]
+    with np.errstate(over="ignore"):  # overflow gives inf, refused by check_physical_range
+        return values * factors[unit]
 
 
 def read_csv(
@@ -608,7 +644,7 @@ def read_csv(
     chosen, warnings = _map_columns(headers, source)
     missing = _missing_required(chosen)
     if missing:
-        found = ", ".join(h.strip() for h in headers if h.strip())
+        found = ", ".join(_shown(h.strip()) for h in headers if h.strip())
         hint = ""
         if any("acc" in m for m in missing) and "linear" in found.lower():
             hint = "; linear acceleration (gravity removed) cannot replace specific force including gravity"
@@ -648,6 +684,9 @@ def read_csv(
 
     gyro = stacked("gyro")
     acc = stacked("acc")
+    headers_of = {group: [chosen[c].header.strip() for c in _GROUPS[group]] for group in ("gyro", "acc")}
+    check_physical_range(gyro, headers_of["gyro"], MAX_ABS_GYRO_RAD_S, "rad/s", source, row_label)
+    check_physical_range(acc, headers_of["acc"], MAX_ABS_ACC_M_S2, "m/s^2", source, row_label)
     check_imu_units(gyro, acc, source)
 
     q = None
@@ -656,7 +695,12 @@ def read_csv(
         q = check_quaternions(np.column_stack([col[c] for c in _GROUPS["q"]]), source, row_label)
         _check_orientation_frame(q, acc, source, warnings)
         meta["orientation_source"] = "device"
-    gt = Trajectory(t_s, stacked("gt")) if "gt_x" in chosen else None
+    gt = None
+    if "gt_x" in chosen:
+        gt_p = stacked("gt")
+        gt_headers = [chosen[c].header.strip() for c in _GROUPS["gt"]]
+        check_physical_range(gt_p, gt_headers, MAX_ABS_POSITION_M, "m", source, row_label)
+        gt = Trajectory(t_s, gt_p)
     meta["warnings"] = warnings
     return ImuSequence(name, t_s, gyro, acc, q, gt, meta)
 
