@@ -40,18 +40,7 @@ import numpy as np
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 TINY_MODEL = "tiny-ftin"
-# The real FTIN structure at a few thousand parameters (as the hardening tests use).
-TINY_FTIN = {
-    "window": 50,
-    "resnet_channels": (8, 16),
-    "resnet_blocks": (1, 1),
-    "res_channels": 16,
-    "embed_dim": 4,
-    "fre_channels": 8,
-    "fre_length": 4,
-    "slstm_heads": 2,
-    "head_hidden": (16,),
-}
+TINY_WINDOW = 50
 
 
 @dataclass
@@ -95,15 +84,16 @@ def write_tiny_checkpoint(folder: Path) -> str:
     import torch
 
     from ftin.models import create_model
+    from ftin.models.ftin_net import TINY_FTIN_KWARGS
     from ftin.train.checkpoint import save_checkpoint
 
     torch.manual_seed(0)
-    model = create_model("ftin", **TINY_FTIN)
+    model = create_model("ftin", **TINY_FTIN_KWARGS, window=TINY_WINDOW)
     meta = {
         "model_name": "ftin",
         "imu_rate_hz": 100.0,
-        "window": TINY_FTIN["window"],
-        "stride": TINY_FTIN["window"] // 2,
+        "window": TINY_WINDOW,
+        "stride": TINY_WINDOW // 2,
         "training_data": "untrained (load test)",
     }
     save_checkpoint(folder / TINY_MODEL, model, meta)

@@ -32,13 +32,6 @@ TINY = BenchConfig(window=50, batch=4, threads=1, repeats=1, stride=10, rate_hz=
 MODELS = ["ronin_lstm", "ronin_tcn"]
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
-
 
 def _peak_rss_mib() -> float:
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

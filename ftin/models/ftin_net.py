@@ -68,6 +68,19 @@ class ScanAxis(str, Enum):
     CHANNEL = "channel"  # sequence of C steps, L features
 
 
+# FTIN's full structure (ResNet -> FDL -> sLSTM -> head) at a few thousand parameters: for tests, the
+# load test's --tiny mode and quick experiments. Add a ``window``; 25-100 samples work.
+TINY_FTIN_KWARGS: dict[str, object] = {
+    "resnet_channels": (8, 16),
+    "resnet_blocks": (1, 1),
+    "res_channels": 16,
+    "embed_dim": 4,
+    "fre_channels": 8,
+    "fre_length": 4,
+    "slstm_heads": 2,
+    "head_hidden": (16,),
+}
+
 @dataclass
 class FTINConfig:
     window: int = 100

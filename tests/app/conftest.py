@@ -19,33 +19,16 @@ from fastapi.testclient import TestClient
 from app.main import create_app
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 from ftin.models import create_model
+from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train.checkpoint import save_checkpoint
 
 RATE_HZ = 100.0
 WINDOW = 50
-# A few thousand parameters: real FTIN structure (ResNet -> FDL -> sLSTM -> head), fast on one core.
-TINY_FTIN = {
-    "window": WINDOW,
-    "resnet_channels": (8, 16),
-    "resnet_blocks": (1, 1),
-    "res_channels": 16,
-    "embed_dim": 4,
-    "fre_channels": 8,
-    "fre_length": 4,
-    "slstm_heads": 2,
-    "head_hidden": (16,),
-}
+TINY_FTIN = {**TINY_FTIN_KWARGS, "window": WINDOW}
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
 SAMPLE_ROWS = 2000  # 20 s at 100 Hz
 
-
-@pytest.fixture(autouse=True, scope="session")
-def _one_torch_thread() -> Iterator[None]:
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
 
 
 def write_checkpoint(

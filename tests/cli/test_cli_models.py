@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 
-import pytest
-import torch
 from typer.testing import CliRunner
 
 from ftin.cli import app
@@ -14,14 +12,6 @@ from ftin.models.profile import count_parameters, create_model_for_window
 
 runner = CliRunner()
 
-
-@pytest.fixture(autouse=True)
-def _single_thread():
-    # one window per FLOP count: extra threads only spin against other jobs on the shared CI cores
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
 
 
 def run(*args: str):

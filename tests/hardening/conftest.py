@@ -47,6 +47,7 @@ from ftin.data.readers.generic_csv import (
     MIN_RATE_HZ,
 )
 from ftin.models import create_model
+from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train.checkpoint import save_checkpoint
 
 FUZZ_PROFILE = "ftin-fuzz"
@@ -68,18 +69,7 @@ settings.register_profile(
 RATE_HZ = 100.0
 WINDOW = 50
 MODEL_NAME = "tiny-ftin"
-# The real FTIN structure (ResNet -> FDL -> sLSTM -> head) at a few thousand parameters.
-TINY_FTIN = {
-    "window": WINDOW,
-    "resnet_channels": (8, 16),
-    "resnet_blocks": (1, 1),
-    "res_channels": 16,
-    "embed_dim": 4,
-    "fre_channels": 8,
-    "fre_length": 4,
-    "slstm_heads": 2,
-    "head_hidden": (16,),
-}
+TINY_FTIN = {**TINY_FTIN_KWARGS, "window": WINDOW}
 
 
 class HardTimeout(Exception):
@@ -145,13 +135,6 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         for line in lines:
             terminalreporter.write_line(line)
 
-
-@pytest.fixture(autouse=True, scope="session")
-def _one_torch_thread() -> Iterator[None]:
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)  # the machine has 2 cores shared with other work
-    yield
-    torch.set_num_threads(previous)
 
 
 def write_tiny_checkpoint(folder: Path, name: str = MODEL_NAME) -> Path:

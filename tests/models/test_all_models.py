@@ -19,14 +19,6 @@ FALLBACK_WINDOW = 200  # models without a ``window`` in their config: the design
 BATCH = 3
 
 
-@pytest.fixture(autouse=True)
-def _single_thread():
-    # Tiny batches: threads only add contention on the shared CI cores.
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
-
 
 def default_window(model: VelocityModel) -> int:
     return int(model.config.get("window", FALLBACK_WINDOW))

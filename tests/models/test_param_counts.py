@@ -34,14 +34,6 @@ REFERENCE_PARAMETERS = {
 }
 
 
-@pytest.fixture(autouse=True)
-def _single_thread():
-    # Tiny batches: extra threads only spin against other jobs on the shared CI cores.
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
-
 
 @pytest.mark.parametrize("name", sorted(REFERENCE_PARAMETERS))
 def test_default_configuration_matches_the_reference_parameter_count(name):

@@ -16,6 +16,7 @@ from ftin.cli import app
 from ftin.data.readers.generic_csv import write_csv
 from ftin.metrics import Convention, describe
 from ftin.models import create_model
+from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.report import (
     PAPER_COLUMNS,
     ReportError,
@@ -34,17 +35,7 @@ from ftin.train.checkpoint import save_checkpoint
 RATE_HZ = 50.0
 WINDOW = 25
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-FTIN_TINY = {
-    "window": WINDOW,
-    "resnet_channels": (8, 16),
-    "resnet_blocks": (1, 1),
-    "res_channels": 8,
-    "embed_dim": 4,
-    "fre_channels": 8,
-    "fre_length": 4,
-    "slstm_heads": 2,
-    "head_hidden": (16,),
-}
+FTIN_TINY = {**TINY_FTIN_KWARGS, "window": WINDOW}
 # Four of the table's nine models; ronin_lstm, rnin, imunet, tlio and resnet_tdl stay missing.
 TINY_MODELS = {
     "ronin_resnet": {"window": WINDOW, "blocks_per_group": (1, 1, 1, 1), "trans_channels": 8, "fc_dim": 16},
@@ -54,13 +45,6 @@ TINY_MODELS = {
 }
 MISSING_LABELS = ["RoNIN LSTM", "RNIN", "IMUNet", "TLIO", "+TDL"]
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
 
 
 @pytest.fixture(scope="module")
