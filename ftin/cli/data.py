@@ -16,11 +16,10 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ftin.cli import app
-from ftin.cli.common import err_console, user_errors
+from ftin.cli.common import err_console, progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.data.readers import SequenceRef, list_sequences, read_sequence
 from ftin.data.readers.generic_csv import write_csv
@@ -45,24 +44,11 @@ def _find(path: Path) -> list[SequenceRef]:
     return refs
 
 
-def _progress(total: int) -> Progress:
-    """A progress bar on stderr for several sequences on a terminal (nothing in pipes or logs)."""
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        transient=True,
-        disable=total < 2 or not err_console.is_terminal,
-    )
-
-
 def _read_all(refs: list[SequenceRef], label: str) -> tuple[list[tuple[SequenceRef, ImuSequence]], list[str]]:
     """Read every sequence; failures become ``"name: message"`` lines instead of stopping the run."""
     done: list[tuple[SequenceRef, ImuSequence]] = []
     errors: list[str] = []
-    with _progress(len(refs)) as progress:
+    with progress_bar(disable=len(refs) < 2 or not err_console.is_terminal) as progress:
         task = progress.add_task(label, total=len(refs))
         for ref in refs:
             try:
@@ -180,7 +166,7 @@ def convert(
         out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     errors: list[str] = []
-    with _progress(len(refs)) as progress:
+    with progress_bar(disable=len(refs) < 2 or not err_console.is_terminal) as progress:
         task = progress.add_task(f"converting to {to.value}", total=len(refs))
         for ref in refs:
             try:

@@ -13,12 +13,11 @@ from typing import Annotated
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ftin.bench import BenchConfig
 from ftin.cli import app
-from ftin.cli.common import err_console, user_errors
+from ftin.cli.common import progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.metrics import Convention
 from ftin.models import UnknownModelError, list_models
@@ -26,17 +25,6 @@ from ftin.train.checkpoint import CheckpointError, atomic_write_text
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults
 EXPECTED_ERRORS = (DataFormatError, CheckpointError, UnknownModelError, ValueError, OSError)
-
-
-def _progress() -> Progress:
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=err_console,
-        transient=True,
-    )
 
 
 @app.command("table")
@@ -84,7 +72,7 @@ def table_command(
         loaded = load_checkpoints(find_checkpoints(checkpoints, pattern or ()))
         datasets = load_datasets(specs)
         total = len(loaded) * sum(len(d.sequences) for d in datasets)
-        with _progress() as bar:
+        with progress_bar() as bar:
             task = bar.add_task("evaluating", total=total)
 
             def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
@@ -154,7 +142,7 @@ def bench_command(
             memory=memory,
         )
         names = models or list_models()
-        with _progress() as bar:
+        with progress_bar() as bar:
             task = bar.add_task("measuring", total=len(names))
             started: list[str] = []
 

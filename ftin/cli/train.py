@@ -18,11 +18,10 @@ import torch
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ftin.cli import app
-from ftin.cli.common import err_console, user_errors
+from ftin.cli.common import err_console, progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.metrics import Convention
 from ftin.models import UnknownModelError
@@ -173,17 +172,6 @@ def train_command(
         typer.echo(f"continue with: ftin train --out {out} --resume")
 
 
-def _progress() -> Progress:
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        transient=True,
-    )
-
-
 @app.command("evaluate")
 def evaluate_command(
     checkpoint: Annotated[Path, typer.Option("--checkpoint", help="A .safetensors, its .json, or the stem.")],
@@ -202,7 +190,7 @@ def evaluate_command(
     with user_errors(*EXPECTED_ERRORS):
         loaded = load_model(checkpoint)
         sequences = load_sequences(data, "--data")
-        with _progress() as bar:
+        with progress_bar() as bar:
             task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
 
             def advance(name: str) -> None:
@@ -246,7 +234,7 @@ def predict_command(
     with user_errors(*EXPECTED_ERRORS):
         loaded = load_model(checkpoint)
         seq = read_sequence(input_path)
-        with _progress() as bar:
+        with progress_bar() as bar:
             task = None
 
             def report(done: int, total: int) -> None:
