@@ -4,8 +4,7 @@ Start-up (the lifespan) loads every checkpoint once, lists the data folders and 
 server; shutdown stops viser and its threads. ``create_app(settings)`` builds an app for tests.
 
 The OpenAPI page at ``/docs`` serves Swagger UI from the ``fastapi-offline`` package, because
-FastAPI's default page loads it from a CDN and the dashboard must work offline. Without that package
-the default (online) page is used and ``/health`` says so. ReDoc is not offered.
+FastAPI's default page loads it from a CDN and the dashboard must work offline. ReDoc is not offered.
 """
 
 from __future__ import annotations
@@ -18,6 +17,7 @@ import torch
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 from starlette.concurrency import run_in_threadpool
 
 import ftin
@@ -27,14 +27,6 @@ from app.api.routes.pages import STATIC_DIR
 from app.services import Services
 from app.services.errors import StartupError
 from app.settings import Settings
-
-try:
-    from fastapi_offline import FastAPIOffline as _FastAPI
-
-    OFFLINE_DOCS = True
-except ImportError:  # pragma: no cover - depends on the environment
-    _FastAPI = FastAPI
-    OFFLINE_DOCS = False
 
 log = logging.getLogger("ftin.app")
 
@@ -52,10 +44,6 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         except StartupError as exc:
             log.error("FTIN Studio cannot start: %s", exc)
             raise
-        if not OFFLINE_DOCS:
-            services.extra_notes.append(
-                "/docs loads Swagger UI from a CDN: install fastapi-offline to serve it"
-            )
         for note in services.notes:
             log.warning("%s", note)
         if settings.viser_enabled:
@@ -73,7 +61,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    app = _FastAPI(
+    app = FastAPIOffline(
         title="FTIN Studio",
         version=ftin.__version__,
         description="Inertial odometry: IMU recording in, walked trajectory out. The 3D scene runs "

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from app.services.catalog import SequenceCatalog
 from app.services.models import ModelStore
@@ -19,7 +19,6 @@ class Services:
     runs: RunStore
     predictor: PredictionService
     scene_url: str | None = None  # set once the viser server runs
-    extra_notes: list[str] = field(default_factory=list)  # set by the app (e.g. missing offline docs)
 
     @classmethod
     def build(cls, settings: Settings) -> Services:
@@ -42,4 +41,4 @@ class Services:
 
     @property
     def notes(self) -> list[str]:
-        return [*self.models.notes, *self.catalog.notes, *self.extra_notes]
+        return [*self.models.notes, *self.catalog.notes]

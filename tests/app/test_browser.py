@@ -186,7 +186,6 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
 
 
 def test_api_docs_render_offline(live_server, page) -> None:
-    pytest.importorskip("fastapi_offline", reason="fastapi-offline serves Swagger UI without a CDN")
     page.goto(f"{live_server.base_url}/docs")
     page.wait_for_selector(".swagger-ui .opblock", timeout=30_000)
     assert "/predict" in page.inner_text(".swagger-ui")
