@@ -22,7 +22,6 @@ Decisions (options of :func:`read`), following the official loader:
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,7 @@ import pandas as pd
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.readers.folders import MarkedFolderLayout
 from ftin.data.readers.generic_csv import (
     check_finite,
     check_increasing,
@@ -47,22 +47,9 @@ GT_COLUMNS = (*(f"gt_p_{a}" for a in "xyz"), *(f"gt_q_{c}" for c in "wxyz"))
 VIO_COLUMNS = (*(f"vio_p_{a}" for a in "xyz"), *(f"vio_q_{c}" for c in "wxyz"))
 BIAS_COLUMNS = (*(f"vio_gyro_bias_{a}" for a in "xyz"), *(f"vio_acce_bias_{a}" for a in "xyz"))
 
-
-def _sequence_dir(path: Path) -> Path:
-    path = Path(path)
-    return path.parent if path.name == DATA_FILE else path
-
-
-def claims(path: Path) -> bool:
-    return (_sequence_dir(path) / DATA_FILE).is_file()
-
-
-def discover(root: Path) -> list[Path]:
-    """Every folder under ``root`` (itself included) holding ``SenseINS.csv``."""
-    root = Path(root)
-    if root.is_file():
-        return [_sequence_dir(root)] if claims(root) else []
-    return sorted(Path(folder) for folder, _dirs, files in os.walk(root) if DATA_FILE in files)
+LAYOUT = MarkedFolderLayout(required=(DATA_FILE,), members=(DATA_FILE,))
+claims = LAYOUT.claims
+discover = LAYOUT.discover
 
 
 def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
@@ -73,7 +60,7 @@ def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
 
 def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
     """Read one RNIN-VIO sequence; ``path`` is its folder (or its ``SenseINS.csv``)."""
-    folder = _sequence_dir(path)
+    folder = LAYOUT.sequence_dir(path)
     csv_path = folder / DATA_FILE
     source = str(csv_path)
     try:

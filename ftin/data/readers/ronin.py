@@ -35,7 +35,6 @@ Decisions (options of :func:`read`):
 from __future__ import annotations
 
 import json
-import os
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -46,6 +45,7 @@ import numpy as np
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.preprocess import rotate_trajectory_about_z
+from ftin.data.readers.folders import MarkedFolderLayout
 from ftin.data.readers.generic_csv import (
     check_finite,
     check_increasing,
@@ -59,6 +59,10 @@ FORMAT = "ronin"
 DATA_FILE = "data.hdf5"
 INFO_FILE = "info.json"
 MAX_ALIGNMENT_TILT_DEG = 5.0
+
+LAYOUT = MarkedFolderLayout(required=(DATA_FILE, INFO_FILE), members=(DATA_FILE, INFO_FILE))
+claims = LAYOUT.claims
+discover = LAYOUT.discover
 
 
 class RoninOrientation(str, Enum):
@@ -77,27 +81,6 @@ _ORIENTATION_SOURCE = {
     RoninOrientation.RV: "device",
     RoninOrientation.EKF: "estimated",
 }
-
-
-def _sequence_dir(path: Path) -> Path:
-    path = Path(path)
-    return path.parent if path.name in (DATA_FILE, INFO_FILE) else path
-
-
-def claims(path: Path) -> bool:
-    """True when ``path`` is a RoNIN sequence folder (or one of its two files)."""
-    folder = _sequence_dir(path)
-    return (folder / DATA_FILE).is_file() and (folder / INFO_FILE).is_file()
-
-
-def discover(root: Path) -> list[Path]:
-    """Every folder under ``root`` (itself included) holding both ``data.hdf5`` and ``info.json``."""
-    root = Path(root)
-    if root.is_file():
-        return [_sequence_dir(root)] if claims(root) else []
-    return sorted(
-        Path(folder) for folder, _dirs, files in os.walk(root) if DATA_FILE in files and INFO_FILE in files
-    )
 
 
 def _read_info(path: Path) -> dict[str, Any]:
@@ -155,7 +138,7 @@ def read(
 ) -> ImuSequence:
     """Read one RoNIN sequence; ``path`` is its folder (or its ``data.hdf5`` / ``info.json``)."""
     orientation = RoninOrientation(orientation)
-    folder = _sequence_dir(path)
+    folder = LAYOUT.sequence_dir(path)
     data_path, info_path = folder / DATA_FILE, folder / INFO_FILE
     for required in (data_path, info_path):
         if not required.is_file():

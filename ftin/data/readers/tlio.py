@@ -29,7 +29,6 @@ Decisions (options of :func:`read`):
 from __future__ import annotations
 
 import json
-import os
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -38,6 +37,7 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.readers.folders import MarkedFolderLayout
 from ftin.data.readers.generic_csv import (
     check_finite,
     check_increasing,
@@ -69,28 +69,15 @@ PUBLISHED_DESCRIPTION = (
     "vel_World(3)",
 )
 
+LAYOUT = MarkedFolderLayout(required=(DATA_FILE,), members=(DATA_FILE, DESCRIPTION_FILE, CALIBRATION_FILE))
+claims = LAYOUT.claims
+discover = LAYOUT.discover
+
 
 class Calibration(str, Enum):
     AUTO = "auto"
     APPLY = "apply"
     SKIP = "skip"
-
-
-def _sequence_dir(path: Path) -> Path:
-    path = Path(path)
-    return path.parent if path.name in (DATA_FILE, DESCRIPTION_FILE, CALIBRATION_FILE) else path
-
-
-def claims(path: Path) -> bool:
-    return (_sequence_dir(path) / DATA_FILE).is_file()
-
-
-def discover(root: Path) -> list[Path]:
-    """Every folder under ``root`` (itself included) holding ``imu0_resampled.npy``."""
-    root = Path(root)
-    if root.is_file():
-        return [_sequence_dir(root)] if claims(root) else []
-    return sorted(Path(folder) for folder, _dirs, files in os.walk(root) if DATA_FILE in files)
 
 
 def _read_json(path: Path) -> Any:
@@ -168,7 +155,7 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSequence:
     """Read one TLIO sequence; ``path`` is its folder (or its ``imu0_resampled.npy``)."""
     calibration = Calibration(calibration)
-    folder = _sequence_dir(path)
+    folder = LAYOUT.sequence_dir(path)
     data_path = folder / DATA_FILE
     try:
         data = np.load(data_path, allow_pickle=False)
