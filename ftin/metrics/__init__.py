@@ -7,9 +7,12 @@ from ftin.metrics.trajectory import (
     ate,
     describe,
     evaluate_trajectory,
+    horizontal_path_length,
     mean_metrics,
+    path_length_ratio,
     pde,
     rte,
+    stand_still,
 )
 
 __all__ = [
@@ -19,6 +22,9 @@ __all__ = [
     "ate",
     "describe",
     "evaluate_trajectory",
+    "horizontal_path_length",
+    "path_length_ratio",
+    "stand_still",
     "fit_se2",
     "fit_se3",
     "mean_metrics",

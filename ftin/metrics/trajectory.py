@@ -67,6 +67,8 @@ class TrajectoryMetrics:
     pde: float
     convention: Convention
     rte_window_s: float = 60.0
+    # predicted / true horizontal path length; None where the truth does not move (no ratio exists)
+    path_length_ratio: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values; the convention as its string value."""
@@ -74,6 +76,7 @@ class TrajectoryMetrics:
             "ate": self.ate,
             "rte": self.rte,
             "pde": self.pde,
+            "path_length_ratio": self.path_length_ratio,
             "convention": self.convention.value,
             "rte_window_s": self.rte_window_s,
         }
@@ -106,6 +109,34 @@ def pde(est_m: np.ndarray, gt_m: np.ndarray, convention: Convention = Convention
     return _drift_ratio(est, gt)
 
 
+def horizontal_path_length(p_m: np.ndarray) -> float:
+    """Length in metres of the horizontal (x, y) polyline through ``(N, 2|3)`` positions."""
+    p = _check_positions("p_m", p_m)
+    return float(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1).sum())
+
+
+# Below this much ground-truth path a ratio means nothing (a recording of someone standing still).
+_MIN_PATH_FOR_RATIO_M = 0.5
+
+
+def path_length_ratio(est_m: np.ndarray, gt_m: np.ndarray) -> float | None:
+    """Predicted / true horizontal path length; ``None`` when the truth walks less than 0.5 m.
+
+    Alignment cannot change it (rigid motions keep lengths), so it reads the same under every
+    convention: 1 is the right distance, 0 a predictor that never moves.
+    """
+    true_length = horizontal_path_length(gt_m)
+    if true_length < _MIN_PATH_FOR_RATIO_M:
+        return None
+    return horizontal_path_length(est_m) / true_length
+
+
+def stand_still(gt: Trajectory) -> Trajectory:
+    """The predictor that never moves: every position is the ground-truth start (the baseline row)."""
+    p = np.repeat(np.asarray(gt.p_world_m[:1], dtype=np.float64), len(gt.t_s), axis=0)
+    return Trajectory(np.array(gt.t_s, dtype=np.float64), p)
+
+
 def evaluate_trajectory(
     est: Trajectory,
     gt: Trajectory,
@@ -122,6 +153,7 @@ def evaluate_trajectory(
         pde=_drift_ratio(est_p, gt_p),
         convention=convention,
         rte_window_s=float(rte_window_s),
+        path_length_ratio=path_length_ratio(est_m, gt_m),
     )
 
 
@@ -143,7 +175,13 @@ def mean_metrics(metrics: Sequence[TrajectoryMetrics]) -> TrajectoryMetrics:
         pde=float(np.mean([m.pde for m in metrics])),
         convention=first.convention,
         rte_window_s=first.rte_window_s,
+        path_length_ratio=_mean_or_none([m.path_length_ratio for m in metrics]),
     )
+
+
+def _mean_or_none(values: Sequence[float | None]) -> float | None:
+    known = [v for v in values if v is not None]
+    return float(np.mean(known)) if known else None
 
 
 def describe(convention: Convention = Convention.RONIN, rte_window_s: float = 60.0) -> str:

@@ -258,6 +258,7 @@ def test_mean_metrics_as_dict_and_describe():
         "ate": pytest.approx(2.0),
         "rte": pytest.approx(3.0),
         "pde": pytest.approx(0.2),
+        "path_length_ratio": None,  # neither input knew one
         "convention": "ronin",
         "rte_window_s": 60.0,
     }

@@ -1,0 +1,63 @@
+"""Path-length ratio and the stand-still baseline (the row every accuracy table carries)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ftin.data.types import Trajectory
+from ftin.metrics import (
+    Convention,
+    evaluate_trajectory,
+    horizontal_path_length,
+    mean_metrics,
+    path_length_ratio,
+    stand_still,
+)
+
+
+def _square_walk(n: int = 401) -> Trajectory:
+    """A 10 m x 10 m square walked once (40 m of horizontal path) with a height wobble."""
+    s = np.linspace(0.0, 40.0, n)
+    x = np.clip(s, 0, 10) - np.clip(s - 20, 0, 10)
+    y = np.clip(s - 10, 0, 10) - np.clip(s - 30, 0, 10)
+    z = 0.1 * np.sin(s)  # vertical motion is not horizontal path
+    return Trajectory(np.linspace(0.0, 40.0, n), np.stack([x, y, z], axis=1))
+
+
+def test_horizontal_path_length_ignores_height():
+    assert horizontal_path_length(_square_walk().p_world_m) == pytest.approx(40.0, rel=1e-9)
+
+
+def test_path_length_ratio_is_scale_and_invariant_to_rigid_motion():
+    gt = _square_walk()
+    half = gt.p_world_m * np.array([0.5, 0.5, 1.0])
+    assert path_length_ratio(half, gt.p_world_m) == pytest.approx(0.5)
+    angle = 0.7
+    R = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    moved = gt.p_world_m @ R.T + np.array([3.0, -2.0, 1.0])
+    assert path_length_ratio(moved, gt.p_world_m) == pytest.approx(1.0)
+
+
+def test_path_length_ratio_is_none_when_the_truth_does_not_walk():
+    still = np.zeros((50, 3))
+    assert path_length_ratio(np.ones((50, 3)), still) is None
+
+
+def test_stand_still_never_moves_and_scores_ratio_zero():
+    gt = _square_walk()
+    still = stand_still(gt)
+    assert np.all(still.p_world_m == gt.p_world_m[0]) and np.array_equal(still.t_s, gt.t_s)
+    m = evaluate_trajectory(still, gt, Convention.RONIN)
+    assert m.path_length_ratio == 0.0
+    # RoNIN ATE of standing at the start: RMSE over x and y coordinates of the walk itself
+    expected = np.sqrt(np.mean((gt.p_world_m[:, :2] - gt.p_world_m[0, :2]) ** 2))
+    assert m.ate == pytest.approx(expected)
+    assert m.as_dict()["path_length_ratio"] == 0.0
+
+
+def test_mean_metrics_averages_known_ratios_only():
+    gt = _square_walk()
+    exact = evaluate_trajectory(gt, gt)
+    still = evaluate_trajectory(stand_still(gt), gt)
+    assert mean_metrics([exact, still]).path_length_ratio == pytest.approx(0.5)
