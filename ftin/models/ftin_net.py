@@ -1,6 +1,7 @@
 """FTIN (Frequency-Time Integration Network) and its ablations, from one class with two switches.
 
 ``(B, 6, L) -> ResNet-1D encoder -> (B, C_res, L_res) -> FDL -> (B, C_fre, L_fre) -> sLSTM -> MLP -> (B, D)``
+(``L_fre = L_res`` with ``fdl_output = "ordered"``, see Decisions)
 
 | registered name | FDL | sLSTM (TDL) | paper's ablation column |
 |---|---|---|---|
@@ -24,13 +25,33 @@ Decisions (paper Sec. 2 leaves them open; all are ``FTINConfig`` fields, kept in
   ``L_res = backbone.output_length(window)``; forward rejects other lengths with the fix.
 * FDL: ``embed_dim`` d = 8, one complex layer per axis (``fdl_layers``), ReLU as in FreTS
   (``fdl_activation``, also the FC's), residual on (``fdl_residual``), output ``fre_channels``
-  C_fre = 64 x ``fre_length`` L_fre = 8. FDL's cost is linear in d (FFTs, copies) plus d^2 (the
-  complex GEMMs); d = 16 measured only 0.60-0.69 of ``ronin_resnet``'s speed, too close to the
-  0.5 floor on a loaded 2-core machine, so d = 8.
-* The sLSTM scans **time** (``slstm_axis = "time"``: L_fre = 8 steps of C_fre = 64 features). Time is
-  the axis of "time-domain learning" and the only ordered one: after FDL's channel FC the channel
-  index has no order, so scanning it would invent one; and 8 steps keep the unavoidable loop short.
-  ``"channel"`` (C_fre steps of L_fre features) is there for experiments.
+  C_fre = 64 x ``fre_length`` L_fre = 8 (``fdl_output = "mixed"``). FDL's cost is linear in d
+  (FFTs, copies) plus d^2 (the complex GEMMs); d = 16 measured only 0.60-0.69 of ``ronin_resnet``'s
+  speed, too close to the 0.5 floor on a loaded 2-core machine, so d = 8.
+* ``fdl_output`` picks the structure of FDL's output FC + activation (``ftin.models.layers.fdl``):
+
+  - ``"mixed"`` (default; every checkpoint saved before the option existed has no key and gets it):
+    flatten ``(L_res x d)`` per channel and one FC with the Kronecker-structured weight
+    ``kron(fc_channel, fc_time)`` -> ``(B, C_fre, L_fre)``. Its L_fre = 8 "time" slots are learned
+    mixtures of all L_res encoder steps, so they have **no time order**: the sLSTM then scans 8
+    unordered slots, a learned set more than a sequence.
+  - ``"ordered"``: keep the encoder's time axis: each of the L_res steps' ``(C_res x d)`` features go
+    through one dense FC ``C_res d -> C_fre`` + activation -> ``(B, C_fre, L_res)``; the sLSTM scans
+    the L_res steps in the ResNet encoder's time order (4 at window 100, 7 at 200) and the head
+    flattens ``C_fre x L_res``. ``fre_length`` is **unused** in this mode: it is kept in the config
+    (so configs round-trip and switching modes needs one key) but ignored, and nothing about it is
+    rejected; the effective length is ``self.seq_shape[1]`` / ``self.fdl.out_length``.
+
+  The paper leaves the sLSTM's sequence axis open; which of the two trains better is for validation
+  to decide (a checkpoint records the mode in its ``model_kwargs``). Sizes at the defaults, window
+  100: FDL's FC 8.5 k (mixed) vs 65.6 k (ordered) weights, the head's first layer 512 vs 256 inputs
+  (whole model 4,484,892 vs 4,410,900; window 200: 4,485,084 vs 4,509,204). Like every FDL key,
+  ``fdl_output`` has no effect on ``resnet_tdl`` / ``resnet1d``.
+* The sLSTM scans **time** (``slstm_axis = "time"``: L_fre steps of C_fre = 64 features). Time is
+  the axis of "time-domain learning" and the only one that can be ordered (with ``fdl_output =
+  "ordered"``): after FDL's channel FC the channel index has no order, so scanning it would invent
+  one; and 4-8 steps keep the unavoidable loop short. ``"channel"`` (C_fre steps of L_fre features)
+  is there for experiments.
 * sLSTM: ``slstm_blocks`` = 1 residual block, ``slstm_heads`` = 4, gated FFN with projection factor
   4/3, sigmoid forget gate, residuals on, ``slstm_dropout`` 0. The final state is dropped: each
   window is independent, as for every other model behind the same interface.
@@ -39,12 +60,15 @@ Decisions (paper Sec. 2 leaves them open; all are ``FTINConfig`` fields, kept in
 
 Speed target: at least half of ``ronin_resnet``'s windows/s (``torch.inference_mode``, eval, batch
 512, window 100, 2 threads). Measured with these defaults: 0.77-0.81 (FDL ~ +25%, sLSTM ~ +10% on
-top of the shared backbone, which dominates).
+top of the shared backbone, which dominates). ``fdl_output = "ordered"`` measured the same within
+noise (1 thread, best of 10 interleaved rounds: 0.81 vs mixed 0.83): its dense FC costs FDL ~3 ms
+more per batch of 512, its sLSTM scans 4 steps instead of 8 (~7 ms less).
 
 Feature taps (``features`` dict; detached; nothing is computed when it is None): ``resnet``
 (B, C_res, L_res), the encoder output; with FDL ``fdl_channel_spectrum`` (B, C_res//2+1, L_res, d),
 ``fdl_temporal_spectrum`` (B, C_res, L_res//2+1, d) (|rfft| right before each complex MLP, d kept)
-and ``fdl`` (B, C_fre, L_fre); with the sLSTM ``slstm`` (B, steps, features), the stack's output.
+and ``fdl`` (B, C_fre, L_fre) (L_fre = L_res when ordered); with the sLSTM ``slstm`` (B, steps,
+features), the stack's output.
 """
 
 from __future__ import annotations
@@ -56,7 +80,7 @@ import torch
 from torch import nn
 
 from ftin.models.base import VelocityModel, VelocityOutput
-from ftin.models.layers.fdl import FrequencyDomainLearning, parse_activation
+from ftin.models.layers.fdl import FDLOutput, FrequencyDomainLearning, parse_activation, parse_fdl_output
 from ftin.models.layers.heads import MLPHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.layers.slstm import ForgetGate, SLSTMStack
@@ -81,6 +105,7 @@ TINY_FTIN_KWARGS: dict[str, object] = {
     "head_hidden": (16,),
 }
 
+
 @dataclass
 class FTINConfig:
     window: int = 100
@@ -92,8 +117,9 @@ class FTINConfig:
     fdl_layers: int = 1
     fdl_activation: str = "relu"
     fdl_residual: bool = True
+    fdl_output: str = "mixed"  # FDLOutput: "mixed" (L_fre unordered slots) or "ordered" (L_res steps)
     fre_channels: int = 64
-    fre_length: int = 8
+    fre_length: int = 8  # L_fre with fdl_output "mixed"; unused with "ordered" (L_fre = L_res)
     slstm_axis: str = "time"
     slstm_blocks: int = 1
     slstm_heads: int = 4
@@ -121,6 +147,7 @@ class FTINConfig:
                 "need the same length"
             )
         parse_activation(self.fdl_activation, "fdl_activation")
+        parse_fdl_output(self.fdl_output, "fdl_output")
         try:
             ScanAxis(self.slstm_axis)
             ForgetGate(self.slstm_forget_gate)
@@ -170,8 +197,10 @@ class FTIN(VelocityModel):
                 cfg.fdl_layers,
                 cfg.fdl_activation,
                 cfg.fdl_residual,
+                output=FDLOutput(cfg.fdl_output),  # "ordered" ignores fre_length: L_fre = L_res
             )
-            seq_channels, seq_length = cfg.fre_channels, cfg.fre_length
+            seq_channels, seq_length = cfg.fre_channels, self.fdl.out_length
+        self.seq_shape = (seq_channels, seq_length)  # (C, L) of the sequence the sLSTM / head see
 
         self.scan_axis = ScanAxis(cfg.slstm_axis)
         self.slstm: SLSTMStack | None = None
@@ -208,7 +237,7 @@ class FTIN(VelocityModel):
         if features is not None:
             features["resnet"] = seq.detach()
         if self.fdl is not None:
-            seq = self.fdl(seq, features)  # (B, C_fre, L_fre)
+            seq = self.fdl(seq, features)  # (B, C_fre, L_fre); L_fre = L_res when ordered
             if features is not None:
                 features["fdl"] = seq.detach()
         if self.slstm is not None:

@@ -7,7 +7,13 @@ import math
 import pytest
 import torch
 
-from ftin.models.layers.fdl import Activation, ComplexLinear, FrequencyDomainLearning
+from ftin.models.layers.fdl import (
+    Activation,
+    ComplexLinear,
+    FDLOutput,
+    FrequencyDomainLearning,
+    apply_activation,
+)
 
 
 def _set_identity(fdl: FrequencyDomainLearning) -> None:
@@ -135,11 +141,12 @@ def test_wrong_input_shape_names_what_was_expected() -> None:
         FrequencyDomainLearning(in_channels=8, in_length=4, activation="tanh")
 
 
-def test_gradients_match_finite_differences() -> None:
+@pytest.mark.parametrize("output", ["mixed", "ordered"])
+def test_gradients_match_finite_differences(output: str) -> None:
     """The in-place ReLU and residual must not corrupt autograd: gradcheck inputs and weights."""
     torch.manual_seed(5)
     fdl = FrequencyDomainLearning(
-        in_channels=5, in_length=3, embed_dim=2, out_channels=2, out_length=2
+        in_channels=5, in_length=3, embed_dim=2, out_channels=2, out_length=2, output=output
     ).double()
     with torch.no_grad():
         for layer in [*fdl.channel_mlp.layers, *fdl.temporal_mlp.layers]:
@@ -153,3 +160,107 @@ def test_gradients_match_finite_differences() -> None:
         return torch.func.functional_call(fdl, dict(zip(names, weights, strict=True)), (x,))
 
     assert torch.autograd.gradcheck(run, (x, *params), fast_mode=True)
+
+
+# ------------------------------------------------------------------ step 5, the output FC: two modes
+def _paper_tokens(batch: int, channels: int, length: int, dim: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Random residual sums in the paper's ``(B, C, L, d)`` order and in ``project``'s ``(B, d, C, L)``."""
+    paper = torch.randn(batch, channels, length, dim, dtype=torch.float64)
+    return paper, paper.permute(0, 3, 1, 2)
+
+
+@pytest.mark.parametrize("activation", ["identity", "relu", "gelu"])
+def test_mixed_fc_pair_is_one_fc_with_a_kronecker_weight(activation: str) -> None:
+    """``fc_time`` then ``fc_channel`` then one activation == sigma(kron(G, A) vec(X) + b), dense."""
+    torch.manual_seed(6)
+    channels, length, dim, out_channels, out_length = 6, 5, 3, 4, 7
+    fdl = FrequencyDomainLearning(
+        channels, length, dim, out_channels, out_length, activation=activation, output="mixed"
+    ).double()
+    paper, mixed = _paper_tokens(2, channels, length, dim)
+
+    a, a_bias = fdl.fc_time.weight.detach(), fdl.fc_time.bias.detach()  # A (L_fre, L d), a (L_fre,)
+    g, g_bias = fdl.fc_channel.weight.detach(), fdl.fc_channel.bias.detach()  # G (C_fre, C), g (C_fre,)
+    weight = torch.kron(g, a)  # (C_fre L_fre, C L d): W[(f, m), (c, i)] = G[f, c] A[m, i]
+    bias = torch.kron(g.sum(dim=1), a_bias) + torch.kron(g_bias, torch.ones_like(a_bias))  # (C_fre L_fre,)
+    assert weight.shape == (out_channels * out_length, channels * length * dim)
+    dense = paper.reshape(2, -1) @ weight.T + bias  # one FC over the whole flattened (C, L, d) input
+    expected = apply_activation(dense, fdl.activation).view(2, out_channels, out_length)
+
+    torch.testing.assert_close(fdl.project(mixed), expected)
+    # The stored factors are the small ones: (L d + 1) L_fre + (C + 1) C_fre, not the dense size.
+    fc_size = sum(p.numel() for n, p in fdl.named_parameters() if n.startswith("fc_"))
+    assert fc_size == (length * dim + 1) * out_length + (channels + 1) * out_channels
+
+
+def test_mixed_mode_keeps_its_parameter_names() -> None:
+    """Checkpoints saved before ``output`` existed load strictly: same keys, no extra ones."""
+    fdl = FrequencyDomainLearning(8, 4, embed_dim=2, out_channels=3, out_length=5)
+    assert fdl.output is FDLOutput.MIXED and fdl.out_length == 5
+    fc_keys = {k for k in fdl.state_dict() if k.startswith("fc")}
+    assert fc_keys == {"fc_time.weight", "fc_time.bias", "fc_channel.weight", "fc_channel.bias"}
+    assert fdl.fc_time.weight.shape == (5, 4 * 2) and fdl.fc_channel.weight.shape == (3, 8)
+
+
+@pytest.mark.parametrize("activation", ["identity", "relu"])
+def test_ordered_fc_is_one_dense_fc_per_time_step(activation: str) -> None:
+    torch.manual_seed(7)
+    channels, length, dim, out_channels = 6, 5, 3, 4
+    fdl = FrequencyDomainLearning(
+        channels, length, dim, out_channels, out_length=99, activation=activation, output="ordered"
+    ).double()
+    assert fdl.out_length == length  # out_length is not used: the L_res time steps are kept
+    assert {k for k in fdl.state_dict() if k.startswith("fc")} == {"fc.weight", "fc.bias"}
+    assert fdl.fc.weight.shape == (out_channels, channels * dim)  # dense (C_res x d) -> C_fre
+    paper, mixed = _paper_tokens(2, channels, length, dim)
+    out = fdl.project(mixed)
+    assert out.shape == (2, out_channels, length)
+    for t in range(length):  # step t: flatten (C, d) in that order (c d + k), FC, activation
+        step = apply_activation(fdl.fc(paper[:, :, t, :].reshape(2, channels * dim)), fdl.activation)
+        torch.testing.assert_close(out[:, :, t], step)
+
+
+def test_ordered_fc_changes_only_the_step_it_is_given() -> None:
+    """The FC stage alone: a change at time step j changes output step j and nothing else."""
+    torch.manual_seed(8)
+    channels, length, dim = 6, 7, 3
+    fdl = FrequencyDomainLearning(channels, length, dim, 5, output="ordered").double()
+    _, mixed = _paper_tokens(2, channels, length, dim)
+    base = fdl.project(mixed)
+    for j in range(length):
+        bumped = mixed.clone()
+        bumped[..., j] += torch.randn_like(bumped[..., j])  # (B, d, C) at step j
+        changed = (fdl.project(bumped) - base).abs().amax(dim=(0, 1)) > 1e-12  # (L,)
+        assert changed.tolist() == [t == j for t in range(length)], j
+
+
+@pytest.mark.parametrize("residual", [False, True])
+def test_ordered_fdl_is_time_local_without_the_temporal_learner(residual: bool) -> None:
+    """Whole FDL, "ordered": only the temporal learner mixes time steps. With it set to identity
+    (and a linear activation, so rfft -> irfft is exact), step j of the input reaches output step j
+    only, whatever the channel learner and the residual do; with it learning, j reaches all steps."""
+    torch.manual_seed(9)
+    channels, length, dim = 8, 5, 3
+    fdl = FrequencyDomainLearning(
+        channels, length, dim, 4, activation="identity", residual=residual, output="ordered"
+    )
+    x = torch.randn(2, channels, length)
+    bumped = x.clone()
+    j = 2
+    bumped[:, :, j] += 1.0
+    learning = (fdl(bumped) - fdl(x)).abs().amax(dim=(0, 1)) > 1e-5  # (L,)
+    assert learning.all()  # the temporal learner's spectrum MLP spreads step j over all steps
+
+    with torch.no_grad():
+        for layer in fdl.temporal_mlp.layers:
+            layer.weight_real.copy_(torch.eye(dim))
+            layer.weight_imag.zero_()
+            layer.bias_real.zero_()
+            layer.bias_imag.zero_()
+    local = (fdl(bumped) - fdl(x)).abs().amax(dim=(0, 1)) > 1e-5
+    assert local.tolist() == [t == j for t in range(length)]
+
+
+def test_unknown_output_names_the_choices() -> None:
+    with pytest.raises(ValueError, match=r"output must be one of 'mixed', 'ordered'.*got 'sorted'"):
+        FrequencyDomainLearning(in_channels=8, in_length=4, output="sorted")

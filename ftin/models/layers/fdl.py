@@ -1,12 +1,20 @@
 """Frequency-domain learning (FDL), FTIN paper Sec. 2.2, structured like FreTS.
 
-``(B, C_res, L_res) -> (B, C_fre, L_fre)``:
+``(B, C_res, L_res) -> (B, C_fre, L_out)``:
 
 1. token embedding ``x[..., None] * W1`` with ``W1 (1 x d)``             -> ``(B, C_res, L_res, d)``
 2. channel learner: ``rfft`` over channels (norm="ortho"), complex MLP, ``irfft(n=C_res)``
 3. temporal learner: the same over time, ``irfft(n=L_res)`` (L_res is often odd: 7 for L = 200)
 4. residual: the embedded tokens are added back (config ``residual``)
-5. flatten ``(L_res x d)`` and a fully connected layer + activation   -> ``(B, C_fre, L_fre)``
+5. output FC + activation, one of two structures (``output``, an ``FDLOutput``):
+
+   * ``"mixed"`` (default, the original structure): flatten ``(L_res x d)`` per channel, as the
+     paper writes it, and one Kronecker-structured FC + activation      -> ``(B, C_fre, L_fre)``.
+     Its L_fre outputs are learned mixtures of *all* time steps: they carry no time order.
+   * ``"ordered"``: keep the time axis; flatten ``(C_res x d)`` per time step and one dense FC
+     ``C_res d -> C_fre`` + activation, shared by the L_res steps (a 1x1 conv)
+     -> ``(B, C_fre, L_res)``: step ``t`` of the output depends on step ``t`` of the residual sum
+     only, so a sequence model after FDL scans the encoder's time order. ``out_length`` is unused.
 
 Decisions (the paper leaves them open):
 
@@ -20,10 +28,27 @@ Decisions (the paper leaves them open):
 * Channel and temporal learners have their own weights; ``n_layers`` complex layers each.
 * FreTS's soft-shrink sparsity is not in the paper's equation and is left out.
 * Init: ``W_r, W_i ~ N(0, 1 / (2d))`` so a layer roughly preserves the spectrum's variance; biases 0.
-* Step 5's FC is factored into a temporal map ``(L_res x d) -> L_fre`` shared by all channels (as in
-  FreTS) and a channel map ``C_res -> C_fre``, then one activation: a Kronecker-structured FC whose
-  size stays small even with ``C_res = 512`` (the dense ``C_res L_res d x C_fre L_fre`` one would
-  have millions of weights), and which lets ``C_fre`` shrink the features the sLSTM has to scan.
+* ``"mixed"``: step 5's FC is stored factored, as a temporal map ``fc_time`` ``(L_res x d) -> L_fre``
+  (``A``, bias ``a``) shared by all channels (as in FreTS) and a channel map ``fc_channel``
+  ``C_res -> C_fre`` (``G``, bias ``g``), with **no activation between them and one after**. The
+  pair is exactly ONE fully connected layer + activation (the paper's) whose weight is structured.
+  With ``X`` the flattened ``(C_res, L_res d)`` input and ``vec`` the row-major flatten::
+
+      Y = sigma(G (X A^T + 1 a^T) + g 1^T)                              # (C_fre, L_fre)
+      vec(Y) = sigma(W vec(X) + b),  W = kron(G, A)                     # (C_fre L_fre, C_res L_res d)
+                                     b = kron(G 1, a) + kron(g, 1)      # (C_fre L_fre,)
+
+  i.e. ``W[(f, m), (c, i)] = G[f, c] A[m, i]`` (``tests/models/test_fdl.py`` builds this dense ``W``
+  and compares). The Kronecker structure (rank one in the Kronecker sense) keeps the layer small
+  even with ``C_res = 512`` (at FTIN's defaults and window 100, a dense ``C_fre L_fre x C_res L_res d``
+  FC would have 2.1 M weights, the factored one has 8.5 k) and lets ``C_fre`` shrink the features
+  the sLSTM scans; the price is that every output slot ``m`` applies the same time mixture ``A[m]``
+  to every channel, and that the slots have no time order.
+* ``"ordered"``: ``fc`` is a dense ``Linear(C_res d, C_fre)`` applied at each time step, flattening
+  ``(C_res x d)`` in that order (``c d + k``). It reads the paper's "flatten + FC + activation" per
+  time step instead of per channel: the paper leaves open which axis a following sequence model
+  scans, and only this reading leaves one with an order. ``C_res d C_fre`` weights
+  (65.6 k with bias at FTIN's defaults, for any window; about 8 times the factored pair's).
 """
 
 from __future__ import annotations
@@ -56,6 +81,24 @@ def parse_activation(value: str | Activation, argument: str = "activation") -> A
     except ValueError:
         valid = ", ".join(a.value for a in Activation)
         raise ValueError(f"{argument} must be one of {valid}, got {value!r}") from None
+
+
+class FDLOutput(str, Enum):
+    """Structure of FDL's output FC (module docstring, step 5)."""
+
+    MIXED = "mixed"  # (B, C_fre, L_fre): Kronecker FC over (L_res x d) per channel; no time order
+    ORDERED = "ordered"  # (B, C_fre, L_res): dense FC over (C_res x d) per time step; time order kept
+
+
+def parse_fdl_output(value: str | FDLOutput, argument: str = "output") -> FDLOutput:
+    try:
+        return FDLOutput(value)
+    except ValueError:
+        valid = ", ".join(repr(o.value) for o in FDLOutput)
+        raise ValueError(
+            f"{argument} must be one of {valid} ('mixed': L_fre time-mixed outputs, "
+            f"'ordered': the encoder's L_res time steps kept in order), got {value!r}"
+        ) from None
 
 
 class ComplexLinear(nn.Module):
@@ -114,7 +157,10 @@ class FrequencyMLP(nn.Module):
 
 
 class FrequencyDomainLearning(nn.Module):
-    """FDL block: ``(B, C_res, L_res) -> (B, C_fre, L_fre)`` (see the module docstring).
+    """FDL block: ``(B, C_res, L_res) -> (B, C_fre, L_out)`` (see the module docstring).
+
+    ``L_out`` (``self.out_length``) is ``out_length`` (L_fre) with ``output="mixed"`` and ``in_length``
+    (L_res) with ``output="ordered"``, where the ``out_length`` argument is not used.
 
     Feature taps (when ``features`` is a dict), all detached, with ``d`` kept (no reduction):
     ``fdl_channel_spectrum`` ``(B, C_res // 2 + 1, L_res, d)`` = ``|rfft|`` over channels of the
@@ -132,6 +178,7 @@ class FrequencyDomainLearning(nn.Module):
         n_layers: int = 1,
         activation: str | Activation = Activation.RELU,
         residual: bool = True,
+        output: str | FDLOutput = FDLOutput.MIXED,
     ) -> None:
         super().__init__()
         for name, value in [
@@ -151,8 +198,16 @@ class FrequencyDomainLearning(nn.Module):
         self.embedding = nn.Parameter(torch.randn(1, embed_dim))  # W1 (1 x d)
         self.channel_mlp = FrequencyMLP(embed_dim, n_layers, self.activation)
         self.temporal_mlp = FrequencyMLP(embed_dim, n_layers, self.activation)
-        self.fc_time = nn.Linear(in_length * embed_dim, out_length)
-        self.fc_channel = nn.Linear(in_channels, out_channels)
+        self.output = parse_fdl_output(output)
+        self.out_channels = out_channels
+        if self.output is FDLOutput.MIXED:
+            # One FC with weight kron(fc_channel, fc_time) (module docstring), stored factored.
+            self.out_length = out_length
+            self.fc_time = nn.Linear(in_length * embed_dim, out_length)
+            self.fc_channel = nn.Linear(in_channels, out_channels)
+        else:
+            self.out_length = in_length  # out_length is not used: the time steps are kept
+            self.fc = nn.Linear(in_channels * embed_dim, out_channels)  # per step, (C_res x d) -> C_fre
 
     def embed(self, x: torch.Tensor) -> torch.Tensor:
         """Token embedding in the channel learner's layout: ``(B, C_res, L_res) -> (B, d, L_res, C_res)``."""
@@ -187,6 +242,14 @@ class FrequencyDomainLearning(nn.Module):
             # + tokens, re-expanded in this layout instead of transposing the stored ones;
             # in place on irfft's fresh output (its backward does not need it).
             mixed = mixed.addcmul_(x.unsqueeze(1), self.embedding[0].view(-1, 1, 1))
+        return self.project(mixed)  # (B, C_fre, L_out)
+
+    def project(self, mixed: torch.Tensor) -> torch.Tensor:
+        """Step 5, the output FC + activation: ``(B, d, C_res, L_res) -> (B, C_fre, L_out)``."""
+        if self.output is FDLOutput.ORDERED:
+            flat = mixed.permute(0, 3, 2, 1).flatten(2)  # (B, L_res, C_res, d) -> (B, L_res, C_res * d)
+            out = self.fc(flat)  # (B, L_res, C_fre): the same FC at every time step
+            return apply_activation(out, self.activation).transpose(1, 2)  # (B, C_fre, L_res)
         flat = mixed.permute(0, 2, 3, 1).flatten(2)  # (B, C_res, L_res, d) -> (B, C_res, L_res * d)
         out = self.fc_time(flat)  # (B, C_res, L_fre)
         out = self.fc_channel(out.transpose(1, 2))  # (B, L_fre, C_res) -> (B, L_fre, C_fre)
