@@ -2,7 +2,10 @@
 
 Each sequence goes through exactly the inference path users get (``ftin.infer``), and the metrics
 follow one stated convention (``ftin.metrics``, RoNIN's by default). The mean weighs every sequence
-equally, as the paper's tables do.
+equally, as the paper's tables do. Beside every result stands the predictor that never moves
+(``ftin.metrics.stand_still``, scored on the same ground truth under the same convention): in a
+motion-capture room it scores an ATE of metres, so a model is judged by how far below it gets; and
+every result carries its path-length ratio (predicted / true horizontal path).
 """
 
 from __future__ import annotations
@@ -14,7 +17,14 @@ from typing import Any
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
 from ftin.infer import predict_prepared
-from ftin.metrics import Convention, TrajectoryMetrics, describe, mean_metrics
+from ftin.metrics import (
+    Convention,
+    TrajectoryMetrics,
+    describe,
+    evaluate_trajectory,
+    mean_metrics,
+    stand_still,
+)
 from ftin.train.checkpoint import LoadedModel
 
 
@@ -24,6 +34,7 @@ class SequenceResult:
     metrics: TrajectoryMetrics
     duration_s: float
     warnings: list[str] = field(default_factory=list)
+    stand_still: TrajectoryMetrics | None = None  # the predictor that never moves, same ground truth
 
 
 @dataclass(frozen=True)
@@ -33,21 +44,31 @@ class EvaluationReport:
     rte_window_s: float
     sequences: list[SequenceResult]
     mean: TrajectoryMetrics
+    stand_still: TrajectoryMetrics | None = None  # mean of the sequences' stand-still metrics
 
     def describe(self) -> str:
         """The sentence stating the convention, for every table of these numbers."""
         return describe(self.convention, self.rte_window_s)
 
     def to_json(self) -> dict[str, Any]:
-        def values(m: TrajectoryMetrics) -> dict[str, float]:
-            return {"ate": m.ate, "rte": m.rte, "pde": m.pde}
+        def values(m: TrajectoryMetrics | None) -> dict[str, float | None] | None:
+            if m is None:
+                return None
+            return {"ate": m.ate, "rte": m.rte, "pde": m.pde, "path_length_ratio": m.path_length_ratio}
 
         return {
             "checkpoint": self.checkpoint,
             "sequences": [
-                {"name": r.name, **values(r.metrics), "duration_s": r.duration_s} for r in self.sequences
+                {
+                    "name": r.name,
+                    **values(r.metrics),
+                    "duration_s": r.duration_s,
+                    "stand_still": values(r.stand_still),
+                }
+                for r in self.sequences
             ],
             "mean": values(self.mean),
+            "stand_still": values(self.stand_still),
             "convention": self.convention.value,
             "rte_window_s": self.rte_window_s,
             "description": self.describe(),
@@ -76,7 +97,10 @@ def evaluate_checkpoint(
         )
         if prediction.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(prediction.warnings[-1:])}")
-        results.append(SequenceResult(seq.name, prediction.metrics, prepared.duration_s, prediction.warnings))
+        still = evaluate_trajectory(stand_still(prepared.gt), prepared.gt, convention, rte_window_s)
+        results.append(
+            SequenceResult(seq.name, prediction.metrics, prepared.duration_s, prediction.warnings, still)
+        )
     if not results:
         raise ValueError("evaluate_checkpoint needs at least one sequence")
     return EvaluationReport(
@@ -85,4 +109,5 @@ def evaluate_checkpoint(
         rte_window_s=float(rte_window_s),
         sequences=results,
         mean=mean_metrics([r.metrics for r in results]),
+        stand_still=mean_metrics([r.stand_still for r in results]),
     )

@@ -41,7 +41,8 @@ def test_per_sequence_and_mean(loaded, walks):
     assert report.mean.rte == pytest.approx(np.mean([r.metrics.rte for r in report.sequences]))
     assert report.mean.pde == pytest.approx(np.mean([r.metrics.pde for r in report.sequences]))
     data = json.loads(json.dumps(report.to_json()))
-    assert data["convention"] == "ronin" and set(data["mean"]) == {"ate", "rte", "pde"}
+    assert data["convention"] == "ronin"
+    assert set(data["mean"]) == {"ate", "rte", "pde", "path_length_ratio"}
     assert [set(s) >= {"name", "ate", "rte", "pde"} for s in data["sequences"]] == [True, True]
     assert data["sequences"][0]["ate"] == report.sequences[0].metrics.ate
     assert "RoNIN convention" in data["description"]
@@ -60,3 +61,20 @@ def test_needs_ground_truth(loaded, walks):
         evaluate_checkpoint(loaded, [walks[0].with_(gt=None)])
     with pytest.raises(ValueError, match="at least one sequence"):
         evaluate_checkpoint(loaded, [])
+
+
+def test_every_result_stands_beside_the_predictor_that_never_moves(loaded, walks):
+    from ftin.metrics import stand_still
+
+    report = evaluate_checkpoint(loaded, walks)
+    for result, walk in zip(report.sequences, walks, strict=True):
+        # scored on the prepared (resampled) ground truth the model's estimate is scored on
+        assert result.stand_still.path_length_ratio == 0.0
+        assert result.stand_still.ate == pytest.approx(
+            evaluate_trajectory(stand_still(walk.gt), walk.gt).ate, rel=1e-3
+        )
+        assert result.metrics.path_length_ratio is not None and result.metrics.path_length_ratio > 0
+    assert report.stand_still.ate == pytest.approx(np.mean([r.stand_still.ate for r in report.sequences]))
+    data = report.to_json()
+    assert data["stand_still"]["path_length_ratio"] == 0.0
+    assert data["sequences"][0]["stand_still"]["ate"] == report.sequences[0].stand_still.ate

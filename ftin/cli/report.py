@@ -29,17 +29,25 @@ EXPECTED_ERRORS = (DataFormatError, CheckpointError, UnknownModelError, ValueErr
 
 @app.command("table")
 def table_command(
+    out: Annotated[Path, typer.Option("--out", help="Folder for table.md/.csv, results.json, figures.")],
     checkpoints: Annotated[
-        Path, typer.Option("--checkpoints", help="Folder of checkpoints (<name>.safetensors + .json).")
-    ],
+        Path | None, typer.Option("--checkpoints", help="Folder of checkpoints (<name>.safetensors + .json).")
+    ] = None,
     dataset: Annotated[
-        list[str],
+        list[str] | None,
         typer.Option(
             "--dataset",
             help="NAME=PATH: a file or folder of sequences with ground truth; repeat a NAME to add paths.",
         ),
-    ],
-    out: Annotated[Path, typer.Option("--out", help="Folder for table.md/.csv, results.json, figures.")],
+    ] = None,
+    campaign: Annotated[
+        Path | None,
+        typer.Option(
+            "--campaign",
+            help="Instead of evaluating checkpoints: the training campaign's collected results "
+            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row.",
+        ),
+    ] = None,
     pattern: Annotated[
         list[str] | None,
         typer.Option(
@@ -67,7 +75,12 @@ def table_command(
         write_report,
     )
 
+    if campaign is not None:
+        _campaign_table(campaign, out)
+        return
     with user_errors(*EXPECTED_ERRORS):
+        if checkpoints is None or not dataset:
+            raise ValueError("--checkpoints and --dataset are required (or --campaign DIR)")
         specs = parse_dataset_options(dataset)
         loaded = load_checkpoints(find_checkpoints(checkpoints, pattern or ()))
         datasets = load_datasets(specs)
@@ -85,6 +98,25 @@ def table_command(
     console = Console()
     console.print(files.table_md.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
     for path in (files.table_md, files.table_csv, files.results_json, files.pde_png, files.trajectories_png):
+        typer.echo(f"wrote {path}")
+
+
+def _campaign_table(folder: Path, out: Path) -> None:
+    from ftin.report.campaign import ate_figure, load_results, render
+    from ftin.report.figures import write_png
+
+    with user_errors(*EXPECTED_ERRORS):
+        results, manifest = load_results(folder)
+        table_md, table_csv, summary = render(results, manifest)
+        out.mkdir(parents=True, exist_ok=True)
+        names = ("table.md", "table.csv", "campaign_results.json", "campaign_ate.png")
+        written = [out / name for name in names]
+        atomic_write_text(written[0], table_md)
+        atomic_write_text(written[1], table_csv)
+        atomic_write_text(written[2], json.dumps(summary, indent=1) + "\n")
+        write_png(ate_figure(summary), written[3])
+    Console().print(table_md, markup=False, highlight=False, soft_wrap=True)
+    for path in written:
         typer.echo(f"wrote {path}")
 
 

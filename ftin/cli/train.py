@@ -8,6 +8,7 @@ and exit with status 2. Under ``torchrun`` only rank 0 prints.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -57,6 +58,23 @@ def _model_kwargs(text: str | None) -> dict[str, Any] | None:
         raise ConfigError(f"--model-kwargs: not valid JSON ({exc})") from None
     if not isinstance(value, dict):
         raise ConfigError(f"--model-kwargs must be a JSON object like '{{\"window\": 100}}', got {text!r}")
+    return value
+
+
+def _config_file_options(path: Path) -> dict[str, Any]:
+    try:
+        value = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"--config {path}: no such file") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"--config {path}: not valid JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise ConfigError(f"--config {path}: expected a JSON object of training options")
+    value.pop("out_dir", None)  # --out decides where the run lives
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    unknown = sorted(set(value) - known)
+    if unknown:
+        raise ConfigError(f"--config {path}: unknown training option(s) {', '.join(unknown)}")
     return value
 
 
@@ -133,6 +151,22 @@ def train_command(
     threads: Annotated[
         int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
     ] = None,
+    early_stop: Annotated[
+        int | None,
+        typer.Option(
+            "--early-stop", min=1, help="Stop after this many epochs without validation improvement."
+        ),
+    ] = None,
+    orientation: Annotated[
+        str | None,
+        typer.Option(
+            "--orientation", help="ground_truth or device, for readers that offer both (OxIOD, RIDI)."
+        ),
+    ] = None,
+    config_file: Annotated[
+        Path | None,
+        typer.Option("--config", help="Training options as a JSON object (config.json keys); flags win."),
+    ] = None,
 ) -> None:
     """Train a registered model on IMU recordings with ground truth; resumable, torchrun-aware."""
     if threads is not None:  # on a busy machine one thread per process is often the fastest
@@ -157,7 +191,11 @@ def train_command(
             seed=seed,
             weights_dtype="float16" if half else None,
             device=device,
+            early_stop_patience=early_stop,
+            orientation=orientation,
         )
+        if config_file is not None:
+            options = {**_config_file_options(config_file), **options}
         config = resolve_config(options, out, resume)
         result = run_training(config, resume=resume, progress=progress)
     if not _is_main_process():
@@ -203,17 +241,30 @@ def evaluate_command(
             atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
     table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
     table.add_column("sequence", overflow="fold")
-    for header in ("duration", "ATE (m)", "RTE (m)", "PDE"):
+    for header in ("duration", "ATE (m)", "RTE (m)", "PDE", "path ratio", "stand-still ATE"):
         table.add_column(header, justify="right", no_wrap=True)
+
+    def cells(m: Any) -> list[str]:
+        ratio = "-" if m.path_length_ratio is None else f"{m.path_length_ratio:.2f}"
+        return [f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}", ratio]
+
     for r in report.sequences:
-        m = r.metrics
-        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}")
+        still = "-" if r.stand_still is None else f"{r.stand_still.ate:.3f}"
+        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", *cells(r.metrics), still)
     table.add_section()
-    m = report.mean
-    table.add_row("mean", "", f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}")
+    still = "-" if report.stand_still is None else f"{report.stand_still.ate:.3f}"
+    table.add_row("mean", "", *cells(report.mean), still)
+    if report.stand_still is not None:
+        table.add_row("[dim]stand still (never moves)[/]", "", *cells(report.stand_still), "")
     console = Console()
     console.print(table)
     console.print(report.describe(), highlight=False, soft_wrap=True)
+    console.print(
+        "path ratio = predicted / true horizontal path length (1 = the right distance); "
+        "stand still = a predictor that never moves, scored the same way: a useful model is well below it.",
+        highlight=False,
+        soft_wrap=True,
+    )
     if json_out is not None:
         typer.echo(f"wrote {json_out}")
 

@@ -13,6 +13,12 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
   velocity gets a pure MSE gradient and the log-std is trained on the detached error (TLIO's
   "MSE first" idea, but the uncertainty head learns from the start).
 - Normalisation: none by default, as RoNIN (see ``ftin.data.windows.Normalization``).
+- Early stopping (``early_stop_patience``, off by default): training ends once that many epochs in a
+  row have not improved the monitored validation loss. It needs no extra resume state: the epochs
+  since ``best_epoch`` tell it, so a stopped run resumed stays stopped.
+- ``orientation``: the orientation source asked of readers that offer one (OxIOD, RIDI):
+  ``ground_truth`` (motion capture / Tango: the network alone) or ``device`` (the phone's attitude);
+  ``None`` keeps each reader's default.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
   there are two or more) is held out whole, so no validation window overlaps a training window.
 """
@@ -68,6 +74,8 @@ class TrainConfig:
     augment_yaw: bool = True
     loss: LossKind = LossKind.AUTO
     nll_warmup_epochs: int = 10
+    early_stop_patience: int | None = None  # epochs without validation improvement; None: never
+    orientation: str | None = None  # reader orientation source: "ground_truth", "device" or None
     log_std_range: tuple[float, float] = (-5.0, 3.0)
     val_fraction: float = 0.1
     device: str = "cpu"
@@ -103,7 +111,9 @@ class TrainConfig:
         for name in ("imu_rate_hz", "max_minutes"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name))
-        for name in ("window", "max_steps"):
+        if self.orientation not in (None, "ground_truth", "device"):
+            raise ConfigError(f"orientation must be 'ground_truth' or 'device', got {self.orientation!r}")
+        for name in ("window", "max_steps", "early_stop_patience"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name), integer=True)
         if not 0.0 < self.plateau_factor < 1.0:

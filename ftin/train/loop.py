@@ -26,6 +26,7 @@ Decisions:
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import os
@@ -67,33 +68,45 @@ class TrainResult:
     epochs_done: int
     steps: int
     best_val_loss: float | None
-    stop_reason: str  # "max_epochs", "min_lr", "max_minutes", "max_steps", "signal" or "finished"
+    stop_reason: str  # "max_epochs", "min_lr", "early_stop", "max_minutes", "max_steps", "signal", "finished"
     history: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def finished(self) -> bool:
-        return self.stop_reason in ("max_epochs", "min_lr", "finished")
+        return self.stop_reason in ("max_epochs", "min_lr", "early_stop", "finished")
 
 
 # --- data -----------------------------------------------------------------------------------------
 
 
-def load_sequences(paths: Sequence[str | Path], option: str = "--data") -> list[ImuSequence]:
-    """Every sequence in ``paths``: a folder is searched with ``list_sequences``, a file read directly."""
-    from ftin.data.readers import list_sequences, read_sequence
+def load_sequences(
+    paths: Sequence[str | Path], option: str = "--data", orientation: str | None = None
+) -> list[ImuSequence]:
+    """Every sequence in ``paths``: a folder is searched with ``list_sequences``, a file read directly.
+
+    ``orientation`` (``"ground_truth"`` or ``"device"``) goes to the readers that offer that choice
+    (OxIOD, RIDI); the others keep their own.
+    """
+    from ftin.data.readers import READERS, detect_format, list_sequences, read_sequence
+
+    def read(ref_or_path: Any, fmt: str | None) -> ImuSequence:
+        takes = fmt is not None and "orientation" in inspect.signature(READERS[fmt].read).parameters
+        options = {"orientation": orientation} if orientation is not None and takes else {}
+        return read_sequence(ref_or_path, **options)
 
     sequences: list[ImuSequence] = []
     for raw in paths:
         path = Path(raw).expanduser()
         if not path.exists():
             raise DataFormatError(f"{option} {raw}: no such file or folder")
-        if path.is_dir():
+        fmt = detect_format(path)
+        if path.is_dir() and fmt is None:
             refs = list_sequences(path)
             if not refs:
                 raise DataFormatError(f"{option} {raw}: no recognised sequences in this folder")
-            sequences.extend(read_sequence(ref) for ref in refs)
+            sequences.extend(read(ref, ref.format) for ref in refs)
         else:
-            sequences.append(read_sequence(path))
+            sequences.append(read(path, fmt))
     if not sequences:
         raise DataFormatError(f"{option}: no sequences given")
     return sequences
@@ -230,8 +243,8 @@ def _stop_signals(flag: dict[str, bool]) -> Iterator[None]:
 
 def run_training(config: TrainConfig, *, resume: bool = False, progress: bool = True) -> TrainResult:
     """Read the sequences ``config.data`` / ``config.val`` name, then :func:`train`."""
-    train_sequences = load_sequences(config.data, "--data")
-    val_sequences = load_sequences(config.val, "--val") if config.val else []
+    train_sequences = load_sequences(config.data, "--data", config.orientation)
+    val_sequences = load_sequences(config.val, "--val", config.orientation) if config.val else []
     return train(config, train_sequences, val_sequences, resume=resume, progress=progress)
 
 
@@ -418,6 +431,9 @@ class _Run:
                 if self.optimizer.param_groups[0]["lr"] < cfg.min_lr:  # a finished run, resumed
                     st["stop_reason"] = "min_lr"
                     break
+                if self._stalled():
+                    st["stop_reason"] = "early_stop"
+                    break
                 batches = self._epoch_batches(st["epoch"])
                 bar = self._progress_bar(len(batches))
                 self.net.train()
@@ -485,6 +501,11 @@ class _Run:
         self.optimizer.step()
         return float(loss.detach())
 
+    def _stalled(self) -> bool:
+        """``early_stop_patience`` epochs in a row without a new best (derived, not stored)."""
+        patience, best = self.config.early_stop_patience, self.state["best_epoch"]
+        return patience is not None and best is not None and self.state["epoch"] - best >= patience
+
     def _budget_stop(self, flag: dict[str, bool]) -> str | None:
         cfg, st = self.config, self.state
         reason = None
@@ -542,6 +563,8 @@ class _Run:
             st["best_val_loss"], st["best_epoch"] = monitored, st["epoch"]
         if lr < cfg.min_lr:
             st["stop_reason"] = "min_lr"
+        elif self._stalled():
+            st["stop_reason"] = "early_stop"
         if self.ddp.main:
             if improved:
                 self._save_checkpoint(partial=False)

@@ -166,3 +166,51 @@ def test_bad_input_is_one_line(trained, data_dir, tmp_path):
         app, ["predict", "--checkpoint", str(trained / "ronin_tcn"), str(data_dir), "--out", "t.csv"]
     )
     _fails_cleanly(many, "holds 3 sequences")
+
+
+def test_train_takes_options_from_a_config_file(tmp_path, data_dir):
+    options = {
+        "model": "ronin_tcn",
+        "model_kwargs": {"channels": [8, 8]},
+        "window": 25,
+        "stride": 5,
+        "batch_size": 64,
+        "early_stop_patience": 3,
+        "data": [str(data_dir)],
+        "out_dir": "ignored",
+    }
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(options))
+    run = tmp_path / "run"
+    result = runner.invoke(
+        app,
+        [
+            "train",
+            "--config",
+            str(path),
+            "--out",
+            str(run),
+            "--max-steps",
+            "2",
+            "--seed",
+            "4",
+            "--no-progress",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    saved = json.loads((run / "config.json").read_text())
+    assert saved["early_stop_patience"] == 3 and saved["seed"] == 4 and saved["out_dir"] == str(run)
+
+
+def test_train_config_file_errors_name_the_problem(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"model": "ronin_tcn", "windw": 25}')
+    _fails_cleanly(runner.invoke(app, ["train", "--config", str(bad), "--out", str(tmp_path / "r")]), "windw")
+    bad.write_text("[1, 2]")
+    _fails_cleanly(
+        runner.invoke(app, ["train", "--config", str(bad), "--out", str(tmp_path / "r")]), "JSON object"
+    )
+    _fails_cleanly(
+        runner.invoke(app, ["train", "--config", str(tmp_path / "none.json"), "--out", str(tmp_path / "r")]),
+        "no such file",
+    )

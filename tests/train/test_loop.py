@@ -204,3 +204,24 @@ def test_ctrl_c_asks_for_a_clean_stop_and_a_second_one_interrupts():
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_early_stopping_after_patience_epochs_without_a_new_best(tmp_path, sim_sequences, monkeypatch):
+    from ftin.train import loop
+
+    scores = iter([1.0, 0.5, 0.6, 0.7, 0.8, 0.9])  # best at epoch 2, then worse every epoch
+    monkeypatch.setattr(loop._Run, "validation_mse", lambda self: next(scores))
+    config = _config(tmp_path, max_epochs=6, early_stop_patience=2)
+    result = train(config, sim_sequences[:2], sim_sequences[2:], progress=False)
+    assert result.stop_reason == "early_stop" and result.finished
+    assert result.epochs_done == 4 and result.best_val_loss == 0.5
+    # Derived from the saved progress, so a resumed run that had stopped early stays stopped.
+    again = train(config, sim_sequences[:2], sim_sequences[2:], resume=True, progress=False)
+    assert again.stop_reason == "early_stop" and again.epochs_done == 4
+
+
+def test_early_stop_patience_must_be_positive(tmp_path):
+    with pytest.raises(ConfigError, match="early_stop_patience"):
+        _config(tmp_path, early_stop_patience=0)
+    with pytest.raises(ConfigError, match="orientation"):
+        _config(tmp_path, orientation="compass")

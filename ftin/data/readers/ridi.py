@@ -9,8 +9,10 @@ Some releases add ``gyro_stab_*``/``acce_stab_*`` columns; extra columns are ign
 
 Decisions (options of :func:`read`):
 
-* Orientation: the game rotation vector ``rv_*`` — gravity-aligned, arbitrary yaw — as RoNIN's
-  RIDI loader does (``orientation_source = "device"``).
+* Orientation (``orientation`` option): ``"device"`` (default) is the game rotation vector
+  ``rv_*`` — gravity-aligned, arbitrary yaw — as RoNIN's RIDI loader does; ``"ground_truth"`` is
+  the Tango orientation ``ori_*`` (the network alone, as TLIO/RoNIN report; no heading drift
+  against the positions, so the ground truth needs no alignment and stays in the Tango world).
 * World alignment: RIDI recorded IMU and Tango pose on the same phone, so ``R_tango_world(t) =
   ori(t) rv(t)^-1`` should be one constant yaw. RoNIN's loader takes it from the first sample; we
   take the mean over the first ``align_window_s`` seconds (averages sensor noise) with
@@ -155,6 +157,7 @@ def read_processed_csv(
     R_gtworld_refworld: Rotation | None = None,
     solve_extrinsic: bool = False,
     align_window_s: float = 1.0,
+    orientation: str = "device",
 ) -> ImuSequence:
     """Read a RIDI-layout ``processed/data.csv`` into an :class:`ImuSequence` of ``dataset``.
 
@@ -211,7 +214,11 @@ def read_processed_csv(
             meta["q_reference_device_wxyz"] = frames.wxyz_from_rotation(fit.rotation).round(6).tolist()
             meta["reference_gyro_residual_rad_s"] = round(fit.rms_residual, 4)
     q_gt_device = frames.make_continuous(frames.wxyz_from_rotation(R_ref))
+    if orientation not in ("device", "ground_truth"):
+        raise ValueError(f"orientation must be 'device' or 'ground_truth', got {orientation!r}")
     yaw, tilt = yaw_offset_rad(t_s, q_device, q_gt_device, align_window_s)
+    if orientation == "ground_truth":  # inputs rotated by the reference itself: one world, no offset
+        q_device, yaw = q_gt_device, 0.0
     gt = rotate_trajectory_about_z(Trajectory(t_s, p_m, q_gt_device), yaw)  # gt world -> device world
     if np.degrees(tilt) > MAX_ALIGNMENT_TILT_DEG:
         warnings.append(
@@ -224,7 +231,7 @@ def read_processed_csv(
         "source": str(folder),
         "rate_hz": rate_hz,
         "carry": carry_mode(folder),
-        "orientation_source": "device",
+        "orientation_source": orientation,
         "gt_yaw_offset_deg": round(float(np.degrees(yaw)), 3),
         "gt_tilt_offset_deg": round(float(np.degrees(tilt)), 3),
         "warnings": warnings,
@@ -232,6 +239,6 @@ def read_processed_csv(
     return ImuSequence(folder.name, t_s, gyro, acc, q_device, gt, meta)
 
 
-def read(path: Path, align_window_s: float = 1.0) -> ImuSequence:
+def read(path: Path, align_window_s: float = 1.0, orientation: str = "device") -> ImuSequence:
     """Read one RIDI sequence; ``path`` is its folder (or ``processed/data.csv`` inside it)."""
-    return read_processed_csv(path, FORMAT, align_window_s=align_window_s)
+    return read_processed_csv(path, FORMAT, align_window_s=align_window_s, orientation=orientation)

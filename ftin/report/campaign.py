@@ -1,0 +1,282 @@
+"""Table 1 from the training campaign's per-job results (``scripts/campaign.py collect``).
+
+Input: a folder of ``<dataset>__<job>.json`` records (training summary, history, per-sequence
+metrics of the job's best checkpoint on the validation and test parts, ground-truth and device
+orientation, and the stand-still baseline) and ``manifest.json`` (which FTIN variant, which seed
+shipped). Output: ``table.md``, ``table.csv``, ``campaign_results.json`` and ``campaign_ate.png``.
+
+Decisions:
+- A model's number on a dataset part is, per seed, the mean over that part's recordings (each
+  recording weighs the same, as the paper); the table shows the mean ± sd over seeds (sd only with
+  2 or more seeds) and the number of seeds.
+- FTIN is the variant validation chose (``manifest.ftin_variant``); the other variant's seed-0 run
+  appears as its own ablation row, never as FTIN.
+- "FTIN − RoNIN ResNet": per seed s and test recording r, ``d = ATE(ftin, s, r) - ATE(resnet, s, r)``
+  (same seed, same recording); its mean with a 95 % percentile bootstrap interval over the (s, r)
+  pairs (10,000 resamples, seeded). Negative: FTIN is better.
+- The stand-still row is the predictor that never moves, scored the same way on the same recordings
+  (it does not depend on the model or the seed).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
+
+LABELS = {
+    "stand_still": "Stand still (never moves)",
+    "ronin_resnet": "RoNIN ResNet",
+    "ronin_lstm": "RoNIN LSTM",
+    "ronin_tcn": "RoNIN TCN",
+    "rnin": "RNIN",
+    "imunet": "IMUNet",
+    "tlio": "TLIO",
+    "ftin": "FTIN",
+    "resnet_fdl": "+FDL",
+    "resnet_tdl": "+TDL",
+    "ftin_other": "FTIN, other TDL variant (seed 0)",
+    "ftin-pedestrian": "FTIN-pedestrian (both datasets)",
+}
+METRICS = ("ate", "rte", "pde", "path_length_ratio")
+METRIC_LABELS = {"ate": "ATE [m]", "rte": "RTE [m]", "pde": "PDE [%]", "path_length_ratio": "path ratio"}
+ORIENTATIONS = {
+    "ground_truth": "ground-truth orientation (the network alone)",
+    "device": "device orientation (what the phone gives)",
+}
+
+
+@dataclass(frozen=True)
+class JobResult:
+    job: str
+    model: str  # table key: a registered model name, "ftin_other" or "ftin-pedestrian"
+    dataset: str  # dataset the job trained on
+    seed: int
+    record: dict[str, Any]
+
+    def rows(self, dataset: str, part: str, orientation: str) -> list[dict[str, Any]]:
+        return self.record["evaluation"]["parts"].get(f"{dataset}/{part}/{orientation}", [])
+
+
+def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
+    """The job records of a collected campaign and its manifest."""
+    folder = Path(folder)
+    manifest_path = folder / "manifest.json"
+    if not manifest_path.exists():
+        raise ValueError(f"{folder}: no manifest.json (run `scripts/campaign.py collect` first)")
+    manifest = json.loads(manifest_path.read_text())
+    variant = manifest.get("ftin_variant")
+    results = []
+    for path in sorted(folder.glob("*__*.json")):
+        record = json.loads(path.read_text())
+        training = record["training"]
+        model = training["model"]
+        if training["dataset"] == PEDESTRIAN:
+            model = "ftin-pedestrian"
+        elif model == "ftin" and training.get("variant") != variant:
+            model = "ftin_other"
+        results.append(JobResult(training["job"], model, training["dataset"], training["seed"], record))
+    if not results:
+        raise ValueError(f"{folder}: no job records (<dataset>__<job>.json)")
+    return results, manifest
+
+
+def per_seed_means(results: Sequence[JobResult], dataset: str, part: str, orientation: str) -> dict:
+    """``{model: {seed: {metric: mean over recordings}}}`` plus ``stand_still`` (seed -1)."""
+    table: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
+    for result in results:
+        if result.dataset not in (dataset, PEDESTRIAN):
+            continue
+        rows = result.rows(dataset, part, orientation)
+        if not rows:
+            continue
+        table[result.model][result.seed] = _mean_rows(rows)
+        if "stand_still" not in table:
+            still = [{**row["stand_still"], "path_length_ratio": 0.0} for row in rows]
+            table["stand_still"][-1] = _mean_rows(still)
+    return dict(table)
+
+
+def paired_difference(
+    results: Sequence[JobResult],
+    dataset: str,
+    part: str,
+    orientation: str,
+    metric: str = "ate",
+    a: str = "ftin",
+    b: str = "ronin_resnet",
+    resamples: int = 10_000,
+) -> dict[str, Any] | None:
+    """Mean of ``metric(a) - metric(b)`` over (seed, recording) pairs and its 95 % bootstrap interval."""
+    by_key: dict[tuple[str, int], dict[str, float]] = {}
+    for result in results:
+        if result.dataset == dataset and result.model in (a, b):
+            for row in result.rows(dataset, part, orientation):
+                by_key.setdefault((row["name"], result.seed), {})[result.model] = row[metric]
+    diffs = np.array([v[a] - v[b] for v in by_key.values() if a in v and b in v])
+    if len(diffs) == 0:
+        return None
+    rng = np.random.default_rng(0)
+    boot = rng.choice(diffs, size=(resamples, len(diffs)), replace=True).mean(axis=1)
+    low, high = np.percentile(boot, [2.5, 97.5])
+    seeds = sorted({seed for (_, seed), v in by_key.items() if a in v and b in v})
+    return {
+        "mean": float(diffs.mean()),
+        "ci95": [float(low), float(high)],
+        "pairs": int(len(diffs)),
+        "seeds": seeds,
+    }
+
+
+def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str, str, dict[str, Any]]:
+    """``(table.md, table.csv, results dict)``."""
+    order = [
+        "stand_still",
+        *COMPARED,
+        *[m for m in ABLATIONS if m != "ftin"],
+        "ftin_other",
+        "ftin-pedestrian",
+    ]
+    md = io.StringIO()
+    rows_csv: list[list[Any]] = []
+    summary: dict[str, Any] = {"ftin_variant": manifest.get("ftin_variant"), "datasets": {}}
+    md.write("# Table 1 on our data (per the protocol in docs/results/protocol.md)\n\n")
+    md.write(
+        f"FTIN's TDL variant, chosen on validation: **{manifest.get('ftin_variant')}**. Each cell: mean ± sd "
+        "over seeds (n = seeds) of the mean over the part's recordings. RoNIN convention (no alignment, "
+        "horizontal; RTE over 60 s or scaled drift); PDE in % of the path; path ratio = predicted / true "
+        "horizontal path. Stand still = the predictor that never moves.\n\n"
+    )
+    for dataset in (OXIOD, RIDI):
+        summary["datasets"][dataset] = {}
+        for part in ("test", "val"):
+            for orientation in ORIENTATIONS:
+                means = per_seed_means(results, dataset, part, orientation)
+                if not means:
+                    continue
+                title = (
+                    f"{dataset.upper() if dataset == OXIOD else 'RIDI'}, {part}, {ORIENTATIONS[orientation]}"
+                )
+                md.write(f"## {title.replace('OXIOD', 'OxIOD')}\n\n")
+                md.write("| model | n | " + " | ".join(METRIC_LABELS[m] for m in METRICS) + " |\n")
+                md.write("|---|---|" + "---|" * len(METRICS) + "\n")
+                key = f"{part}/{orientation}"
+                summary["datasets"][dataset][key] = {}
+                for model in order:
+                    if model not in means:
+                        continue
+                    seeds = means[model]
+                    cells, stats = [], {}
+                    for metric in METRICS:
+                        values = [s[metric] for s in seeds.values() if s.get(metric) is not None]
+                        stats[metric] = _stats(values, scale=100.0 if metric == "pde" else 1.0)
+                        cells.append(_cell(stats[metric], metric))
+                    n = len(seeds) if model != "stand_still" else "—"
+                    md.write(f"| {LABELS.get(model, model)} | {n} | " + " | ".join(cells) + " |\n")
+                    summary["datasets"][dataset][key][model] = {"seeds": sorted(seeds), **stats}
+                    rows_csv.append(
+                        [dataset, part, orientation, model, len(seeds)]
+                        + [stats[m]["mean"] if stats[m] else "" for m in METRICS]
+                        + [stats[m]["sd"] if stats[m] else "" for m in METRICS]
+                    )
+                diff = paired_difference(results, dataset, part, orientation)
+                if diff is not None:
+                    summary["datasets"][dataset][key]["ftin_minus_resnet_ate"] = diff
+                    md.write(
+                        "\nFTIN − RoNIN ResNet, ATE, paired by seed and recording: "
+                        f"**{diff['mean']:+.3f} m** "
+                        f"(95 % bootstrap interval {diff['ci95'][0]:+.3f} … {diff['ci95'][1]:+.3f}; "
+                        f"{diff['pairs']} pairs, seeds {diff['seeds']}; negative = FTIN better)\n"
+                    )
+                md.write("\n")
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(
+        [
+            "dataset",
+            "part",
+            "orientation",
+            "model",
+            "seeds",
+            *[f"{m}_mean" for m in METRICS],
+            *[f"{m}_sd" for m in METRICS],
+        ]
+    )
+    writer.writerows(rows_csv)
+    return md.getvalue(), out.getvalue(), summary
+
+
+def _mean_rows(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
+    out = {}
+    for metric in METRICS:
+        values = [row[metric] for row in rows if row.get(metric) is not None]
+        out[metric] = float(np.mean(values)) if values else None
+    return out
+
+
+def _stats(values: Sequence[float], scale: float = 1.0) -> dict[str, Any] | None:
+    if not values:
+        return None
+    arr = np.asarray(values, dtype=np.float64) * scale
+    return {"mean": float(arr.mean()), "sd": float(arr.std(ddof=1)) if len(arr) > 1 else None, "n": len(arr)}
+
+
+def _cell(stats: dict[str, Any] | None, metric: str) -> str:
+    if stats is None:
+        return "—"
+    digits = 2 if metric in ("pde", "path_length_ratio") else 3
+    text = f"{stats['mean']:.{digits}f}"
+    if stats["sd"] is not None:
+        text += f" ± {stats['sd']:.{digits}f}"
+    return text
+
+
+def ate_figure(summary: dict[str, Any]) -> Any:
+    """Test ATE per model (ground-truth orientation), mean ± sd over seeds, stand still as a line."""
+    from matplotlib.figure import Figure
+
+    datasets = [d for d in (OXIOD, RIDI) if "test/ground_truth" in summary["datasets"].get(d, {})]
+    fig = Figure(figsize=(5.2 * max(len(datasets), 1), 4.2))
+    for i, dataset in enumerate(datasets):
+        ax = fig.add_subplot(1, len(datasets), i + 1)
+        cells = summary["datasets"][dataset]["test/ground_truth"]
+        models = [
+            m for m in (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other") if m in cells and cells[m]["ate"]
+        ]
+        means = [cells[m]["ate"]["mean"] for m in models]
+        sds = [cells[m]["ate"]["sd"] or 0.0 for m in models]
+        colors = ["#1f77b4" if m == "ftin" else "#9aa7b4" for m in models]
+        ax.bar(range(len(models)), means, yerr=sds, color=colors, capsize=3)
+        ax.set_xticks(
+            range(len(models)),
+            [LABELS[m].replace(", other TDL variant (seed 0)", " (other)") for m in models],
+            rotation=45,
+            ha="right",
+            fontsize=8,
+        )
+        still = cells.get("stand_still", {}).get("ate")
+        if still:
+            ax.axhline(still["mean"], color="#d62728", linestyle="--", linewidth=1.2)
+            ax.text(
+                len(models) - 0.5,
+                still["mean"],
+                " stand still",
+                color="#d62728",
+                va="bottom",
+                ha="right",
+                fontsize=8,
+            )
+        ax.set_ylabel("test ATE [m] (RoNIN convention)")
+        ax.set_title(f"{'OxIOD' if dataset == OXIOD else 'RIDI'} test, ground-truth orientation", fontsize=10)
+        ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return fig
