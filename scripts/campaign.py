@@ -1,19 +1,25 @@
 """The training campaign of the protocol (``ftin/protocol.py``, docs/results/protocol.md): every job,
 two at a time, one thread each, resumable across sessions.
 
-    python scripts/campaign.py start  [--data ../shared/data] [--runs runs/campaign]
+    python scripts/campaign.py start  [--data ../shared/data] [--runs runs/campaign] [--hold MODEL,...]
     python scripts/campaign.py run --resume [--parallel 2]     # (re)start the scheduler
     python scripts/campaign.py status                           # jobs done / running / left
+    python scripts/campaign.py refresh-code [--release]         # new jobs run on git HEAD from now
     python scripts/campaign.py collect --checkpoints checkpoints --results docs/results/campaign
 
 ``start`` freezes the code: it copies ``ftin/`` and this script from git ``HEAD`` into
 ``<runs>/code-<commit>/`` and every job of the campaign runs on that copy (``PYTHONPATH``), so work
-on the working tree never changes a running or resumed job. A job's folder holds the run
-(``ftin train``'s config, resume state, history, best checkpoint), ``log.txt``, ``eval.json`` (its
-best checkpoint on the validation and test parts, ground-truth and device orientation, plus the
-stand-still baseline) and ``done.json`` once finished. Killing the scheduler (or the session ending)
-stops the jobs at their next step; ``run --resume`` continues each from its last resume state
-(written every few minutes), so at most a few minutes of a job are repeated.
+on the working tree never changes a running or resumed job. A job records the copy it started on
+(``code.txt``) and always resumes on it; ``refresh-code`` freezes a newer ``HEAD`` for jobs not yet
+started (only while the resume-state format is unchanged), and ``--hold`` keeps some models' jobs
+from starting until ``refresh-code --release`` (code they need has not landed yet).
+
+A job's folder holds the run (``ftin train``'s config, resume state, history, best checkpoint),
+``log.txt``, ``eval.json`` (its best checkpoint on the validation and test parts, ground-truth
+and device orientation, plus the stand-still baseline) and ``done.json`` once finished. Killing
+the scheduler (or the session ending) stops the jobs at their next step; ``run --resume``
+continues each from its last resume state (written every few minutes), so at most a few minutes
+of a job are repeated.
 
 FTIN's TDL variant is chosen once both variants' seed-0 runs on OxIOD and RIDI are done: the one
 with the lower geometric-mean validation MSE over the two datasets (validation only); seeds 1-2, the
@@ -58,31 +64,70 @@ def save_state(runs: Path, state: dict[str, Any]) -> None:
     os.replace(tmp, runs / STATE_FILE)
 
 
-def start(args: argparse.Namespace) -> None:
-    runs: Path = args.runs
-    if (runs / STATE_FILE).exists():
-        sys.exit(f"error: {runs} already holds a campaign; continue it with `run --resume`")
+def freeze_code(runs: Path) -> tuple[str, Path]:
+    """Copy ``ftin/`` and this script from git ``HEAD`` into ``<runs>/code-<commit>``."""
     commit = subprocess.run(
         ["git", "-C", str(REPO), "rev-parse", "HEAD"], capture_output=True, text=True, check=True
     ).stdout.strip()
     code = runs / f"code-{commit[:10]}"
+    if code.exists():
+        return commit, code
     archive = subprocess.run(
         ["git", "-C", str(REPO), "archive", "--format=tar", commit, "ftin", "scripts/campaign.py"],
         capture_output=True,
         check=True,
     ).stdout
-    code.mkdir(parents=True, exist_ok=False)
+    tmp = runs / f".code-{commit[:10]}.tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
     with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
-        tar.extractall(code, filter="data")
+        tar.extractall(tmp, filter="data")
+    os.replace(tmp, code)
+    return commit, code
+
+
+def start(args: argparse.Namespace) -> None:
+    runs: Path = args.runs
+    if (runs / STATE_FILE).exists():
+        sys.exit(f"error: {runs} already holds a campaign; continue it with `run --resume`")
+    runs.mkdir(parents=True, exist_ok=True)
+    commit, code = freeze_code(runs)
     state = {
         "commit": commit,
         "code": code.name,
+        "codes": [{"code": code.name, "commit": commit, "since": time.strftime("%Y-%m-%d %H:%M:%S")}],
         "data_root": str(Path(args.data).resolve()),
         "created": time.strftime("%Y-%m-%d %H:%M:%S"),
         "ftin_variant": None,
+        "hold": [m for m in (args.hold or "").split(",") if m],
     }
     save_state(runs, state)
     print(f"campaign in {runs}: code frozen at {commit[:10]} ({code}); now `run --resume`")
+
+
+def refresh_code(args: argparse.Namespace) -> None:
+    runs: Path = args.runs
+    state = load_state(runs)
+    commit, code = freeze_code(runs)
+    if code.name != state["code"]:
+        state["code"], state["commit"] = code.name, commit
+        state.setdefault("codes", []).append(
+            {"code": code.name, "commit": commit, "since": time.strftime("%Y-%m-%d %H:%M:%S")}
+        )
+    if args.release:
+        state["hold"] = []
+    save_state(runs, state)
+    print(f"jobs not yet started will run on {code.name}; held models: {state.get('hold') or 'none'}")
+
+
+def job_code(runs: Path, state: dict[str, Any], name: str) -> Path:
+    """The frozen code a job runs on: the one it started with, else the current one (recorded)."""
+    marker = runs / name / "code.txt"
+    if marker.exists():
+        return runs / marker.read_text().strip()
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    marker.write_text(state["code"] + "\n")
+    return runs / state["code"]
 
 
 # --- the job list -----------------------------------------------------------------------------------
@@ -158,8 +203,6 @@ def run(args: argparse.Namespace) -> None:
     state = load_state(runs)
     if not args.resume:
         sys.exit("error: pass --resume to (re)start the campaign's scheduler")
-    code = runs / state["code"]
-    env = {**os.environ, "PYTHONPATH": str(code.resolve()), "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     running: dict[str, subprocess.Popen] = {}
     stopping = {"now": False}
 
@@ -180,9 +223,10 @@ def run(args: argparse.Namespace) -> None:
                 return
             time.sleep(1)
             continue
+        state = load_state(runs)  # refresh-code may have changed it
         if state.get("ftin_variant") is None:
             choose_variant(runs, state)
-        jobs = all_jobs(state)
+        jobs = [j for j in all_jobs(state) if j.model not in state.get("hold", [])]
         failed = [j.name for j in jobs if (runs / j.name / "failed.json").exists()]
         pending = [j for j in jobs if not is_done(runs, j) and j.name not in running and j.name not in failed]
         if not pending and not running:
@@ -192,6 +236,8 @@ def run(args: argparse.Namespace) -> None:
             job = pending.pop(0)
             (runs / job.name).mkdir(parents=True, exist_ok=True)
             log = open(runs / job.name / "log.txt", "a")  # noqa: SIM115 - handed to the child
+            code = job_code(runs, state, job.name).resolve()
+            env = {**os.environ, "PYTHONPATH": str(code), "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
             script = code / "scripts" / "campaign.py"
             running[job.name] = subprocess.Popen(
                 [sys.executable, str(script), "job", job.name, "--runs", str(runs)],
@@ -422,6 +468,9 @@ def main() -> None:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("start", help="freeze the code and create the campaign folder")
     p.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data")
+    p.add_argument("--hold", help="comma-separated models whose jobs wait for refresh-code --release")
+    p = sub.add_parser("refresh-code", help="jobs not yet started run on git HEAD from now on")
+    p.add_argument("--release", action="store_true", help="also release every held model")
     p = sub.add_parser("run", help="run the scheduler (jobs two at a time)")
     p.add_argument("--resume", action="store_true", help="required: continue the campaign in --runs")
     p.add_argument("--parallel", type=int, default=2)
@@ -435,7 +484,15 @@ def main() -> None:
         p.add_argument("--runs", type=Path, default=argparse.SUPPRESS)
     args = parser.parse_args()
     args.runs = Path(args.runs).resolve()
-    {"start": start, "run": run, "status": status, "job": run_job, "collect": collect}[args.command](args)
+    commands = {
+        "start": start,
+        "run": run,
+        "status": status,
+        "job": run_job,
+        "collect": collect,
+        "refresh-code": refresh_code,
+    }
+    commands[args.command](args)
 
 
 if __name__ == "__main__":
