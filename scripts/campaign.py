@@ -417,6 +417,7 @@ def collect(args: argparse.Namespace) -> None:
     results_dir: Path = args.results
     results_dir.mkdir(parents=True, exist_ok=True)
     best: dict[str, tuple[float, Any, dict[str, Any]]] = {}
+    seeds: dict[str, list[dict[str, Any]]] = {}
     for job in all_jobs(state):
         if not is_done(runs, job):
             continue
@@ -432,6 +433,7 @@ def collect(args: argparse.Namespace) -> None:
             continue
         val = record["training"]["best_val_mse"]
         stem = job.checkpoint_stem
+        seeds.setdefault(stem, []).append(record)
         if stem not in best or val < best[stem][0]:
             best[stem] = (val, job, record)
     manifest = {
@@ -454,8 +456,13 @@ def collect(args: argparse.Namespace) -> None:
             continue
         manifest["shipped"][stem] = {"job": job.name, "val_mse": val, "val_path_length_ratio": ratio}
         if args.checkpoints is not None:
+            from ftin.train.model_card import render_campaign_card
+
             for suffix in (".safetensors", ".json"):
                 shutil.copy2(runs / job.name / (stem + suffix), args.checkpoints / (stem + suffix))
+            meta = json.loads((runs / job.name / (stem + ".json")).read_text())
+            card = render_campaign_card(meta, record, seeds[stem], state.get("ftin_variant"))
+            (args.checkpoints / (stem + ".md")).write_text(card)
     (results_dir / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n")
     print(json.dumps(manifest, indent=1))
 

@@ -13,6 +13,8 @@ from typing import Any
 
 _CITATION = {
     "oxiod": "OxIOD (Chen et al., 'OxIOD: The Dataset for Deep Inertial Odometry', 2018), research use",
+    "ridi": "RIDI (Yan, Shan, Furukawa, 'RIDI: Robust IMU Double Integration', ECCV 2018), research use",
+    "pedestrian": "OxIOD (Chen et al., 2018) and RIDI (Yan et al., ECCV 2018) together, research use",
     "sim": "FTIN Studio's own pedestrian simulator (ftin/sim)",
 }
 
@@ -59,6 +61,101 @@ def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = 
             lines.append(f"| {row['name']} | {row['ate']:.3f} | {row['rte']:.3f} | {row['pde']:.3f} |")
         mean = evaluation["mean"]
         lines.append(f"| **mean** | **{mean['ate']:.3f}** | **{mean['rte']:.3f}** | **{mean['pde']:.3f}** |")
+    return "\n".join(lines) + "\n"
+
+
+def render_campaign_card(
+    meta: dict[str, Any], record: dict[str, Any], seeds: list[dict[str, Any]], variant: str | None = None
+) -> str:
+    """The card of a checkpoint shipped by the training campaign (``scripts/campaign.py collect``).
+
+    ``record`` is the shipped job's (training summary, history, evaluation); ``seeds`` every seed's
+    record of the same model and dataset, for the spread over seeds.
+    """
+    training, history = record["training"], record["history"]
+    config = meta.get("train_config", {})
+    split = meta.get("split", {})
+    dataset = training["dataset"]
+    lines = [
+        f"# {config.get('name', meta['model_name'])}",
+        "",
+        f"- **Model:** `{meta['model_name']}`"
+        + (
+            f" (TDL variant `{variant}`, chosen on validation)"
+            if meta["model_name"] == "ftin" and variant
+            else ""
+        )
+        + f" with `{json.dumps(meta.get('model_kwargs', {}))}`",
+        f"- **Data:** {_CITATION.get(dataset, dataset)}; split and rules: docs/results/protocol.md",
+        f"- **Training recordings ({len(split.get('train', []))}):** {', '.join(split.get('train', []))}",
+        f"- **Validation recordings ({len(split.get('val', []))}):** {', '.join(split.get('val', []))}",
+        f"- **Input:** {meta['window']} samples at {meta['imu_rate_hz']:g} Hz "
+        f"(training stride {meta['stride']}), gravity-aligned world frame rotated by the "
+        f"{config.get('orientation') or 'reader default'} orientation, "
+        f"output {meta['out_dim']}-D velocity",
+        f"- **Training:** Adam lr {config.get('lr')}, batch {config.get('batch_size')}, plateau factor "
+        f"{config.get('plateau_factor')} / patience {config.get('plateau_patience')}, early stop after "
+        f"{config.get('early_stop_patience')} epochs without a new best, at most {config.get('max_epochs')} "
+        f"epochs, yaw augmentation, loss `{config.get('loss')}`, seed {training['seed']} (best of "
+        f"{len(seeds)} seed(s) on validation)",
+        f"- **Run:** stopped by `{training['stop_reason']}` after {training['epochs']} epochs "
+        f"({(training['wall_time_s'] or 0) / 60:.0f} min on 1 CPU thread); "
+        f"best epoch {training['best_epoch']}; "
+        f"learning rate decayed {training['lr_decays']} time(s)"
+        + (
+            " (the curve flattened)"
+            if training["lr_decays"] >= 1
+            else " (no decay: the curve may not have flattened)"
+        ),
+        f"- **Best validation MSE of 1 s velocity:** {training['best_val_mse']:.5f} (m/s)²",
+        f"- **Weights:** {config.get('weights_dtype', 'float32')} safetensors, upcast to float32 at load",
+        "",
+        "## Validation curve",
+        "",
+        "| epoch | " + " | ".join(str(h["epoch"]) for h in history) + " |",
+        "|---|" + "---|" * len(history),
+        "| val MSE | " + " | ".join(f"{h['val_mse']:.4f}" for h in history) + " |",
+        "| lr | " + " | ".join(f"{h['lr']:.0e}" for h in history) + " |",
+    ]
+    parts = record["evaluation"]["parts"]
+    for key in sorted(parts, key=lambda k: (k.split("/")[1] != "test", k)):
+        rows = parts[key]
+        ds, part, orientation = key.split("/")
+        lines += [
+            "",
+            f"## {ds} {part}, {orientation.replace('_', '-')} orientation (RoNIN convention)",
+            "",
+            "| recording | ATE [m] | RTE [m] | PDE | path ratio | stand-still ATE [m] |",
+            "|---|---|---|---|---|---|",
+        ]
+        for row in rows:
+            ratio = "—" if row["path_length_ratio"] is None else f"{row['path_length_ratio']:.2f}"
+            lines.append(
+                f"| {row['name']} | {row['ate']:.3f} | {row['rte']:.3f} | {row['pde']:.3f} | {ratio} | "
+                f"{row['stand_still']['ate']:.3f} |"
+            )
+    if len(seeds) > 1:
+        lines += [
+            "",
+            "## Seeds (mean over the test recordings, ground-truth orientation)",
+            "",
+            "| seed | best val MSE | test ATE [m] | test path ratio |",
+            "|---|---|---|---|",
+        ]
+        for other in sorted(seeds, key=lambda r: r["training"]["seed"]):
+            test = [
+                row
+                for k, rows in other["evaluation"]["parts"].items()
+                if k.split("/")[1] == "test" and k.endswith("ground_truth")
+                for row in rows
+            ]
+            ate = sum(r["ate"] for r in test) / max(len(test), 1)
+            ratios = [r["path_length_ratio"] for r in test if r["path_length_ratio"] is not None]
+            ratio = sum(ratios) / len(ratios) if ratios else float("nan")
+            lines.append(
+                f"| {other['training']['seed']} | {other['training']['best_val_mse']:.5f} | "
+                f"{ate:.3f} | {ratio:.2f} |"
+            )
     return "\n".join(lines) + "\n"
 
 
