@@ -7,6 +7,7 @@ with status 2; progress goes to stderr.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated
 
@@ -21,6 +22,7 @@ from ftin.cli.common import progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.metrics import Convention
 from ftin.models import UnknownModelError, list_models
+from ftin.report.results import DatasetSpec, ReportError
 from ftin.train.checkpoint import CheckpointError, atomic_write_text
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults
@@ -71,7 +73,6 @@ def table_command(
         find_checkpoints,
         load_checkpoints,
         load_datasets,
-        parse_dataset_options,
         write_report,
     )
 
@@ -99,6 +100,20 @@ def table_command(
     console.print(files.table_md.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
     for path in (files.table_md, files.table_csv, files.results_json, files.pde_png, files.trajectories_png):
         typer.echo(f"wrote {path}")
+
+
+def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> list[DatasetSpec]:
+    """``NAME=PATH`` strings to specs; a repeated NAME adds paths to it (first-seen order kept)."""
+    paths: dict[str, list[Path]] = {}
+    for value in values:
+        name, sep, path = value.partition("=")
+        name, path = name.strip(), path.strip()
+        if not sep or not name or not path:
+            raise ReportError(f"{option} {value!r}: expected NAME=PATH, e.g. {option} OxIOD=data/oxiod")
+        paths.setdefault(name, []).append(Path(path).expanduser())
+    if not paths:
+        raise ReportError(f"{option}: give at least one NAME=PATH")
+    return [DatasetSpec(name, tuple(p)) for name, p in paths.items()]
 
 
 def _campaign_table(folder: Path, out: Path) -> None:

@@ -1,20 +1,13 @@
-"""Reports over many checkpoints: the paper's Table 1 layout, its figures and the JSON behind them."""
+"""Reports over many checkpoints: the paper's Table 1 layout, its figures and the JSON behind them.
 
-from ftin.report.table import (
-    PAPER_COLUMNS,
-    DatasetSpec,
-    PaperTable,
-    ReportError,
-    ReportFiles,
-    ReportResults,
-    evaluate_checkpoints,
-    find_checkpoints,
-    load_checkpoints,
-    load_datasets,
-    paper_table,
-    parse_dataset_options,
-    write_report,
-)
+``results`` (layout and result types) <- ``evaluation`` (checkpoints on datasets, through
+``ftin.evaluate``'s inference path) <- ``render`` (Markdown, CSV, JSON, via ``figures``);
+``campaign`` tables the training campaign's collected results. Arrows point one way: no cycle.
+"""
+
+from ftin.report.evaluation import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets
+from ftin.report.render import PaperTable, ReportFiles, paper_table, write_report
+from ftin.report.results import PAPER_COLUMNS, DatasetSpec, ReportError, ReportResults
 
 __all__ = [
     "PAPER_COLUMNS",
@@ -28,6 +21,5 @@ __all__ = [
     "load_checkpoints",
     "load_datasets",
     "paper_table",
-    "parse_dataset_options",
     "write_report",
 ]

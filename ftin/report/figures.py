@@ -9,7 +9,7 @@ Decisions:
 - The PDE chart shows the mean over each dataset's sequences as a bar, with every sequence's PDE as
   a dot on it, so a mean carried by one bad sequence is visible.
 - Trajectories are drawn in the x-y plane of the ground-truth world frame with equal axis scales;
-  each dataset gets one panel with its representative sequence (``ftin.report.table``).
+  each dataset gets one panel with its representative sequence (``ftin.report.evaluation``).
 """
 
 from __future__ import annotations
@@ -22,7 +22,13 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ftin.report.table import CONVENTION_LABELS, FIGURE_MODELS, MODEL_LABELS, CheckpointResult, ReportResults
+from ftin.report.results import (
+    CONVENTION_LABELS,
+    FIGURE_MODELS,
+    MODEL_LABELS,
+    CheckpointResult,
+    ReportResults,
+)
 from ftin.train.checkpoint import atomic_write_bytes
 
 GROUND_TRUTH_COLOR = "black"

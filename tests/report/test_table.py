@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 import ftin.cli.report  # noqa: F401  (registers `table` and `bench` until ftin.cli imports it)
 from ftin.cli import app
+from ftin.cli.report import parse_dataset_options
 from ftin.data.readers.generic_csv import write_csv
 from ftin.metrics import Convention, describe
 from ftin.models import create_model
@@ -25,10 +26,10 @@ from ftin.report import (
     load_checkpoints,
     load_datasets,
     paper_table,
-    parse_dataset_options,
     write_report,
 )
-from ftin.report.table import improvement_percent, representative_sequence
+from ftin.report.evaluation import representative_sequence
+from ftin.report.render import improvement_percent
 from ftin.sim import SimConfig, simulate
 from ftin.train.checkpoint import save_checkpoint
 

@@ -1,0 +1,119 @@
+"""What a Table 1 report is made of: the paper's column layout and the result types.
+
+Decisions (the layout):
+- Columns follow the paper: RoNIN ResNet, RoNIN LSTM, RoNIN TCN, RNIN, IMUNet, TLIO, FTIN, then
+  "FTIN vs RoNIN ResNet" = ``(resnet - ftin) / resnet`` in percent (positive: FTIN is better), then
+  the ablation +FDL (``resnet_fdl``), +TDL (``resnet_tdl``) and +FDL&TDL (``ftin`` again). A
+  checkpoint fills the column of its ``model_name``; a column without a checkpoint shows "—" and is
+  named in a note, never filled in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.evaluate import EvaluationReport
+from ftin.metrics import Convention, describe
+
+MISSING = "—"
+FTIN_MODEL = "ftin"
+RESNET_MODEL = "ronin_resnet"
+FIGURE_MODELS = (FTIN_MODEL, RESNET_MODEL)  # the paper's Fig. 4 compares these two
+METRICS = ("ATE", "RTE")
+
+
+class ReportError(ValueError):
+    """Bad report input (options, checkpoint folder); the message names the option or file."""
+
+
+class ColumnGroup(str, Enum):
+    COMPARED = "compared"
+    IMPROVEMENT = "improvement"
+    ABLATION = "ablation"
+
+
+@dataclass(frozen=True)
+class Column:
+    label: str
+    model_name: str | None  # None for the percentage column
+    group: ColumnGroup
+
+
+IMPROVEMENT_LABEL = "FTIN vs RoNIN ResNet"
+PAPER_COLUMNS: tuple[Column, ...] = (
+    Column("RoNIN ResNet", "ronin_resnet", ColumnGroup.COMPARED),
+    Column("RoNIN LSTM", "ronin_lstm", ColumnGroup.COMPARED),
+    Column("RoNIN TCN", "ronin_tcn", ColumnGroup.COMPARED),
+    Column("RNIN", "rnin", ColumnGroup.COMPARED),
+    Column("IMUNet", "imunet", ColumnGroup.COMPARED),
+    Column("TLIO", "tlio", ColumnGroup.COMPARED),
+    Column("FTIN", FTIN_MODEL, ColumnGroup.COMPARED),
+    Column(IMPROVEMENT_LABEL, None, ColumnGroup.IMPROVEMENT),
+    Column("+FDL", "resnet_fdl", ColumnGroup.ABLATION),
+    Column("+TDL", "resnet_tdl", ColumnGroup.ABLATION),
+    Column("+FDL&TDL", FTIN_MODEL, ColumnGroup.ABLATION),
+)
+TABLE_MODELS = tuple(dict.fromkeys(c.model_name for c in PAPER_COLUMNS if c.model_name is not None))
+# Names for figures: the compared models by their column, the ablations by what they add to ResNet.
+MODEL_LABELS = {
+    **{c.model_name: c.label for c in PAPER_COLUMNS if c.group is ColumnGroup.COMPARED},
+    "resnet_fdl": "ResNet+FDL",
+    "resnet_tdl": "ResNet+TDL",
+}
+CONVENTION_LABELS = {
+    Convention.RONIN: "RoNIN",
+    Convention.EUCLIDEAN: "Euclidean",
+    Convention.SE2: "SE(2)-aligned",
+    Convention.SE3: "SE(3)-aligned",
+}
+
+
+# --- result types -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """One table dataset: a display name and the files/folders its sequences come from."""
+
+    name: str
+    paths: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
+class LoadedDataset:
+    spec: DatasetSpec
+    sequences: list[ImuSequence]
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+
+@dataclass
+class CheckpointResult:
+    name: str  # checkpoint stem
+    model_name: str
+    meta: dict[str, Any]
+    reports: dict[str, EvaluationReport] = field(default_factory=dict)  # dataset -> report
+    # dataset -> sequence -> predicted trajectory; kept only for FIGURE_MODELS
+    trajectories: dict[str, dict[str, Trajectory]] = field(default_factory=dict)
+
+
+@dataclass
+class ReportResults:
+    datasets: list[DatasetSpec]
+    sequence_names: dict[str, list[str]]  # dataset -> sequence names, in reading order
+    convention: Convention
+    rte_window_s: float
+    checkpoints: list[CheckpointResult]
+    ground_truth: dict[str, dict[str, Trajectory]]  # dataset -> sequence -> ground truth
+
+    def describe(self) -> str:
+        return describe(self.convention, self.rte_window_s)
+
+    def by_model(self, model_name: str) -> CheckpointResult | None:
+        return next((c for c in self.checkpoints if c.model_name == model_name), None)
