@@ -23,7 +23,7 @@ from ftin.data.errors import DataFormatError
 from ftin.data.types import Trajectory
 from ftin.evaluate import EvaluationReport, SequenceResult
 from ftin.infer import predict_prepared
-from ftin.metrics import Convention, mean_metrics
+from ftin.metrics import Convention, evaluate_trajectory, mean_metrics, stand_still
 from ftin.report.results import (
     FIGURE_MODELS,
     TABLE_MODELS,
@@ -168,6 +168,12 @@ def evaluate_checkpoints(
         rte_window_s=float(rte_window_s),
         checkpoints=results,
         ground_truth=ground_truth,
+        stand_still={
+            name: mean_metrics(
+                [evaluate_trajectory(stand_still(gt), gt, convention, rte_window_s) for gt in truths.values()]
+            )
+            for name, truths in ground_truth.items()
+        },
     )
 
 

@@ -29,6 +29,7 @@ from ftin.report.results import (
     METRICS,
     MISSING,
     PAPER_COLUMNS,
+    PATH_RATIO,
     RESNET_MODEL,
     TABLE_MODELS,
     Column,
@@ -60,8 +61,8 @@ def improvement_percent(resnet: float | None, ftin: float | None) -> float | Non
     return 100.0 * (resnet - ftin) / resnet
 
 
-def _metric(m: TrajectoryMetrics, metric: str) -> float:
-    return {"ATE": m.ate, "RTE": m.rte}[metric]
+def _metric(m: TrajectoryMetrics, metric: str) -> float | None:
+    return {"ATE": m.ate, "RTE": m.rte, "Path ratio": m.path_length_ratio}[metric]
 
 
 def paper_table(results: ReportResults) -> PaperTable:
@@ -75,8 +76,14 @@ def paper_table(results: ReportResults) -> PaperTable:
             }
             cells = []
             for column in PAPER_COLUMNS:
-                if column.group is ColumnGroup.IMPROVEMENT:
-                    cells.append(improvement_percent(by_model.get(RESNET_MODEL), by_model.get(FTIN_MODEL)))
+                if column.group is ColumnGroup.BASELINE:
+                    still = results.stand_still.get(spec.name)
+                    cells.append(None if still is None else _metric(still, metric))
+                elif column.group is ColumnGroup.IMPROVEMENT:
+                    # a ratio of path ratios says nothing: "closer to 1" is not "lower"
+                    is_error = metric != PATH_RATIO
+                    resnet, ftin = by_model.get(RESNET_MODEL), by_model.get(FTIN_MODEL)
+                    cells.append(improvement_percent(resnet, ftin) if is_error else None)
                 else:
                     cells.append(by_model.get(column.model_name))
             rows.append(TableRow(spec.name, metric, tuple(cells)))
@@ -118,7 +125,8 @@ def table_markdown(table: PaperTable) -> str:
     align = [":--", ":--", *("--:" for _ in table.columns)]
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
     for row in table.rows:
-        bold = _bold_flags(table.columns, row.cells)
+        # lowest is best for errors; for the path ratio, 1 is (no bold)
+        bold = _bold_flags(table.columns, row.cells) if row.metric != PATH_RATIO else [False] * len(row.cells)
         texts = []
         for column, value, is_bold in zip(table.columns, row.cells, bold, strict=True):
             text = _format_percent(value) if column.group is ColumnGroup.IMPROVEMENT else _format_value(value)
@@ -165,7 +173,9 @@ def report_markdown(results: ReportResults, table: PaperTable) -> str:
         f"{results.describe()} All ATE / RTE values in metres, mean over each dataset's sequences; "
         f"best values in **bold** (among the compared models and, separately, among the ablation columns); "
         f'"{IMPROVEMENT_LABEL}" = (RoNIN ResNet − FTIN) / RoNIN ResNet. '
-        "+FDL, +TDL and +FDL&TDL are the ablation study (+FDL&TDL is FTIN).",
+        "+FDL, +TDL and +FDL&TDL are the ablation study (+FDL&TDL is FTIN). "
+        '"Stand still" is the predictor that never moves, scored the same way: a useful model is well '
+        'below it. "Path ratio" = predicted / true horizontal path length (1 is the right distance).',
         "",
     ]
     training = {_training_data(c.meta) for c in results.checkpoints}
@@ -233,6 +243,7 @@ def results_json(results: ReportResults, table: PaperTable, representative: dict
                 "outside_layout": list(table.extra),
             },
             "representative_sequences": representative,
+            "stand_still": {name: m.as_dict() for name, m in results.stand_still.items()},
         }
     )
 

@@ -6,6 +6,10 @@ Decisions (the layout):
   the ablation +FDL (``resnet_fdl``), +TDL (``resnet_tdl``) and +FDL&TDL (``ftin`` again). A
   checkpoint fills the column of its ``model_name``; a column without a checkpoint shows "—" and is
   named in a note, never filled in.
+- Before them stands "Stand still": the predictor that never moves, scored on the same recordings
+  (in a motion-capture room it scores metres of ATE), and every dataset has a "Path ratio" row
+  (predicted / true horizontal path length) beside ATE and RTE: a model that barely moves can have a
+  low ATE, never a path ratio near 1.
 """
 
 from __future__ import annotations
@@ -17,13 +21,14 @@ from typing import Any
 
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.evaluate import EvaluationReport
-from ftin.metrics import Convention, describe
+from ftin.metrics import Convention, TrajectoryMetrics, describe
 
 MISSING = "—"
 FTIN_MODEL = "ftin"
 RESNET_MODEL = "ronin_resnet"
 FIGURE_MODELS = (FTIN_MODEL, RESNET_MODEL)  # the paper's Fig. 4 compares these two
-METRICS = ("ATE", "RTE")
+PATH_RATIO = "Path ratio"  # predicted / true horizontal path length
+METRICS = ("ATE", "RTE", PATH_RATIO)
 
 
 class ReportError(ValueError):
@@ -31,6 +36,7 @@ class ReportError(ValueError):
 
 
 class ColumnGroup(str, Enum):
+    BASELINE = "baseline"  # the predictor that never moves: the bar every model must clear
     COMPARED = "compared"
     IMPROVEMENT = "improvement"
     ABLATION = "ablation"
@@ -44,7 +50,9 @@ class Column:
 
 
 IMPROVEMENT_LABEL = "FTIN vs RoNIN ResNet"
+STAND_STILL_LABEL = "Stand still"
 PAPER_COLUMNS: tuple[Column, ...] = (
+    Column(STAND_STILL_LABEL, None, ColumnGroup.BASELINE),
     Column("RoNIN ResNet", "ronin_resnet", ColumnGroup.COMPARED),
     Column("RoNIN LSTM", "ronin_lstm", ColumnGroup.COMPARED),
     Column("RoNIN TCN", "ronin_tcn", ColumnGroup.COMPARED),
@@ -111,6 +119,7 @@ class ReportResults:
     rte_window_s: float
     checkpoints: list[CheckpointResult]
     ground_truth: dict[str, dict[str, Trajectory]]  # dataset -> sequence -> ground truth
+    stand_still: dict[str, TrajectoryMetrics] = field(default_factory=dict)  # dataset -> mean
 
     def describe(self) -> str:
         return describe(self.convention, self.rte_window_s)

@@ -47,7 +47,6 @@ TINY_MODELS = {
 MISSING_LABELS = ["RoNIN LSTM", "RNIN", "IMUNet", "TLIO", "+TDL"]
 
 
-
 @pytest.fixture(scope="module")
 def checkpoint_dir(tmp_path_factory):
     directory = tmp_path_factory.mktemp("checkpoints")
@@ -138,8 +137,10 @@ def test_table_layout_and_percentage(results, report_dir):
     assert [(r.dataset, r.metric) for r in table.rows] == [
         ("walk", "ATE"),
         ("walk", "RTE"),
+        ("walk", "Path ratio"),
         ("pocket", "ATE"),
         ("pocket", "RTE"),
+        ("pocket", "Path ratio"),
     ]
     labels = [c.label for c in PAPER_COLUMNS]
     assert [c.label for c in table.missing] == MISSING_LABELS
@@ -148,10 +149,22 @@ def test_table_layout_and_percentage(results, report_dir):
     for row in table.rows:
         cells = dict(zip(labels, row.cells, strict=True))
         mean_r, mean_f = resnet.reports[row.dataset].mean, ftin.reports[row.dataset].mean
-        r, f = (mean_r.ate, mean_f.ate) if row.metric == "ATE" else (mean_r.rte, mean_f.rte)
+        still = results.stand_still[row.dataset]
+        attr = {"ATE": "ate", "RTE": "rte", "Path ratio": "path_length_ratio"}[row.metric]
+        r, f = getattr(mean_r, attr), getattr(mean_f, attr)
         assert cells["RoNIN ResNet"] == r and cells["FTIN"] == f and cells["+FDL&TDL"] == f
-        assert cells["FTIN vs RoNIN ResNet"] == pytest.approx(100.0 * (r - f) / r)
+        assert cells["Stand still"] == getattr(still, attr)
+        if row.metric == "Path ratio":
+            assert cells["Stand still"] == 0.0 and cells["FTIN vs RoNIN ResNet"] is None
+        else:
+            assert cells["FTIN vs RoNIN ResNet"] == pytest.approx(100.0 * (r - f) / r)
         assert all(cells[label] is None for label in MISSING_LABELS)
+    # the stand-still baseline: standing at each recording's start, scored like the models
+    walk_truths = results.ground_truth["walk"].values()
+    expected = np.mean(
+        [np.sqrt(np.mean((gt.p_world_m[:, :2] - gt.p_world_m[0, :2]) ** 2)) for gt in walk_truths]
+    )
+    assert results.stand_still["walk"].ate == pytest.approx(expected)
 
     md = (report_dir / "table.md").read_text()
     assert describe(Convention.RONIN) in md
@@ -159,7 +172,7 @@ def test_table_layout_and_percentage(results, report_dir):
     assert "No checkpoint for: RoNIN LSTM (`ronin_lstm`)" in md
     table_lines = [line for line in md.splitlines() if line.startswith("|")]
     assert table_lines[0] == "| Dataset | Metric | " + " | ".join(labels) + " |"
-    assert len(table_lines) == 2 + 4
+    assert len(table_lines) == 2 + 6
     walk_ate = [cell.strip() for cell in table_lines[2].strip("|").split("|")]
     walk_rte = [cell.strip() for cell in table_lines[3].strip("|").split("|")]
     assert walk_ate[:2] == ["walk", "ATE"] and walk_rte[:2] == ["", "RTE"]
@@ -167,18 +180,29 @@ def test_table_layout_and_percentage(results, report_dir):
     cells = dict(zip(labels, walk_ate[2:], strict=True))
     assert cells["RoNIN LSTM"] == "—" and cells["+TDL"] == "—"
     assert cells["FTIN vs RoNIN ResNet"] == f"{row.cells[labels.index('FTIN vs RoNIN ResNet')]:.1f}%"
+    assert cells["Stand still"] == f"{row.cells[0]:.3f}"  # a reference, never bold
     # bold: the lowest of the compared models, and separately of the ablation columns
-    compared = {lab: v for lab, v in zip(labels[:7], row.cells[:7], strict=True) if v is not None}
+    groups = {c.label: c.group.value for c in PAPER_COLUMNS}
+    compared = {
+        lab: v
+        for lab, v in zip(labels, row.cells, strict=True)
+        if groups[lab] == "compared" and v is not None
+    }
     best = min(compared, key=compared.get)
     assert cells[best] == f"**{compared[best]:.3f}**"
     assert sum(cells[lab].startswith("**") for lab in compared) == 1
-    ablation = {lab: v for lab, v in zip(labels[8:], row.cells[8:], strict=True) if v is not None}
+    ablation = {
+        lab: v
+        for lab, v in zip(labels, row.cells, strict=True)
+        if groups[lab] == "ablation" and v is not None
+    }
     assert sum(cells[lab].startswith("**") for lab in ablation) == 1
     assert cells[min(ablation, key=ablation.get)].startswith("**")
 
     rows = list(csv.reader(io.StringIO((report_dir / "table.csv").read_text())))
-    assert rows[0][:3] == ["dataset", "metric", "RoNIN ResNet"] and "FTIN vs RoNIN ResNet (%)" in rows[0]
-    assert len(rows) == 5
+    assert rows[0][:4] == ["dataset", "metric", "Stand still", "RoNIN ResNet"]
+    assert "FTIN vs RoNIN ResNet (%)" in rows[0]
+    assert len(rows) == 7
     first = dict(zip(rows[0], rows[1], strict=True))
     assert first["RoNIN LSTM"] == "" and float(first["FTIN"]) == row.cells[labels.index("FTIN")]
     r, f = float(first["RoNIN ResNet"]), float(first["FTIN"])
