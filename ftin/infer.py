@@ -1,4 +1,4 @@
-"""Inference: one IMU recording + one checkpoint -> per-window velocities -> a trajectory.
+"""Inference: one IMU recording + one checkpoint -> velocities over spans of time -> a trajectory.
 
 ``predict_trajectory`` is the one function the CLI (``ftin predict``), the evaluation and the app
 call. Steps and decisions:
@@ -8,19 +8,34 @@ call. Steps and decisions:
 2. Rate: unless the input already lies on a uniform grid at the checkpoint's ``imu_rate_hz``, it is
    resampled to it (ground truth too), because the window length means a duration only at that
    rate. The output trajectory is sampled at the (resampled) IMU timestamps.
-3. Windows of ``window`` samples every ``stride`` samples (the checkpoint's stride unless given),
-   exactly as in training (``ftin.data.windows``), streamed through the model in batches under
-   ``torch.inference_mode``: only one batch of windows exists at a time (each batch is copied out of
-   a strided view of the ``(N, 6)`` world-frame IMU), so window memory does not grow with the
-   recording; feature taps are kept only when asked for. What does grow is linear in the number of
-   samples and small per sample: the resampled, rotated IMU, the velocities and the trajectory
-   (``scripts/bench_memory.py`` measures the peak RSS of a 1-hour 200 Hz recording).
-4. Integration: a window's velocity is the mean velocity over its span ``[t[s], t[s + L]]``, so each
-   sample interval ``[t[i], t[i+1]]`` gets the average velocity of the windows covering it (with
-   stride = window this integrates each window's displacement exactly). Intervals after the last
-   window (fewer than ``stride`` samples) keep the last window's velocity. Positions start at the
-   ground-truth start position when there is ground truth, else at the origin; with a 2-D model
-   z stays at the start height, a 3-D model integrates z too.
+3. Velocities, as each model's reference tests it (parts and streaming: ``ftin.models.base``):
+   - Window models (RoNIN ResNet, TLIO, IMUNet, FTIN, RNIN): windows of ``window`` samples every
+     ``stride`` samples (the checkpoint's stride unless given), exactly as in training
+     (``ftin.data.windows``), streamed through the model in batches under ``torch.inference_mode``:
+     only one batch of windows exists at a time (each batch is copied out of a strided view of the
+     ``(N, 6)`` world-frame IMU), so window memory does not grow with the recording; feature taps
+     (one row per window) are kept only when asked for. A model with K parts per window (RNIN: its
+     1 s sub-windows) gives a velocity per part: the first window contributes all K parts, every
+     later window only its last ``ceil(stride / part)`` parts (one for any stride up to a part,
+     which is RNIN's test: the last sub-window of each sequence; more only so that a stride longer
+     than a part leaves no gap). For K = 1 that is one velocity per window, as always. A recording
+     shorter than the window but at least one part long runs one shorter window (fewer sub-windows).
+   - Streaming models (RoNIN LSTM, TCN): the whole recording goes through ``forward_stream`` in
+     chunks of ``batch_size * stride`` frames (at most ``STREAM_CHUNK_MAX_FRAMES``), carrying the
+     state between chunks: the same per-frame velocities as the reference's single pass over the
+     whole sequence, in bounded memory. Progress is reported (and a caller may cancel) per chunk, in
+     frames; there are no windows, so no feature taps.
+   What grows with the recording is linear in the number of samples and small per sample: the
+   resampled, rotated IMU, the velocities and the trajectory (``scripts/bench_memory.py`` measures
+   the peak RSS of a 1-hour 200 Hz recording).
+4. Integration: each velocity is the mean velocity over its span ``[t[a], t[b]]`` (a window, a part
+   or one sample interval), so each sample interval ``[t[i], t[i+1]]`` gets the average velocity of
+   the spans covering it (with non-overlapping spans this integrates each span's displacement
+   exactly; per-frame velocities are integrated per sample interval). Intervals after the last span
+   (fewer than ``stride`` samples) keep the last velocity. Positions start at the ground-truth start
+   position when there is ground truth, else at the origin; with a 2-D model z stays at the start
+   height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
+   (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
    with the device world frame at the start, design §2) and metrics are computed; without it, the
    estimate is in the device's own world frame (gravity-aligned, arbitrary yaw).
@@ -43,18 +58,20 @@ from ftin.train.checkpoint import LoadedModel
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
 _RATE_TOLERANCE = 1e-3  # relative deviation of the sample interval still called "on the grid"
+STREAM_CHUNK_MAX_FRAMES = 1 << 16  # frames per forward_stream call (TCN activations ~67 MB per layer)
 
 
 @dataclass
 class Prediction:
     trajectory: Trajectory
-    window_t_s: np.ndarray  # (M,) middle of each window's span [t[s], t[s + L]]
-    velocity_m_s: np.ndarray  # (M, D) world-frame velocity per window
+    window_t_s: np.ndarray  # (M,) middle of each prediction's span [t[a], t[b]]
+    velocity_m_s: np.ndarray  # (M, D) world-frame mean velocity over each span
     orientation_source: str  # "device", "ground_truth" or "estimated"
     frame: str  # "ground_truth" or "device_world"
     warnings: list[str]
     metrics: TrajectoryMetrics | None
-    features: dict | None  # name -> (M, ...) float32 feature taps, when asked
+    features: dict | None  # name -> (windows, ...) float32 feature taps, when asked (window models)
+    span_t_s: np.ndarray | None = None  # (M, 2) start and end time of each prediction's span
 
 
 def predict_trajectory(
@@ -96,18 +113,24 @@ def predict_prepared(
     if stride < 1:
         raise ValueError(f"stride must be >= 1 sample, got {stride}")
     prepared, notes = prepare_for_checkpoint(loaded, seq)
-    window = loaded.window
-    if len(prepared) < window + 1:
-        raise DataFormatError(
-            f"sequence {seq.name!r} is too short: {len(prepared)} samples at {loaded.imu_rate_hz:g} Hz, "
-            f"checkpoint {loaded.name!r} needs at least {window + 1} (a {window}-sample window and its end)"
-        )
     imu = world_imu(prepared)  # (N, 6) float32
-    starts = window_starts(len(prepared), window, stride)
-    velocity, features = _run_windows(loaded, imu, starts, batch_size, progress, return_features)
     t_s = prepared.t_s
+    features = None
+    if loaded.model.streams:
+        _check_length(loaded, seq, len(prepared), 2, "two samples (one interval)")
+        chunk = min(batch_size * stride, STREAM_CHUNK_MAX_FRAMES)
+        velocity = _run_stream(loaded, imu, chunk, progress)  # (N - 1, D) per sample interval
+        span_start = np.arange(len(prepared) - 1)
+        span_end = span_start + 1
+    else:
+        window, parts = _window_and_parts(loaded, seq, len(prepared), notes)
+        starts = window_starts(len(prepared), window, stride)
+        part_velocity, features = _run_windows(
+            loaded, imu, starts, window, parts, batch_size, progress, return_features
+        )
+        span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     start_m = prepared.gt.p_world_m[0] if prepared.gt is not None else np.zeros(3)
-    p_world_m = integrate_windows(t_s, starts, window, velocity, start_m)
+    p_world_m = integrate_spans(t_s, span_start, span_end, velocity, start_m)
     trajectory = Trajectory(t_s.copy(), p_world_m, prepared.q_world_device_wxyz)
 
     warnings = [*prepared.meta.get("warnings", []), *notes]
@@ -120,13 +143,14 @@ def predict_prepared(
     orientation_source = str(prepared.meta.get("orientation_source", "device"))
     prediction = Prediction(
         trajectory=trajectory,
-        window_t_s=0.5 * (t_s[starts] + t_s[starts + window]),
+        window_t_s=0.5 * (t_s[span_start] + t_s[span_end]),
         velocity_m_s=velocity,
         orientation_source=orientation_source,
         frame=FRAME_GROUND_TRUTH if prepared.gt is not None else FRAME_DEVICE_WORLD,
         warnings=warnings,
         metrics=metrics,
         features=features,
+        span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
     )
     return prediction, prepared
 
@@ -154,25 +178,86 @@ def prepare_for_checkpoint(loaded: LoadedModel, seq: ImuSequence) -> tuple[ImuSe
     return prepared, notes
 
 
+def _check_length(loaded: LoadedModel, seq: ImuSequence, n: int, needed: int, what: str) -> None:
+    if n < needed:
+        raise DataFormatError(
+            f"sequence {seq.name!r} is too short: {n} samples at {loaded.imu_rate_hz:g} Hz, "
+            f"checkpoint {loaded.name!r} needs at least {needed} ({what})"
+        )
+
+
+def _window_and_parts(loaded: LoadedModel, seq: ImuSequence, n: int, notes: list[str]) -> tuple[int, int]:
+    """The window to run and its number of parts; a multi-part model runs fewer parts on a recording
+    shorter than its window (module docstring, step 3)."""
+    window = loaded.window
+    parts = loaded.model.target_parts(window)
+    part = window // parts
+    if n >= window + 1 or parts == 1:
+        _check_length(loaded, seq, n, window + 1, f"a {window}-sample window and its end")
+        return window, parts
+    _check_length(loaded, seq, n, part + 1, f"one {part}-sample part of its window and its end")
+    short = (n - 1) // part * part
+    notes.append(
+        f"{seq.name}: shorter than {loaded.name!r}'s {window}-sample window; ran one window of "
+        f"{short // part} of its {parts} parts"
+    )
+    return short, loaded.model.target_parts(short)
+
+
+def select_parts(
+    starts: np.ndarray, window: int, stride: int, part_velocity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(span_start, span_end, velocity)`` of the parts that integrate (module docstring, step 3).
+
+    ``part_velocity`` is ``(M, K, D)`` for the windows at ``starts``; the first window gives all K
+    parts, each later one its last ``min(K, ceil(stride / part))``. Spans come out in time order.
+    """
+    n_windows, parts, dim = part_velocity.shape
+    part = window // parts
+    later = min(parts, -(-stride // part))
+    offsets = np.arange(parts) * part  # (K,) part starts within a window
+    first_start = starts[0] + offsets  # (K,)
+    later_start = (starts[1:, None] + offsets[None, parts - later :]).reshape(-1)  # ((M-1) * later,)
+    span_start = np.concatenate([first_start, later_start]).astype(np.int64)
+    velocity = np.concatenate([part_velocity[0], part_velocity[1:, parts - later :].reshape(-1, dim)])
+    return span_start, span_start + part, velocity
+
+
 def integrate_windows(
     t_s: np.ndarray, starts: np.ndarray, window: int, velocity_m_s: np.ndarray, start_m: np.ndarray
 ) -> np.ndarray:
-    """``(N, 3)`` positions from per-window mean velocities (module docstring, step 4)."""
+    """``(N, 3)`` positions from per-window mean velocities over ``[t[s], t[s + window]]``."""
+    return integrate_spans(t_s, starts, np.asarray(starts) + window, velocity_m_s, start_m)
+
+
+def integrate_spans(
+    t_s: np.ndarray,
+    span_start: np.ndarray,
+    span_end: np.ndarray,
+    velocity_m_s: np.ndarray,
+    start_m: np.ndarray,
+) -> np.ndarray:
+    """``(N, 3)`` positions from mean velocities over spans ``[t[a], t[b]]`` (module docstring, step 4).
+
+    Spans are in time order (the last one is the latest); every interval before the last span's end
+    should be covered, an uncovered one keeps the last velocity.
+    """
     n, d = len(t_s), velocity_m_s.shape[1]
-    # Difference arrays: +v where a window's span begins, -v where it ends; the running sum over
-    # intervals is then the sum of the velocities of all windows covering each interval.
+    # Difference arrays: +v where a span begins, -v where it ends; the running sum over intervals is
+    # then the sum of the velocities of all spans covering each interval. (np.add.at: a sample may
+    # begin or end several spans.)
     delta = np.zeros((n, d))
-    delta[starts] += velocity_m_s
-    delta[starts + window] -= velocity_m_s
+    np.add.at(delta, span_start, velocity_m_s)
+    np.add.at(delta, span_end, -velocity_m_s)
     count_delta = np.zeros(n)
-    count_delta[starts] += 1.0
-    count_delta[starts + window] -= 1.0
+    np.add.at(count_delta, span_start, 1.0)
+    np.add.at(count_delta, span_end, -1.0)
     v_sum = np.cumsum(delta, axis=0)[: n - 1]  # (N - 1, D) per interval
     count = np.rint(np.cumsum(count_delta)[: n - 1])
     v_interval = np.empty((n - 1, d))
     covered = count > 0
     v_interval[covered] = v_sum[covered] / count[covered, None]
-    v_interval[~covered] = velocity_m_s[-1]  # only the tail after the last window is uncovered
+    v_interval[~covered] = velocity_m_s[-1]  # only the tail after the last span is uncovered
     p = np.tile(np.asarray(start_m, dtype=np.float64), (n, 1))
     steps = v_interval * np.diff(t_s)[:, None]  # (N - 1, D) displacement per interval
     p[1:, :d] += np.cumsum(steps, axis=0)
@@ -183,16 +268,22 @@ def _run_windows(
     loaded: LoadedModel,
     imu: np.ndarray,
     starts: np.ndarray,
+    window: int,
+    parts: int,
     batch_size: int,
     progress: Callable[[int, int], None] | None,
     return_features: bool,
 ) -> tuple[np.ndarray, dict | None]:
-    """Per-window velocities ``(M, D)`` (float64) and, when asked, the concatenated feature taps."""
+    """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps.
+
+    K = 1 models go through ``forward`` (their taps and log-std exactly as ever), others through
+    ``forward_parts``.
+    """
     model = loaded.model
     device = next(model.parameters()).device
-    view = window_view(imu, loaded.window)  # (N - L + 1, 6, L), a view: no copy
+    view = window_view(imu, window)  # (N - L + 1, 6, L), a view: no copy
     total = len(starts)
-    velocity = np.empty((total, loaded.out_dim))
+    velocity = np.empty((total, parts, loaded.out_dim))
     taps: dict[str, list[np.ndarray]] | None = {} if return_features else None
     model.eval()
     with torch.inference_mode():
@@ -200,8 +291,10 @@ def _run_windows(
             batch_starts = starts[first : first + batch_size]
             x = torch.from_numpy(np.ascontiguousarray(view[batch_starts])).to(device)  # (B, 6, L)
             features: dict | None = {} if return_features else None
-            output = model(loaded.normalization.apply(x), features=features)
-            velocity[first : first + len(batch_starts)] = output.velocity.double().cpu().numpy()
+            x = loaded.normalization.apply(x)
+            output = model(x, features=features) if parts == 1 else model.forward_parts(x, features=features)
+            batch_velocity = output.velocity.double().cpu().numpy()  # (B, D) or (B, K, D)
+            velocity[first : first + len(batch_starts)] = batch_velocity.reshape(len(batch_starts), parts, -1)
             if taps is not None:
                 if output.log_std is not None:
                     features["log_std"] = output.log_std
@@ -209,5 +302,30 @@ def _run_windows(
                     taps.setdefault(name, []).append(value.detach().float().cpu().numpy())
             if progress is not None:
                 progress(first + len(batch_starts), total)
-    joined = None if taps is None else {name: np.concatenate(parts, axis=0) for name, parts in taps.items()}
+    joined = None if taps is None else {name: np.concatenate(rows, axis=0) for name, rows in taps.items()}
     return velocity, joined
+
+
+def _run_stream(
+    loaded: LoadedModel, imu: np.ndarray, chunk: int, progress: Callable[[int, int], None] | None
+) -> np.ndarray:
+    """Per-frame velocities ``(N - 1, D)`` (float64) of a streaming model over the whole recording.
+
+    Frame i's velocity is over the interval ``[t[i], t[i+1]]``, so the last frame (which has no
+    interval after it) is not run.
+    """
+    model = loaded.model
+    device = next(model.parameters()).device
+    total = len(imu) - 1
+    velocity = np.empty((total, loaded.out_dim))
+    state = None
+    model.eval()
+    with torch.inference_mode():
+        for first in range(0, total, chunk):
+            frames = imu[first : min(first + chunk, total)]  # (T, 6)
+            x = torch.from_numpy(np.ascontiguousarray(frames.T)).to(device)[None]  # (1, 6, T)
+            per_frame, state = model.forward_stream(loaded.normalization.apply(x), state)
+            velocity[first : first + len(frames)] = per_frame[0].double().cpu().numpy()
+            if progress is not None:
+                progress(first + len(frames), total)
+    return velocity

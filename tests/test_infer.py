@@ -6,9 +6,10 @@ import torch
 
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.data.windows import InputNormalization, make_windows
-from ftin.infer import integrate_windows, predict_trajectory
+from ftin.data.windows import InputNormalization, make_windows, world_imu
+from ftin.infer import integrate_spans, integrate_windows, predict_trajectory, select_parts
 from ftin.models import VelocityModel, VelocityOutput, create_model
+from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.sim import SimConfig, simulate
 from ftin.train.checkpoint import LoadedModel, load_model, save_checkpoint
 
@@ -44,15 +45,25 @@ def _circle_walk(rate_hz: float = 100.0, duration_s: float = 70.0) -> ImuSequenc
     return ImuSequence("circle", t, gyro, acc, q, Trajectory(t, p), {"orientation_source": "device"})
 
 
+def _tiny(tmp_path_factory, name: str, **kwargs) -> LoadedModel:
+    torch.manual_seed(0)
+    model = create_model(name, **kwargs)
+    stem = tmp_path_factory.mktemp("ckpt") / name
+    save_checkpoint(stem, model, {"model_name": name, "imu_rate_hz": RATE_HZ, "window": WINDOW, "stride": 5})
+    return load_model(stem)
+
+
 @pytest.fixture(scope="module")
 def tiny_checkpoint(tmp_path_factory):
-    torch.manual_seed(0)
-    model = create_model("ronin_tcn", channels=(8, 8))
-    stem = tmp_path_factory.mktemp("ckpt") / "tiny"
-    save_checkpoint(
-        stem, model, {"model_name": "ronin_tcn", "imu_rate_hz": RATE_HZ, "window": WINDOW, "stride": 5}
-    )
-    return load_model(stem)
+    """A window model (one velocity per window)."""
+    return _tiny(tmp_path_factory, "ftin", **TINY_FTIN_KWARGS, window=WINDOW)
+
+
+@pytest.fixture(scope="module", params=["ronin_tcn", "ronin_lstm"])
+def tiny_streaming(request, tmp_path_factory):
+    """A sequence-to-sequence model (one velocity per frame, streamed)."""
+    kwargs = {"channels": (8, 8)} if request.param == "ronin_tcn" else {"hidden_size": 8, "num_layers": 2}
+    return _tiny(tmp_path_factory, request.param, **kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -132,8 +143,13 @@ def test_streaming_progress_and_features(tiny_checkpoint, walk):
     assert len(calls) == -(-total // 50)
     big = predict_trajectory(tiny_checkpoint, walk, batch_size=4096, return_features=True)
     np.testing.assert_allclose(big.velocity_m_s, pred.velocity_m_s, rtol=1e-6, atol=1e-9)
-    assert big.features["per_frame_velocity"].shape == (total, WINDOW, 2)
-    assert big.features["per_frame_velocity"].dtype == np.float32
+    assert big.features and all(len(tap) == total for tap in big.features.values())  # one row per window
+    assert big.features["resnet"].dtype == np.float32
+    with torch.inference_mode():  # the taps of the one pass equal the model's own on one window
+        features: dict = {}
+        x = torch.from_numpy(make_windows(walk, WINDOW, 5).x[7:8])
+        tiny_checkpoint.model(x, features=features)
+    np.testing.assert_allclose(big.features["resnet"][7], features["resnet"][0].numpy(), rtol=1e-5, atol=1e-6)
 
 
 def test_missing_orientation_is_estimated_with_a_warning(tiny_checkpoint, walk):
@@ -208,3 +224,145 @@ def test_memory_does_not_grow_with_the_window_count():
     # What remains is O(N): world-frame IMU, velocities, positions, metrics (~3.5 MB here; the
     # materialised windows alone would be 24 MB, 25.5 MB peak in all).
     assert peak_bytes < all_windows_bytes / 4, (peak_bytes, all_windows_bytes)
+
+
+# ------------------------------------------------------- parts (RNIN) and streaming (RoNIN LSTM / TCN)
+class PartsOracle(VelocityModel):
+    """RNIN-style stand-in: one velocity per ``part``-sample part of its window, each the true mean
+    velocity of that part (on ``_circle_walk`` gyro x, y carry every interval's velocity)."""
+
+    def __init__(self, part: int) -> None:
+        super().__init__()
+        self.part = self.min_window = self.window_multiple = part
+        self.dummy = torch.nn.Parameter(torch.zeros(1))
+
+    def target_parts(self, window: int) -> int:
+        return window // self.part
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        batch, _, length = x.shape
+        parts = x[:, 0:2].reshape(batch, 2, length // self.part, self.part).mean(dim=3)  # (B, 2, K)
+        return VelocityOutput(parts.transpose(1, 2))  # (B, K, 2)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(self.forward_parts(x).velocity.mean(dim=1))
+
+
+class FrameOracle(VelocityModel):
+    """RoNIN-LSTM-style stand-in: streams the true velocity of every frame's interval."""
+
+    streams = True
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.dummy = torch.nn.Parameter(torch.zeros(1))
+        self.chunks: list[int] = []
+
+    def target_parts(self, window: int) -> int:
+        return window
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(x[:, 0:2].transpose(1, 2))
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(x[:, 0:2].mean(dim=2))
+
+    def forward_stream(self, x: torch.Tensor, state=None):
+        self.chunks.append(x.shape[2])
+        return x[:, 0:2].transpose(1, 2), None  # (B, T, 2)
+
+
+def _loaded(model: VelocityModel, window: int, stride: int, rate_hz: float = 100.0) -> LoadedModel:
+    return LoadedModel(model.eval(), "oracle", "oracle", rate_hz, window, stride, 2, InputNormalization(), {})
+
+
+def test_rnin_style_parts_oracle_reproduces_the_ground_truth():
+    """RNIN as its reference tests it (10 sub-windows of 1 s, windows every 0.1 s, the last sub-window
+    of each): true sub-window velocities give the true trajectory; averaging whole 10 s windows, as
+    before parts, does not."""
+    seq = _circle_walk(duration_s=70.0)
+    boundaries = np.arange(0, len(seq) - 1, 100)
+    # Windows every part: the first window's 10 parts, then one new part per window, no overlap.
+    exact = predict_trajectory(_loaded(PartsOracle(100), 1000, 100), seq)
+    assert len(exact.velocity_m_s) == 10 + len(range(100, len(seq) - 1000, 100))
+    p_exact = exact.trajectory.p_world_m
+    np.testing.assert_allclose(p_exact[boundaries], seq.gt.p_world_m[boundaries], atol=1e-4)
+    np.testing.assert_allclose(exact.span_t_s[:, 1] - exact.span_t_s[:, 0], 1.0)
+    np.testing.assert_allclose(exact.window_t_s, exact.span_t_s.mean(axis=1))
+    # The reference's stride of 0.1 s: overlapping 1 s parts are averaged, a 1 s smoothing that pulls
+    # a 5 m circle inwards by ~2 cm (r w^2 T^2 / 12).
+    sliding = predict_trajectory(_loaded(PartsOracle(100), 1000, 10), seq)
+    assert sliding.metrics.ate < 0.03 and sliding.metrics.pde < 1e-3
+    # One velocity per 10 s window (what RNIN did before parts): far off on the same data.
+    whole_windows = predict_trajectory(_oracle(window=1000, stride=10), seq)
+    assert whole_windows.metrics.ate > 20 * sliding.metrics.ate
+
+
+def test_parts_model_runs_fewer_parts_on_a_short_recording():
+    seq = _circle_walk(duration_s=5.0)  # 501 samples: five 1 s parts, not a 10 s window
+    pred = predict_trajectory(_loaded(PartsOracle(100), 1000, 10), seq)
+    assert len(pred.velocity_m_s) == 5
+    assert any("ran one window of 5 of its 10 parts" in w for w in pred.warnings)
+    np.testing.assert_allclose(pred.trajectory.p_world_m[::100], seq.gt.p_world_m[::100], atol=1e-4)
+    with pytest.raises(DataFormatError, match="too short.*at least 101"):
+        predict_trajectory(_loaded(PartsOracle(100), 1000, 10), seq.slice(0, 100))
+
+
+def test_per_frame_oracle_reproduces_the_ground_truth():
+    seq = _circle_walk(duration_s=30.0)
+    model = FrameOracle()
+    calls = []
+    pred = predict_trajectory(
+        _loaded(model, 400, 100), seq, batch_size=7, progress=lambda done, total: calls.append((done, total))
+    )
+    n = len(seq)
+    assert pred.velocity_m_s.shape == (n - 1, 2)
+    np.testing.assert_allclose(pred.trajectory.p_world_m, seq.gt.p_world_m, atol=1e-5)  # every sample
+    np.testing.assert_allclose(pred.window_t_s, (seq.t_s[:-1] + seq.t_s[1:]) / 2)
+    # Chunks of batch_size x stride frames, progress (in frames) after each one.
+    assert model.chunks == [700] * ((n - 1) // 700) + [(n - 1) % 700]
+    assert [done for done, _ in calls] == np.cumsum(model.chunks).tolist() and calls[-1] == (n - 1, n - 1)
+
+
+def test_streaming_model_equals_one_pass_over_the_sequence(tiny_streaming, walk):
+    """Chunks of 15 frames through forward_stream give the per-frame output of one whole pass."""
+    pred = predict_trajectory(tiny_streaming, walk, batch_size=3, return_features=True)
+    assert pred.features is None  # no windows, so no per-window taps
+    imu = torch.from_numpy(np.ascontiguousarray(world_imu(walk)[:-1].T))[None]  # (1, 6, N - 1)
+    with torch.inference_mode():
+        whole = tiny_streaming.model.forward_parts(imu).velocity[0].double().numpy()  # (N - 1, 2)
+    np.testing.assert_allclose(pred.velocity_m_s, whole, rtol=1e-5, atol=1e-6)
+    expected = integrate_spans(
+        walk.t_s, np.arange(len(walk) - 1), np.arange(1, len(walk)), whole, walk.gt.p_world_m[0]
+    )
+    np.testing.assert_allclose(pred.trajectory.p_world_m, expected, rtol=1e-5, atol=1e-5)
+
+
+def test_rnin_velocities_are_its_parts(tmp_path_factory, walk):
+    loaded = _tiny(tmp_path_factory, "rnin", sub_window=5, out_dim=2)  # 5 parts of 0.1 s per window
+    pred = predict_trajectory(loaded, walk, batch_size=16)
+    windows = make_windows(walk, WINDOW, 5)
+    with torch.inference_mode():
+        parts = loaded.model.forward_parts(torch.from_numpy(windows.x)).velocity.double().numpy()
+    expected = np.concatenate([parts[0], parts[1:, -1]])  # the first window's 5, then each last one
+    np.testing.assert_allclose(pred.velocity_m_s, expected, rtol=1e-5, atol=1e-6)
+    starts = np.concatenate([np.arange(5) * 5, windows.start[1:] + 20])
+    np.testing.assert_allclose(pred.span_t_s[:, 0], walk.t_s[starts])
+
+
+def test_select_parts_and_integrate_spans():
+    v = np.arange(3 * 2 * 1, dtype=float).reshape(3, 2, 1)  # 3 windows of 2 parts
+    start, end, vel = select_parts(np.array([0, 2, 4]), 4, 2, v)
+    assert start.tolist() == [0, 2, 4, 6] and end.tolist() == [2, 4, 6, 8]
+    assert vel[:, 0].tolist() == [0, 1, 3, 5]
+    # A stride longer than a part takes as many last parts as cover the new samples (no gap).
+    start, _, vel = select_parts(np.array([0, 3]), 4, 3, v[:2])
+    assert start.tolist() == [0, 2, 3, 5] and vel[:, 0].tolist() == [0, 1, 2, 3]
+    # One part per window is the window itself.
+    start, end, _ = select_parts(np.array([0, 2]), 4, 2, v[:2, :1])
+    assert start.tolist() == [0, 2] and end.tolist() == [4, 6]
+    # Spans that begin at the same sample are both counted.
+    t = np.arange(5) * 0.5
+    v = np.array([[1.0], [3.0], [5.0]])
+    p = integrate_spans(t, np.array([0, 0, 2]), np.array([2, 4, 4]), v, np.zeros(3))
+    np.testing.assert_allclose(np.diff(p[:, 0]) / 0.5, [2, 2, 4, 4])

@@ -4,15 +4,23 @@ Decisions (design §2):
 - Window ``k`` starts at sample ``s = k * stride``; its input is samples ``s .. s + L - 1`` and its
   target is the mean velocity over the same ``L`` sample intervals,
   ``(p[s + L] - p[s]) / (t[s + L] - t[s])``. A window therefore needs sample ``s + L`` and starts run
-  while ``s + L <= N - 1``; inference uses the same starts, so a window's velocity always belongs to
-  the span ``[t[s], t[s + L]]``.
+  while ``s + L <= N - 1``; inference of window models uses the same starts, so a window's velocity
+  always belongs to the span ``[t[s], t[s + L]]`` (streaming models run whole recordings instead,
+  ``ftin.infer``).
+- Parts (``ftin.models.base``): a model may predict the velocity of K equal consecutive parts of
+  its window (RNIN: its sub-windows; RoNIN LSTM/TCN: every frame). Part k of the window starting at
+  ``s`` spans samples ``a = s + k L/K`` to ``b = a + L/K`` and its target is
+  ``(p[b] - p[a]) / (t[b] - t[a])`` (``part_velocity_targets``); K = 1 is exactly the window target
+  above. ``WindowDataset`` computes the part targets per batch from the positions (memory O(N), not
+  O(windows x K)) and yields them as ``(B, K, D)``.
 - Inputs are ``(6, L)`` float32, channels gyro xyz then acc xyz, rotated into the gravity-aligned
   world frame by ``ftin.data.preprocess.world_frame_imu`` (the sequence must carry an orientation and
   be at the intended rate: ``ensure_orientation`` and ``resample`` come first).
 - Windows are strided views of one ``(N, 6)`` array (``sliding_window_view``) or gathered with one
   fancy index per batch; no per-window Python loop.
-- Yaw augmentation rotates gyro, acc and the target about world z by the same angle, which keeps
-  the physics consistent and makes the network heading-agnostic (RoNIN). Angles are drawn per epoch
+- Yaw augmentation rotates gyro, acc and the targets (every part of a window alike) about world z by
+  the same angle, which keeps the physics consistent and makes the network heading-agnostic
+  (RoNIN). Angles are drawn per epoch
   from ``(seed, epoch)``, indexed by window, so a batch's augmentation does not depend on the order
   or the process that draws it: resumed and multi-process runs see the same data.
 """
@@ -80,11 +88,25 @@ def velocity_targets(
     t_s: np.ndarray, p_world_m: np.ndarray, starts: np.ndarray, window: int, out_dim: int = 2
 ) -> np.ndarray:
     """``(M, out_dim)`` float32 mean velocity over each window: ``(p[s+L] - p[s]) / (t[s+L] - t[s])``."""
+    return part_velocity_targets(t_s, p_world_m, starts, window, 1, out_dim)[:, 0]
+
+
+def part_velocity_targets(
+    t_s: np.ndarray, p_world_m: np.ndarray, starts: np.ndarray, window: int, parts: int, out_dim: int = 2
+) -> np.ndarray:
+    """``(M, parts, out_dim)`` float32 mean velocity over each of ``parts`` equal parts of each window.
+
+    Part k of the window at ``s`` spans ``a = s + k * window / parts`` to ``b = a + window / parts``:
+    ``(p[b] - p[a]) / (t[b] - t[a])``.
+    """
     if out_dim not in (2, 3):
         raise ValueError(f"out_dim must be 2 (horizontal) or 3, got {out_dim}")
-    dt = t_s[starts + window] - t_s[starts]
-    dp = p_world_m[starts + window, :out_dim] - p_world_m[starts, :out_dim]
-    return (dp / dt[:, None]).astype(np.float32)
+    if parts < 1 or window % parts:
+        raise ValueError(f"a window of {window} samples cannot be cut into {parts} equal parts")
+    bounds = np.asarray(starts)[:, None] + np.arange(parts + 1) * (window // parts)  # (M, K + 1)
+    dt = np.diff(t_s[bounds], axis=1)  # (M, K)
+    dp = np.diff(p_world_m[bounds, :out_dim], axis=1)  # (M, K, D)
+    return (dp / dt[:, :, None]).astype(np.float32)
 
 
 def make_windows(seq: ImuSequence, window: int, stride: int, out_dim: int = 2) -> Windows:
@@ -98,7 +120,8 @@ def make_windows(seq: ImuSequence, window: int, stride: int, out_dim: int = 2) -
 
 
 def rotate_yaw(x: np.ndarray, v: np.ndarray, angle_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotate windows ``(B, 6, L)`` and targets ``(B, D)`` about world z by ``angle_rad (B,)``.
+    """Rotate windows ``(B, 6, L)`` and targets ``(B, D)`` or ``(B, K, D)`` about world z by
+    ``angle_rad (B,)`` (all K parts of a window by its one angle).
 
     Returns new arrays (inputs are not modified). Gyro and acc are rotated as 3-vectors; a 2-D
     target is the horizontal part of a 3-vector, which a rotation about z keeps horizontal.
@@ -108,8 +131,11 @@ def rotate_yaw(x: np.ndarray, v: np.ndarray, angle_rad: np.ndarray) -> tuple[np.
     R = R.astype(x.dtype, copy=False)
     gyro = np.einsum("bij,bjl->bil", R, x[:, 0:3, :])
     acc = np.einsum("bij,bjl->bil", R, x[:, 3:6, :])
-    d = v.shape[1]
-    v_rot = np.einsum("bij,bj->bi", R[:, :d, :d], v).astype(v.dtype, copy=False)
+    d = v.shape[-1]
+    if v.ndim == 3:  # (B, K, D) part targets
+        v_rot = np.einsum("bij,bkj->bki", R[:, :d, :d], v).astype(v.dtype, copy=False)
+    else:
+        v_rot = np.einsum("bij,bj->bi", R[:, :d, :d], v).astype(v.dtype, copy=False)
     return np.concatenate([gyro, acc], axis=1), v_rot
 
 
@@ -173,8 +199,10 @@ def fit_normalization(imu_arrays: Sequence[np.ndarray], kind: Normalization) -> 
 class WindowDataset(torch.utils.data.Dataset):
     """Windows of several sequences (already oriented and resampled) with seeded yaw augmentation.
 
-    Items are ``(x (6, L), v (D,))`` float32 tensors; ``get_batch(indices)`` builds a whole batch with
-    one gather. Call ``set_epoch`` before each epoch to draw that epoch's augmentation angles.
+    Items are ``(x (6, L), v (K, D))`` float32 tensors, K = ``parts`` (the model's
+    ``target_parts(window)``; 1 for window models, whose single part is the window's target);
+    ``get_batch(indices)`` builds a whole batch with one gather. Call ``set_epoch`` before each epoch
+    to draw that epoch's augmentation angles.
     """
 
     def __init__(
@@ -184,26 +212,35 @@ class WindowDataset(torch.utils.data.Dataset):
         stride: int,
         out_dim: int = 2,
         *,
+        parts: int = 1,
         augment_yaw: bool = True,
         seed: int = 0,
     ) -> None:
         _check_window_args(window, stride)
         if not sequences:
             raise ValueError("WindowDataset needs at least one sequence")
-        imu_parts, start_parts, target_parts = [], [], []
+        if out_dim not in (2, 3):
+            raise ValueError(f"out_dim must be 2 (horizontal) or 3, got {out_dim}")
+        if parts < 1 or window % parts:
+            raise ValueError(f"a window of {window} samples cannot be cut into {parts} equal parts")
+        imu_parts, start_parts, t_parts, p_parts = [], [], [], []
         offset = 0
         for seq in sequences:
             _check_training_sequence(seq, window)
             imu = world_imu(seq)
             starts = window_starts(len(seq), window, stride)
             imu_parts.append(imu)
-            target_parts.append(velocity_targets(seq.t_s, seq.gt.p_world_m, starts, window, out_dim))
+            t_parts.append(np.asarray(seq.t_s, dtype=np.float64))
+            p_parts.append(np.asarray(seq.gt.p_world_m[:, :out_dim], dtype=np.float64))
             start_parts.append(starts + offset)
             offset += len(seq)
         self.imu = np.concatenate(imu_parts, axis=0)  # (N_total, 6) float32
         self.imu_per_sequence = imu_parts
         self.starts = np.concatenate(start_parts)  # (M,) index into self.imu
-        self.targets = np.concatenate(target_parts, axis=0)  # (M, D)
+        # Ground truth of every sample; a window's part bounds stay inside its own sequence.
+        self._t_s = np.concatenate(t_parts)  # (N_total,)
+        self._p_world_m = np.concatenate(p_parts, axis=0)  # (N_total, D)
+        self.parts = parts
         self.window = window
         self.stride = stride
         self.out_dim = out_dim
@@ -223,12 +260,19 @@ class WindowDataset(torch.utils.data.Dataset):
     def __len__(self) -> int:
         return len(self.starts)
 
+    def targets(self, indices: Sequence[int] | np.ndarray) -> np.ndarray:
+        """``(B, K, D)`` float32 part velocity targets of window indices (before augmentation)."""
+        starts = self.starts[np.asarray(indices, dtype=np.int64)]
+        return part_velocity_targets(
+            self._t_s, self._p_world_m, starts, self.window, self.parts, self.out_dim
+        )
+
     def get_batch(self, indices: Sequence[int] | np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
-        """``(x (B, 6, L), v (B, D))`` float32 tensors for window indices."""
+        """``(x (B, 6, L), v (B, K, D))`` float32 tensors for window indices."""
         indices = np.asarray(indices, dtype=np.int64)
         rows = self.starts[indices][:, None] + np.arange(self.window)[None, :]  # (B, L)
         x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
-        v = self.targets[indices]
+        v = self.targets(indices)
         if self.augment_yaw:
             x, v = rotate_yaw(x, v, self._angles[indices])
         return torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(np.ascontiguousarray(v))

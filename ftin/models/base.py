@@ -11,9 +11,23 @@
 * ``features``: when a dict is passed, the model stores named intermediate tensors in it (feature
   taps for the dashboard) during the same forward pass; when ``None`` nothing extra is kept.
 
-Sequence-to-sequence models (RoNIN LSTM/TCN, RNIN) predict per-frame or per-sub-window velocity
-internally and return its mean over the window, which is exactly the window's velocity target, so
-the same training loop and inference code serve every model.
+``forward`` is what the dashboard, the benchmark and every generic caller use. Training and
+inference use two finer interfaces, so that the sequence-to-sequence baselines train and run as
+their reference code does:
+
+* Parts. ``target_parts(L) -> K`` (default 1) and ``forward_parts(x) -> VelocityOutput`` with
+  velocity ``(B, K, D)`` (log_std ``(B, K, D)`` or None): the mean velocity of each of K equal,
+  consecutive parts of the window, part k spanning samples ``[k L/K, (k+1) L/K]``. The default is
+  ``forward`` with K = 1. RNIN has one part per sub-window, RoNIN's LSTM and TCN one per frame.
+  ``forward`` of a multi-part model returns the mean over its parts, which is the window's velocity.
+* Streaming (``streams = True``, the sequence-to-sequence RoNIN LSTM and TCN):
+  ``forward_stream(x (B, 6, T), state) -> (velocity (B, T, D), new_state)`` gives one velocity per
+  frame (frame t: the velocity over ``[t[t], t[t+1]]``) and carries what the next chunk needs
+  (``state = None`` at the start of a sequence). Feeding a sequence in chunks gives the same
+  per-frame output as one pass over the whole sequence; inference runs the whole recording this way.
+* ``train_loss``: the name of the loss in ``ftin.train.losses`` this family trains with, as its
+  reference does (losses live outside ``forward``): ``"velocity"`` (window MSE / NLL),
+  ``"rnin_displacement"``, ``"ronin_position_full"`` or ``"ronin_position_part"``.
 
 Window lengths: a model accepts any ``L`` with ``L >= min_window`` and ``L % window_multiple == 0``;
 models whose head size depends on ``L`` take ``window`` in their config.
@@ -21,15 +35,15 @@ models whose head size depends on ``L`` take ``window`` in their config.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import torch
 from torch import nn
 
 
 class VelocityOutput(NamedTuple):
-    velocity: torch.Tensor  # (B, D)
-    log_std: torch.Tensor | None = None  # (B, D)
+    velocity: torch.Tensor  # (B, D); (B, K, D) from forward_parts
+    log_std: torch.Tensor | None = None  # (B, D); (B, K, D) from forward_parts
 
 
 class VelocityModel(nn.Module):
@@ -38,6 +52,8 @@ class VelocityModel(nn.Module):
     has_uncertainty: bool = False
     min_window: int = 1
     window_multiple: int = 1
+    streams: ClassVar[bool] = False  # implements forward_stream (sequence-to-sequence inference)
+    train_loss: ClassVar[str] = "velocity"  # a loss name in ftin.train.losses
 
     def __init__(self, **config) -> None:
         super().__init__()
@@ -50,3 +66,17 @@ class VelocityModel(nn.Module):
 
     def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:  # pragma: no cover
         raise NotImplementedError
+
+    def target_parts(self, window: int) -> int:
+        """How many equal consecutive parts of a ``window``-sample input ``forward_parts`` predicts."""
+        return 1
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        """``(B, 6, L) -> velocity (B, K, D)``, K = ``target_parts(L)``; here K = 1 (``forward``)."""
+        out = self(x, features=features)
+        log_std = None if out.log_std is None else out.log_std[:, None]
+        return VelocityOutput(out.velocity[:, None], log_std)  # (B, 1, D)
+
+    def forward_stream(self, x: torch.Tensor, state: Any = None) -> tuple[torch.Tensor, Any]:
+        """``(B, 6, T), state -> (velocity (B, T, D), new_state)``; only for ``streams`` models."""
+        raise NotImplementedError(f"{type(self).__name__} does not stream (streams = False)")

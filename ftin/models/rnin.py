@@ -11,16 +11,23 @@ Decisions:
 * The reference feeds (B, 10, 6, 100): 10 consecutive, non-overlapping 1 s windows, one displacement
   (and log-std) per window. Here the input is one window (B, 6, L) with L a multiple of ``sub_window``;
   it is cut into L / sub_window consecutive sub-windows that the LSTM runs over (zero initial state per
-  window). The layer sizes do not depend on L, so ``window`` is not in the config: L = 10 x sub_window
-  reproduces the reference's sequence of 10; the paper's 1 s window at 100 Hz is a single sub-window
-  and the design's reference 6 x 200 input two. With one sub-window the LSTM sees one step and the
-  network reduces to a ResNet + LSTM cell + heads: short windows give it no sequence to exploit.
-* Each sub-window's displacement becomes a velocity (displacement / sub-window duration), exposed as
-  the ``per_window_velocity`` tap (B, n, D). The model returns their mean, which equals the whole
-  window's displacement / duration, i.e. the window's velocity target.
-* Uncertainty: each sub-window's head gives a log-std s_i of its velocity. Treating the n estimates as
-  independent, the mean has variance sum(exp(2 s_i)) / n**2, so the returned
-  ``log_std = 0.5 * logsumexp(2 s) - log n`` (exactly s for a single sub-window).
+  window, as the reference starts every sequence of 10). The layer sizes do not depend on L, so
+  ``window`` is not in the config: ``--window 10*rate --stride 0.1*rate`` with ``sub_window = rate``
+  (``--model-kwargs '{"sub_window": 100}'`` at 100 Hz) reproduces the reference's sequences of ten 1 s
+  sub-windows every 0.1 s. With one sub-window the LSTM sees one step and the network reduces to a
+  ResNet + LSTM cell + heads: short windows give it no sequence to exploit.
+* Parts (``ftin.models.base``): ``target_parts(L) = L / sub_window``; ``forward_parts`` returns each
+  sub-window's velocity (its displacement / its duration) and log-std, (B, n, D). Training supervises
+  every sub-window with the reference's loss (``train_loss = "rnin_displacement"``: per-sub-window
+  displacement error plus 8 x the error of their cumulative sum, ``ftin.train.losses``), and inference
+  uses, as the reference's test, only the last sub-window of every window after the first
+  (``ftin.infer``). ``forward`` returns the mean over the sub-windows, which equals the whole window's
+  displacement / duration, i.e. the window's velocity (for the dashboard and generic callers).
+* Uncertainty: each sub-window's head gives a log-std s_i of its velocity. ``forward`` treats the n
+  estimates as independent: the mean has variance sum(exp(2 s_i)) / n**2, so its
+  ``log_std = 0.5 * logsumexp(2 s) - log n`` (exactly s for a single sub-window). The reference's
+  default configuration never trains the covariance (its NLL starts after more epochs than it runs),
+  and neither does its loss here; the head is kept for parity of structure and parameter count.
 * LSTM initialisation as the reference: orthogonal weights, zero biases, forget-gate bias 1.
 
 Feature taps (detached, only when a ``features`` dict is passed): ``backbone`` (B, n, 128, L_res), the
@@ -65,6 +72,7 @@ class RNINNet(VelocityModel):
     """``(B, 6, n * sub_window) -> VelocityOutput(velocity (B, D), log_std (B, D))``."""
 
     has_uncertainty = True
+    train_loss = "rnin_displacement"
 
     def __init__(self, config: RNINConfig) -> None:
         super().__init__(**asdict(config))
@@ -94,14 +102,21 @@ class RNINNet(VelocityModel):
                     size = param.shape[0] // 4
                     nn.init.ones_(param[size : 2 * size])
 
-    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+    def target_parts(self, window: int) -> int:
+        """One part per sub-window."""
+        if window < self.sub_window or window % self.sub_window:
+            raise ValueError(f"rnin: window {window} is not a multiple of sub_window {self.sub_window}")
+        return window // self.sub_window
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        """``(B, 6, n * sub_window) -> velocity, log_std (B, n, D)``: one per sub-window."""
         length = check_input(x, "rnin", min_window=self.min_window, window_multiple=self.window_multiple)
         batch, n = x.shape[0], length // self.sub_window
         # (B, 6, n * S) -> (B, 6, n, S) -> (B, n, 6, S) -> (B * n, 6, S): one ResNet pass per sub-window
         subs = x.reshape(batch, IN_CHANNELS, n, self.sub_window).transpose(1, 2)
         subs = subs.reshape(batch * n, IN_CHANNELS, self.sub_window)
         code = self.transition(self.backbone(subs))  # (B * n, 128, L_res)
-        hidden, _ = self.lstm(code.reshape(batch, n, -1))  # (B, n, lstm_size)
+        hidden, _ = self.lstm(code.reshape(batch, n, -1))  # (B, n, lstm_size), zero initial state
         flat = hidden.reshape(batch * n, -1)
         velocity = self.mean_head(flat).reshape(batch, n, -1)  # (B, n, D)
         log_std = self.log_std_head(flat).reshape(batch, n, -1)  # (B, n, D)
@@ -109,8 +124,13 @@ class RNINNet(VelocityModel):
             features["backbone"] = code.reshape(batch, n, *code.shape[1:]).detach()  # (B, n, 128, L_res)
             features["per_window_velocity"] = velocity.detach()
             features["per_window_log_std"] = log_std.detach()
-        mean_log_std = 0.5 * torch.logsumexp(2.0 * log_std, dim=1) - math.log(n)  # (B, D)
-        return VelocityOutput(velocity.mean(dim=1), mean_log_std)
+        return VelocityOutput(velocity, log_std)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        parts = self.forward_parts(x, features)  # (B, n, D)
+        n = parts.velocity.shape[1]
+        mean_log_std = 0.5 * torch.logsumexp(2.0 * parts.log_std, dim=1) - math.log(n)  # (B, D)
+        return VelocityOutput(parts.velocity.mean(dim=1), mean_log_std)
 
 
 @register_model("rnin")

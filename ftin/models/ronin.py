@@ -14,13 +14,24 @@ configurations equal the reference's at 6 x 200 input and 2 outputs (tests/model
 * ``ronin_tcn``: causal TCN, kernel 3, channels [32, 64, 128, 256, 72, 36], dilation 2**i, weight norm,
   PReLU, dropout 0.2, then dropout + 1x1 conv to out. Receptive field 253 frames. 540,488 parameters.
 
-LSTM and TCN are sequence-to-sequence in the reference (one velocity per frame, window 400, loss on
-the cumulative sum of velocity). Here they still predict one velocity per frame internally (exposed as
-the ``per_frame_velocity`` feature tap, (B, L, D)) and return its mean over the window: the mean of
-the per-frame velocities is the displacement over the window divided by its duration, which is the
-window's velocity target, so the shared training loop and inference code serve them unchanged. Being
-recurrent / convolutional they accept any window length; the LSTM is unidirectional and the TCN
-causal, so early frames of a window see less context, exactly as in the reference.
+LSTM and TCN are sequence-to-sequence, as in the reference (``ronin_lstm_tcn.py``): one velocity per
+frame, frame t's being the velocity over ``[t[t], t[t+1]]``. Decisions (interfaces in
+``ftin.models.base``):
+* Parts: one per frame, ``target_parts(L) = L``; ``forward_parts`` returns the per-frame velocity
+  ``(B, L, D)``. Training runs on chunks of ``window`` frames (the reference's 400 every 100 frames:
+  ``--window 400 --stride 100``) from zero state, with the reference's ``GlobalPosLoss`` on the
+  cumulative sum of the per-frame velocities (``ftin.train.losses``): the whole chunk for the LSTM
+  (``train_loss = "ronin_position_full"``), displacements over ``history = receptive field`` frames
+  for the TCN (``"ronin_position_part"``; capped at ``window - 2`` for chunks shorter than 255).
+* Streaming (``streams = True``): inference runs the whole recording through ``forward_stream`` in
+  chunks, which equals the reference's single pass over the sequence (``network(feat)``). The state
+  is the LSTM's ``(h, c)``; for the causal TCN, the last ``receptive_field - 1`` input frames (the
+  chunk is convolved after them and only its own frames are kept, so every output sees exactly the
+  inputs a whole-sequence pass would; ``None`` at the start, where the layers' zero padding applies).
+* ``forward`` returns the mean of the per-frame velocities over the window: the displacement over the
+  window divided by its duration, i.e. the window's velocity (dashboard, benchmark, generic callers).
+  The LSTM is unidirectional and the TCN causal, so early frames of a window see less context,
+  exactly as in the reference's training chunks.
 
 Feature taps (detached, only when a ``features`` dict is passed): ``backbone`` (B, 512, L_res) for the
 ResNet, ``per_frame_velocity`` (B, L, D) for the LSTM and the TCN.
@@ -110,7 +121,10 @@ class RoninLSTMConfig:
 
 
 class RoninLSTM(VelocityModel):
-    """RoNIN bilinear LSTM: per-frame velocity from a unidirectional LSTM, averaged over the window."""
+    """RoNIN bilinear LSTM: per-frame velocity from a unidirectional LSTM (sequence to sequence)."""
+
+    streams = True
+    train_loss = "ronin_position_full"
 
     def __init__(self, config: RoninLSTMConfig) -> None:
         super().__init__(**asdict(config))
@@ -122,15 +136,31 @@ class RoninLSTM(VelocityModel):
         self.linear1 = nn.Linear(config.hidden_size + mixed, config.out_dim * 5)
         self.linear2 = nn.Linear(config.out_dim * 5, config.out_dim)
 
-    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+    def _per_frame(self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None):
         check_input(x, "ronin_lstm")
-        frames = x.transpose(1, 2)  # (B, L, 6)
-        mixed = torch.cat([frames, self.bilinear(frames, frames)], dim=2)  # (B, L, 30)
-        hidden, _ = self.lstm(mixed)  # (B, L, hidden), zero initial state per window
-        per_frame = self.linear2(self.linear1(torch.cat([mixed, hidden], dim=2)))  # (B, L, D)
+        frames = x.transpose(1, 2)  # (B, T, 6)
+        mixed = torch.cat([frames, self.bilinear(frames, frames)], dim=2)  # (B, T, 30)
+        hidden, new_state = self.lstm(mixed, state)  # (B, T, hidden); state None: zeros
+        per_frame = self.linear2(self.linear1(torch.cat([mixed, hidden], dim=2)))  # (B, T, D)
+        return per_frame, new_state
+
+    def target_parts(self, window: int) -> int:
+        return window
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        per_frame, _ = self._per_frame(x, None)  # (B, L, D), zero initial state per window
         if features is not None:
             features["per_frame_velocity"] = per_frame.detach()
-        return VelocityOutput(per_frame.mean(dim=1))  # (B, D)
+        return VelocityOutput(per_frame)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(self.forward_parts(x, features).velocity.mean(dim=1))  # (B, D)
+
+    def forward_stream(
+        self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None
+    ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
+        """``(B, 6, T)``, LSTM ``(h, c)`` or None -> per-frame velocity ``(B, T, D)``, new ``(h, c)``."""
+        return self._per_frame(x, state)
 
 
 @register_model("ronin_lstm")
@@ -159,7 +189,10 @@ class RoninTCNConfig:
 
 
 class RoninTCN(VelocityModel):
-    """RoNIN TCN: per-frame velocity from a causal TCN, averaged over the window."""
+    """RoNIN TCN: per-frame velocity from a causal TCN (sequence to sequence)."""
+
+    streams = True
+    train_loss = "ronin_position_part"
 
     def __init__(self, config: RoninTCNConfig) -> None:
         super().__init__(**asdict(config))
@@ -173,12 +206,33 @@ class RoninTCN(VelocityModel):
     def receptive_field(self) -> int:
         return self.tcn.receptive_field
 
-    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+    def _per_frame(self, x: torch.Tensor) -> torch.Tensor:
         check_input(x, "ronin_tcn")
-        per_frame = self.output_layer(self.output_dropout(self.tcn(x)))  # (B, D, L)
+        return self.output_layer(self.output_dropout(self.tcn(x))).transpose(1, 2)  # (B, L, D)
+
+    def target_parts(self, window: int) -> int:
+        return window
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        per_frame = self._per_frame(x)  # (B, L, D)
         if features is not None:
-            features["per_frame_velocity"] = per_frame.transpose(1, 2).detach()  # (B, L, D)
-        return VelocityOutput(per_frame.mean(dim=2))  # (B, D)
+            features["per_frame_velocity"] = per_frame.detach()
+        return VelocityOutput(per_frame)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(self.forward_parts(x, features).velocity.mean(dim=1))  # (B, D)
+
+    def forward_stream(
+        self, x: torch.Tensor, state: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(B, 6, T)``, the previous ``<= receptive_field - 1`` input frames ``(B, 6, H)`` or None
+        -> per-frame velocity ``(B, T, D)``, the new history."""
+        length = check_input(x, "ronin_tcn")
+        full = x if state is None else torch.cat([state, x], dim=2)  # (B, 6, H + T)
+        per_frame = self._per_frame(full)[:, full.shape[2] - length :]  # (B, T, D): the chunk's frames
+        keep = self.receptive_field - 1
+        history = full[:, :, max(full.shape[2] - keep, 0) :].contiguous()  # (B, 6, <= keep)
+        return per_frame, history
 
 
 @register_model("ronin_tcn")

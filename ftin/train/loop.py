@@ -18,6 +18,15 @@ Decisions:
 - ``max_minutes`` is per invocation (a CPU budget); ``max_steps`` counts optimizer steps over the
   whole run. Either stops the run after the current step and writes the resume state; ``--resume``
   continues it. SIGINT/SIGTERM do the same at the next step boundary.
+- Parts and losses (``ftin.models.base``, ``ftin.train.losses``): the dataset yields per-part
+  targets ``(B, K, D)``, K = ``model.target_parts(window)``; the model's ``forward_parts`` is trained
+  with the loss its family's reference uses (``model.train_loss``): window models with MSE / NLL as
+  before, RNIN with its displacement + 8 x cumulative loss, RoNIN LSTM / TCN with the cumulative-
+  position loss over chunks of ``window`` frames (the reference's ``--window 400 --stride 100``).
+- Validation stays comparable across every model: the MSE of 1 s mean velocities. K = 1 models are
+  compared on their window's velocity, as before; multi-part models average predicted and target
+  part velocities over blocks of ``round(imu_rate_hz)`` frames (``validation_blocks``: RNIN's 1 s
+  sub-windows are blocks of one part, a per-frame model's 400-frame chunk at 200 Hz two blocks).
 - The scheduler and the best checkpoint follow the validation velocity MSE (training MSE without
   validation data); training ends when the learning rate falls below ``min_lr`` or after
   ``max_epochs``. When a run stops before any epoch ends, its current weights are written as the
@@ -43,7 +52,6 @@ from typing import Any
 import numpy as np
 import torch
 import torch.distributed as dist
-import torch.nn.functional as F
 from torch.utils.data.distributed import DistributedSampler
 from tqdm import tqdm
 
@@ -54,6 +62,8 @@ from ftin.models import create_model
 from ftin.models.base import VelocityModel, VelocityOutput
 from ftin.train.checkpoint import atomic_write_text, save_checkpoint, to_json_safe
 from ftin.train.config import BUDGET_FIELDS, ConfigError, LossKind, TrainConfig
+from ftin.train.losses import LossFn, make_loss
+from ftin.train.losses import velocity_loss as velocity_loss  # re-exported: ftin.bench and tests use it
 from ftin.train.state import load_training_state, restore_rng, save_training_state
 
 CONFIG_FILE = "config.json"
@@ -155,29 +165,37 @@ def build_model(name: str, window: int, out_dim: int | None, model_kwargs: dict[
     return create_model(name, **model_kwargs, **extra) if extra else probe
 
 
-# --- losses ---------------------------------------------------------------------------------------
+# --- parts -----------------------------------------------------------------------------------------
 
 
-def velocity_loss(
-    output: VelocityOutput,
-    target: torch.Tensor,
-    use_nll: bool,
-    warmup: bool,
-    log_std_range: tuple[float, float],
-) -> torch.Tensor:
-    """MSE, or Gaussian NLL (per element, constant dropped) with a clamped log-std.
+class PartsForward(torch.nn.Module):
+    """``model.forward_parts`` as a module's ``forward``, so that DistributedDataParallel (which
+    synchronises gradients only for calls of the module it wraps) can wrap it."""
 
-    During ``warmup`` the velocity gets the MSE gradient and the log-std learns from the detached
-    error, so a bad early uncertainty cannot slow down the mean (TLIO's motivation for MSE first).
+    def __init__(self, model: VelocityModel) -> None:
+        super().__init__()
+        self.model = model
+
+    def forward(self, x: torch.Tensor) -> VelocityOutput:
+        return self.model.forward_parts(x)  # velocity (B, K, D)
+
+
+def validation_blocks(window: int, parts: int, rate_hz: float) -> int:
+    """How many consecutive parts make one ~1 s validation block (module docstring).
+
+    A part lasts ``window / parts`` frames; a block is ``round(rate_hz)`` frames, rounded to whole
+    parts, at least one part and at most the whole window (a window shorter than 1 s is one block).
+    Parts left over after the last whole block are not scored.
     """
-    if not use_nll:
-        return F.mse_loss(output.velocity, target)
-    log_std = output.log_std.clamp(*log_std_range)
-    error = output.velocity - target
-    if warmup:
-        nll = 0.5 * error.detach() ** 2 * torch.exp(-2.0 * log_std) + log_std
-        return F.mse_loss(output.velocity, target) + nll.mean()
-    return (0.5 * error**2 * torch.exp(-2.0 * log_std) + log_std).mean()
+    part_frames = window // parts
+    return int(min(parts, max(1, round(round(rate_hz) / part_frames))))
+
+
+def block_means(velocity: torch.Tensor, per_block: int) -> torch.Tensor:
+    """``(B, K, D) -> (B, K // per_block, D)``: mean over consecutive blocks of ``per_block`` parts."""
+    batch, parts, dim = velocity.shape
+    blocks = parts // per_block
+    return velocity[:, : blocks * per_block].reshape(batch, blocks, per_block, dim).mean(dim=2)
 
 
 # --- distributed ----------------------------------------------------------------------------------
@@ -303,8 +321,12 @@ def _train(
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"model {config.model!r}: {exc}") from None
     config = config.with_(window=window, out_dim=model.out_dim)
-    _check_model_accepts(model, config)
+    parts = _check_model_accepts(model, config)
     use_nll = _use_nll(config, model)
+    try:
+        loss_fn = make_loss(model, window, rate_hz, use_nll=use_nll, log_std_range=config.log_std_range)
+    except ValueError as exc:
+        raise ConfigError(f"model {config.model!r} with --window {window}: {exc}") from None
     device = torch.device(config.device)
     model.to(device)
 
@@ -313,11 +335,12 @@ def _train(
         window,
         config.stride,
         model.out_dim,
+        parts=parts,
         augment_yaw=config.augment_yaw,
         seed=config.seed,
     )
     val_dataset = (
-        WindowDataset(val_sequences, window, config.stride, model.out_dim, augment_yaw=False)
+        WindowDataset(val_sequences, window, config.stride, model.out_dim, parts=parts, augment_yaw=False)
         if val_sequences
         else None
     )
@@ -351,13 +374,13 @@ def _train(
         restore_rng(rng)
     elif ddp.main:
         config.save(out_dir / CONFIG_FILE)
-    net: torch.nn.Module = model
+    net: torch.nn.Module = PartsForward(model)
     if ddp.world > 1:
         if not ddp.main:  # same initial weights on every rank (seeded above), then distinct dropout
             torch.manual_seed(config.seed * 1000 + ddp.rank + state["global_step"])
         # An uncertainty head trained with plain MSE gets no gradient: DDP must be told.
         unused = model.has_uncertainty and not use_nll
-        net = torch.nn.parallel.DistributedDataParallel(model, find_unused_parameters=unused)
+        net = torch.nn.parallel.DistributedDataParallel(net, find_unused_parameters=unused)
 
     run = _Run(
         config=config,
@@ -371,6 +394,8 @@ def _train(
         sampler=sampler,
         local_batch=local_batch,
         use_nll=use_nll,
+        loss_fn=loss_fn,
+        val_per_block=validation_blocks(window, parts, rate_hz),
         device=device,
         ddp=ddp,
         state=state,
@@ -404,6 +429,8 @@ class _Run:
     sampler: DistributedSampler
     local_batch: int
     use_nll: bool
+    loss_fn: LossFn
+    val_per_block: int  # parts per ~1 s validation block (validation_blocks)
     device: torch.device
     ddp: _Dist
     state: dict[str, Any]
@@ -488,9 +515,9 @@ class _Run:
         x, v = self.dataset.get_batch(indices)
         x = self.normalization.apply(x.to(self.device))
         v = v.to(self.device)
-        output = self.net(x)
+        output = self.net(x)  # forward_parts: velocity (B, K, D)
         warmup = epoch < self.config.nll_warmup_epochs
-        loss = velocity_loss(output, v, self.use_nll, warmup, self.config.log_std_range)
+        loss = self.loss_fn(output, v, warmup)
         if not torch.isfinite(loss):
             raise FloatingPointError(
                 f"training loss became {loss.item()} at epoch {epoch + 1}, "
@@ -521,7 +548,8 @@ class _Run:
         return reason
 
     def validation_mse(self) -> float | None:
-        """Mean squared velocity error over every validation window (all ranks together)."""
+        """Mean squared error of ~1 s mean velocities over every validation window (all ranks
+        together): per window for K = 1 models, per block of parts otherwise (module docstring)."""
         if self.val_dataset is None:
             return None
         self.model.eval()
@@ -530,9 +558,11 @@ class _Run:
         with torch.inference_mode():
             for i in range(0, len(indices), self.local_batch):
                 x, v = self.val_dataset.get_batch(indices[i : i + self.local_batch])
-                pred = self.model(self.normalization.apply(x.to(self.device))).velocity
-                sq_sum += float(((pred - v.to(self.device)) ** 2).sum())
-                count += v.numel()
+                pred = self.model.forward_parts(self.normalization.apply(x.to(self.device))).velocity
+                pred = block_means(pred, self.val_per_block)  # (B, blocks, D)
+                target = block_means(v.to(self.device), self.val_per_block)
+                sq_sum += float(((pred - target) ** 2).sum())
+                count += target.numel()
         sq_sum, count = self.ddp.sum(sq_sum, count)
         return sq_sum / max(count, 1)
 
@@ -632,26 +662,36 @@ class _Run:
 
 
 def _use_nll(config: TrainConfig, model: VelocityModel) -> bool:
+    """Whether the ``"velocity"`` loss is the NLL. Families with their own reference loss (RNIN,
+    RoNIN LSTM / TCN) train with it under ``auto``; ``nll`` is an error for them."""
     if config.loss is LossKind.NLL and not model.has_uncertainty:
         raise ConfigError(f"loss 'nll' needs a model with an uncertainty head; {config.model!r} has none")
-    if config.loss is LossKind.MSE:
+    if config.loss is LossKind.NLL and model.train_loss != "velocity":
+        raise ConfigError(
+            f"loss 'nll': {config.model!r} trains with its reference's {model.train_loss!r} loss "
+            "(ftin.train.losses); use loss 'auto'"
+        )
+    if config.loss is LossKind.MSE or model.train_loss != "velocity":
         return False
     return bool(model.has_uncertainty)
 
 
-def _check_model_accepts(model: VelocityModel, config: TrainConfig) -> None:
-    """Run the model once on zeros so a window it cannot take fails before any data work."""
+def _check_model_accepts(model: VelocityModel, config: TrainConfig) -> int:
+    """Run the model once on zeros so a window it cannot take fails before any data work; returns
+    the number of parts K its ``forward_parts`` predicts for the window."""
     model.eval()
     try:
+        parts = model.target_parts(config.window)
         with torch.inference_mode():
-            output = model(torch.zeros(2, 6, config.window))
+            output = model.forward_parts(torch.zeros(2, 6, config.window))
     except ValueError as exc:
         raise ConfigError(f"--window {config.window}: {exc}") from None
-    if output.velocity.shape != (2, model.out_dim):
+    if output.velocity.shape != (2, parts, model.out_dim) or config.window % parts:
         raise ConfigError(
-            f"model {config.model!r} returned velocity of shape {tuple(output.velocity.shape)}, "
-            f"expected (B, {model.out_dim})"
+            f"model {config.model!r} returned part velocities of shape {tuple(output.velocity.shape)}, "
+            f"expected (B, {parts}, {model.out_dim}) for {parts} equal parts of {config.window} samples"
         )
+    return parts
 
 
 def _check_resumed_config(config: TrainConfig, out_dir: Path) -> None:

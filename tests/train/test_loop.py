@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from ftin.models import VelocityOutput
+from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train import ConfigError, TrainConfig, load_model, train
 from ftin.train.loop import _stop_signals, build_model, split_validation, velocity_loss
 
@@ -34,8 +35,15 @@ def _config(tmp_path, **changes) -> TrainConfig:
     return TrainConfig(**base)
 
 
-def _weights(run_dir):
-    return {k: v.clone() for k, v in load_model(run_dir / "ronin_tcn").model.state_dict().items()}
+def _weights(run_dir, name="ronin_tcn"):
+    return {k: v.clone() for k, v in load_model(run_dir / name).model.state_dict().items()}
+
+
+# The TCN is a sequence model (per-frame parts, its reference's position loss); FTIN a window model.
+RESUME_MODELS = {
+    "ronin_tcn": {},
+    "ftin": {"model": "ftin", "model_kwargs": {**TINY_FTIN_KWARGS, "window": WINDOW}},
+}
 
 
 def test_training_writes_a_run_folder(tmp_path, sim_sequences):
@@ -68,26 +76,27 @@ def test_training_writes_a_run_folder(tmp_path, sim_sequences):
     assert meta["wall_time_s"] > 0 and not meta["metrics"]["partial"]
 
 
-def test_stopped_and_resumed_run_matches_an_uninterrupted_one(tmp_path, sim_sequences):
-    whole = train(_config(tmp_path / "a"), sim_sequences, progress=False)
+@pytest.mark.parametrize("name", sorted(RESUME_MODELS))
+def test_stopped_and_resumed_run_matches_an_uninterrupted_one(tmp_path, sim_sequences, name):
+    model = RESUME_MODELS[name]
+    whole = train(_config(tmp_path / "a", **model), sim_sequences, progress=False)
     assert whole.steps > 6
-    stopped = train(_config(tmp_path / "b", max_steps=5), sim_sequences, progress=False)
+    stopped = train(_config(tmp_path / "b", max_steps=5, **model), sim_sequences, progress=False)
     assert stopped.stop_reason == "max_steps" and stopped.steps == 5 and not stopped.finished
-    partial = load_model(tmp_path / "b" / "run" / "ronin_tcn")  # something to load even mid-epoch
+    partial = load_model(tmp_path / "b" / "run" / name)  # something to load even mid-epoch
     assert partial.meta["metrics"]["partial"]
     # Another budget stop in the second epoch, then run to the end.
-    again = train(
-        _config(tmp_path / "b", max_steps=whole.steps - 2), sim_sequences, resume=True, progress=False
-    )
+    budget = _config(tmp_path / "b", max_steps=whole.steps - 2, **model)
+    again = train(budget, sim_sequences, resume=True, progress=False)
     assert again.steps == whole.steps - 2 and again.epochs_done == 1
-    resumed = train(_config(tmp_path / "b"), sim_sequences, resume=True, progress=False)
+    resumed = train(_config(tmp_path / "b", **model), sim_sequences, resume=True, progress=False)
     assert resumed.stop_reason == "max_epochs" and resumed.steps == whole.steps
-    a, b = _weights(tmp_path / "a" / "run"), _weights(tmp_path / "b" / "run")
+    a, b = _weights(tmp_path / "a" / "run", name), _weights(tmp_path / "b" / "run", name)
     for key in a:
         torch.testing.assert_close(b[key], a[key], rtol=0, atol=0)
     assert [h["val_mse"] for h in resumed.history] == [h["val_mse"] for h in whole.history]
     # A finished run resumed with a larger epoch budget continues.
-    more = train(_config(tmp_path / "b", max_epochs=3), sim_sequences, resume=True, progress=False)
+    more = train(_config(tmp_path / "b", max_epochs=3, **model), sim_sequences, resume=True, progress=False)
     assert more.epochs_done == 3
 
 

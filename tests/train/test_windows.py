@@ -14,6 +14,7 @@ from ftin.data.windows import (
     WindowDataset,
     fit_normalization,
     make_windows,
+    part_velocity_targets,
     rotate_yaw,
     window_starts,
 )
@@ -84,10 +85,49 @@ def test_dataset_matches_make_windows_without_augmentation(sim_sequences):
     assert len(ds) == sum(len(p) for p in parts)
     x, v = ds.get_batch(np.arange(len(ds)))
     np.testing.assert_array_equal(x.numpy(), np.concatenate([p.x for p in parts]))
-    np.testing.assert_array_equal(v.numpy(), np.concatenate([p.v for p in parts]))
+    assert v.shape == (len(ds), 1, 2)  # one part: exactly the window's target
+    np.testing.assert_array_equal(v.numpy()[:, 0], np.concatenate([p.v for p in parts]))
     item_x, item_v = ds[len(parts[0])]  # first window of the second sequence
     np.testing.assert_array_equal(item_x.numpy(), parts[1].x[0])
-    assert isinstance(item_x, torch.Tensor) and item_v.shape == (2,)
+    assert isinstance(item_x, torch.Tensor) and item_v.shape == (1, 2)
+
+
+@pytest.mark.parametrize("parts", [5, 25])
+def test_part_targets_are_the_differenced_ground_truth(sim_sequences, parts):
+    """Part k of the window at s: (p[b] - p[a]) / (t[b] - t[a]) over a = s + k L/K, b = a + L/K; the
+    parts' mean is the window's target (equal durations on the uniform grid)."""
+    seqs = sim_sequences[:2]
+    ds = WindowDataset(seqs, 25, 10, out_dim=3, parts=parts, augment_yaw=False)
+    _, v = ds.get_batch(np.arange(len(ds)))
+    assert v.shape == (len(ds), parts, 3) and v.dtype == torch.float32
+    first = len(window_starts(len(seqs[0]), 25, 10))
+    for index, seq, s in ((3, seqs[0], 30), (first + 2, seqs[1], 20)):  # a window of each sequence
+        p, t, step = seq.gt.p_world_m, seq.t_s, 25 // parts
+        for k in (0, parts - 1):
+            a, b = s + k * step, s + (k + 1) * step
+            expected = (p[b] - p[a]) / (t[b] - t[a])
+            np.testing.assert_allclose(v[index, k].numpy(), expected, rtol=1e-5, atol=1e-6)
+    window_v = np.concatenate([make_windows(q, 25, 10, out_dim=3).v for q in seqs])
+    np.testing.assert_allclose(v.numpy().mean(axis=1), window_v, rtol=1e-4, atol=1e-5)
+    single = part_velocity_targets(seqs[0].t_s, seqs[0].gt.p_world_m, np.array([30]), 25, 1)
+    np.testing.assert_array_equal(single[:, 0], make_windows(seqs[0], 25, 10).v[3:4])
+    with pytest.raises(ValueError, match="equal parts"):
+        WindowDataset(seqs, 25, 10, parts=4)
+
+
+def test_part_targets_turn_with_the_yaw_augmentation(sim_sequences):
+    plain = WindowDataset(sim_sequences[:1], 25, 10, parts=5, augment_yaw=False)
+    turned = WindowDataset(sim_sequences[:1], 25, 10, parts=5, seed=2)
+    idx = np.array([3, 7])
+    x_plain, v_plain = plain.get_batch(idx)
+    x_turned, v_turned = turned.get_batch(idx)
+    angles = turned._angles[idx]
+    expected_x, expected_v = rotate_yaw(x_plain.numpy(), v_plain.numpy(), angles)
+    np.testing.assert_allclose(x_turned.numpy(), expected_x, atol=1e-6)
+    np.testing.assert_allclose(v_turned.numpy(), expected_v, atol=1e-6)
+    for k in range(5):  # every part of a window by the window's one angle, as its IMU
+        _, v_k = rotate_yaw(x_plain.numpy(), v_plain.numpy()[:, k], angles)
+        np.testing.assert_allclose(v_turned.numpy()[:, k], v_k, atol=1e-6)
 
 
 def test_dataset_augmentation_is_seeded_per_epoch(sim_sequences):
@@ -101,7 +141,7 @@ def test_dataset_augmentation_is_seeded_per_epoch(sim_sequences):
     assert torch.equal(xa[0], xa[3])  # a window's angle does not depend on where it sits in a batch
     _, v_plain = plain.get_batch(idx)
     assert not torch.allclose(va, v_plain)
-    torch.testing.assert_close(va.norm(dim=1), v_plain.norm(dim=1))  # a yaw keeps the speed
+    torch.testing.assert_close(va.norm(dim=-1), v_plain.norm(dim=-1))  # a yaw keeps the speed
     a.set_epoch(1)
     xa1, _ = a.get_batch(idx)
     assert not torch.allclose(xa1, xa)
