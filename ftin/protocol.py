@@ -161,7 +161,8 @@ def model_options(model: str, dataset: str) -> dict[str, Any]:
 
 
 def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
-    """Every job, most informative first. FTIN's seeds 1-2 use ``ftin_variant`` (None: not yet chosen)."""
+    """Every job, most informative first; the pedestrian model (the app's default) as soon as the
+    FTIN variant is chosen. FTIN's seeds 1-2 use ``ftin_variant`` (None: not yet chosen)."""
     jobs: list[Job] = []
 
     def add(model: str, dataset: str, seed: int, variant: str | None = None) -> None:
@@ -175,6 +176,8 @@ def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
         for variant in FTIN_VARIANTS:
             add("ftin", dataset, 0, variant)
         add("ronin_resnet", dataset, 0)
+    if ftin_variant is not None:  # the app's default model, as soon as the variant is known
+        add("ftin", PEDESTRIAN, 0, ftin_variant)
     for dataset in (OXIOD, RIDI):
         for model in ("resnet_fdl", "resnet_tdl", "ronin_lstm", "ronin_tcn", "rnin", "imunet", "tlio"):
             add(model, dataset, 0)
@@ -184,6 +187,4 @@ def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
                 add(model, dataset, seed)
             if ftin_variant is not None:
                 add("ftin", dataset, seed, ftin_variant)
-    if ftin_variant is not None:
-        add("ftin", PEDESTRIAN, 0, ftin_variant)
     return jobs

@@ -137,8 +137,9 @@ def all_jobs(state: dict[str, Any]) -> list[Any]:
     from ftin import protocol
 
     jobs = protocol.campaign_jobs(state.get("ftin_variant"))
-    if state.get("ftin_variant") is not None:
-        jobs.append(sim_job(state["ftin_variant"]))
+    if state.get("ftin_variant") is not None:  # the bundled samples' model, right after the pedestrian one
+        after = next(i for i, j in enumerate(jobs) if j.dataset == protocol.PEDESTRIAN) + 1
+        jobs.insert(after, sim_job(state["ftin_variant"]))
     return jobs
 
 
