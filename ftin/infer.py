@@ -49,11 +49,12 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
+from ftin.data.preprocess import ensure_orientation, resample
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view, world_imu
 from ftin.metrics import Convention, TrajectoryMetrics, evaluate_trajectory
-from ftin.train.checkpoint import LoadedModel
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
@@ -157,8 +158,6 @@ def predict_prepared(
 
 def prepare_for_checkpoint(loaded: LoadedModel, seq: ImuSequence) -> tuple[ImuSequence, list[str]]:
     """The sequence with an orientation, on a uniform grid at the checkpoint's rate; plus notes."""
-    from ftin.data.preprocess import ensure_orientation, resample
-
     notes: list[str] = []
     prepared = ensure_orientation(seq)
     if seq.q_world_device_wxyz is None:

@@ -41,13 +41,6 @@ _MIB = 1024.0 * 1024.0
 # --- the measuring process ---------------------------------------------------------------------------
 
 
-def _peak_rss_mib() -> float:
-    import resource
-
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return peak / _MIB if sys.platform == "darwin" else peak / 1024.0  # bytes on macOS, KiB on Linux
-
-
 def _random_recording(minutes: float, seed: int):
     """``minutes`` of 200 Hz IMU noise with a given slowly turning device orientation."""
     import numpy as np
@@ -70,9 +63,9 @@ def _random_recording(minutes: float, seed: int):
 def _ftin_default(seed: int):
     import torch
 
+    from ftin.checkpoint import LoadedModel
     from ftin.data.windows import InputNormalization
     from ftin.models import create_model
-    from ftin.train.checkpoint import LoadedModel
 
     torch.manual_seed(seed)
     model = create_model(MODEL).eval()
@@ -114,6 +107,7 @@ def measure(minutes: float, batch_size: int, threads: int, materialised: bool, s
 
     import torch
 
+    from ftin.bench import peak_rss_mib
     from ftin.infer import predict_trajectory
 
     torch.set_num_threads(threads)
@@ -121,7 +115,7 @@ def measure(minutes: float, batch_size: int, threads: int, materialised: bool, s
     seq = _random_recording(minutes, seed)
     recording_mib = sum(a.nbytes for a in (seq.t_s, seq.gyro_rad_s, seq.acc_m_s2, seq.q_world_device_wxyz))
     gc.collect()
-    baseline = _peak_rss_mib()
+    baseline = peak_rss_mib()
     start = time.perf_counter()
     if materialised:
         windows_bytes = _predict_materialised(loaded, seq, batch_size)
@@ -130,7 +124,7 @@ def measure(minutes: float, batch_size: int, threads: int, materialised: bool, s
         prediction = predict_trajectory(loaded, seq, batch_size=batch_size)
         n_windows = len(prediction.velocity_m_s)
     seconds = time.perf_counter() - start
-    after = _peak_rss_mib()
+    after = peak_rss_mib()
     return {
         "mode": "materialised" if materialised else "streamed",
         "minutes": minutes,

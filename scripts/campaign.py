@@ -258,7 +258,8 @@ def run_job(args: argparse.Namespace) -> None:
     import torch
 
     from ftin.train.config import TrainConfig
-    from ftin.train.loop import RESUME_FILE, run_training
+    from ftin.train.loop import run_training
+    from ftin.train.state import RESUME_FILE
 
     torch.set_num_threads(1)
     runs: Path = args.runs
@@ -334,10 +335,10 @@ def make_sim_data(runs: Path) -> None:
 def evaluate_job(job: Any, state: dict[str, Any], runs: Path, checkpoint: Path) -> dict[str, Any]:
     """Per-sequence metrics of the best checkpoint on val and test, both orientation sources."""
     from ftin import protocol
+    from ftin.checkpoint import load_model
+    from ftin.data.loading import load_sequences
     from ftin.evaluate import evaluate_checkpoint
     from ftin.metrics import Convention, evaluate_trajectory, stand_still
-    from ftin.train.checkpoint import load_model
-    from ftin.train.loop import load_sequences
 
     loaded = load_model(checkpoint)
     result: dict[str, Any] = {

@@ -1,23 +1,19 @@
-"""``ftin models``: every registered model side by side — parameters, FLOPs per window, windows/s.
-
-The model imports are deferred into the command: importing torch costs seconds that the other
-``ftin`` commands should not pay at start-up.
-"""
+"""``ftin models``: every registered model side by side — parameters, FLOPs per window, windows/s
+(``ftin.bench.profile``)."""
 
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
+from ftin.bench.profile import DEFAULT_WINDOW, ModelProfile, profile_model, torch_threads
 from ftin.cli import app
 from ftin.cli.common import err_console, user_errors
-
-if TYPE_CHECKING:
-    from ftin.models.profile import ModelProfile
+from ftin.models import UnknownModelError, check_known_models, list_models
 
 CONVENTIONS = (
     "FLOPs: one window, eval mode; convolutions, matmuls, LSTM gates, bilinear and FFT; "
@@ -51,9 +47,6 @@ def models_command(
     speed: Annotated[bool, typer.Option("--speed/--no-speed", help="Measure windows/s.")] = True,
 ) -> None:
     """Parameters, FLOPs per window and measured inference windows/s of every model, side by side."""
-    from ftin.models import UnknownModelError, list_models
-    from ftin.models.profile import DEFAULT_WINDOW, check_known_models, profile_model, torch_threads
-
     window = DEFAULT_WINDOW if window is None else window
     names = model or list_models()
     with user_errors(UnknownModelError):

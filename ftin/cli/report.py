@@ -16,14 +16,17 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.bench import BenchConfig
+from ftin.bench import MEMORY_METHOD, BenchConfig, bench_json, bench_models
+from ftin.checkpoint import CheckpointError, atomic_write_text
 from ftin.cli import app
 from ftin.cli.common import progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.metrics import Convention
 from ftin.models import UnknownModelError, list_models
+from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
+from ftin.report.campaign import ate_figure, load_results, render
+from ftin.report.figures import write_png
 from ftin.report.results import DatasetSpec, ReportError
-from ftin.train.checkpoint import CheckpointError, atomic_write_text
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults
 EXPECTED_ERRORS = (DataFormatError, CheckpointError, UnknownModelError, ValueError, OSError)
@@ -68,14 +71,6 @@ def table_command(
 ) -> None:
     """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
     trajectory figures, for every checkpoint in a folder on every dataset."""
-    from ftin.report import (
-        evaluate_checkpoints,
-        find_checkpoints,
-        load_checkpoints,
-        load_datasets,
-        write_report,
-    )
-
     if campaign is not None:
         _campaign_table(campaign, out)
         return
@@ -117,9 +112,6 @@ def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> l
 
 
 def _campaign_table(folder: Path, out: Path) -> None:
-    from ftin.report.campaign import ate_figure, load_results, render
-    from ftin.report.figures import write_png
-
     with user_errors(*EXPECTED_ERRORS):
         results, manifest = load_results(folder)
         table_md, table_csv, summary = render(results, manifest)
@@ -173,8 +165,6 @@ def bench_command(
 ) -> None:
     """Inference and training windows/s, real-time factor, peak memory and parameters of every model,
     side by side on this machine."""
-    from ftin.bench import MEMORY_METHOD, bench_json, bench_models
-
     with user_errors(*EXPECTED_ERRORS):
         if json_out is not None and not json_out.expanduser().parent.is_dir():
             # checked first: the measurements take minutes

@@ -30,7 +30,10 @@ their reference code does:
   ``"rnin_displacement"``, ``"ronin_position_full"`` or ``"ronin_position_part"``.
 
 Window lengths: a model accepts any ``L`` with ``L >= min_window`` and ``L % window_multiple == 0``;
-models whose head size depends on ``L`` take ``window`` in their config.
+models whose head size depends on ``L`` take ``window`` in their config. Which of these a registered
+model is, with its default window, rate and outputs, is its input contract in the registry
+(``ftin.models.registry.model_contract``), known without building it; the attributes here agree with
+it (tests/models/test_all_models.py checks every model).
 """
 
 from __future__ import annotations
@@ -70,6 +73,20 @@ class VelocityModel(nn.Module):
     def target_parts(self, window: int) -> int:
         """How many equal consecutive parts of a ``window``-sample input ``forward_parts`` predicts."""
         return 1
+
+    def check_parts(self, window: int) -> int:
+        """Run ``forward_parts`` once on zeros (eval mode) so that a window the model cannot take fails
+        before any data work; returns K = ``target_parts(window)``. Raises ``ValueError``."""
+        self.eval()
+        parts = self.target_parts(window)
+        with torch.inference_mode():
+            shape = tuple(self.forward_parts(torch.zeros(2, 6, window)).velocity.shape)
+        if shape != (2, parts, self.out_dim) or window % parts:
+            raise ValueError(
+                f"{type(self).__name__} returned part velocities of shape {shape}, expected "
+                f"(B, {parts}, {self.out_dim}) for {parts} equal parts of {window} samples"
+            )
+        return parts
 
     def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
         """``(B, 6, L) -> velocity (B, K, D)``, K = ``target_parts(L)``; here K = 1 (``forward``)."""

@@ -84,7 +84,7 @@ from ftin.models.layers.fdl import FDLOutput, FrequencyDomainLearning, parse_act
 from ftin.models.layers.heads import MLPHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.layers.slstm import ForgetGate, SLSTMStack
-from ftin.models.registry import register_model
+from ftin.models.registry import ModelCfg, register_model
 
 
 class ScanAxis(str, Enum):
@@ -157,7 +157,11 @@ class FTINConfig:
             ) from None
 
 
-@register_model("ftin")
+# window 100: 1 s at 100 Hz (the paper's window = rate); built for it, see the module docstring.
+FTIN_CFG = ModelCfg(FTINConfig, window=100, rate_hz=100.0)
+
+
+@register_model("ftin", FTIN_CFG)
 class FTIN(VelocityModel):
     """FTIN: ResNet-1D -> FDL -> sLSTM -> MLP head; subclasses switch ``use_fdl`` / ``use_tdl`` off."""
 
@@ -249,21 +253,21 @@ class FTIN(VelocityModel):
         return VelocityOutput(self.head(seq), None)  # head flattens (B, ...) -> (B, D)
 
 
-@register_model("resnet_fdl")
+@register_model("resnet_fdl", FTIN_CFG)
 class ResNetFDL(FTIN):
     """Ablation +FDL: ResNet-1D encoder -> FDL -> MLP head."""
 
     use_tdl = False
 
 
-@register_model("resnet_tdl")
+@register_model("resnet_tdl", FTIN_CFG)
 class ResNetTDL(FTIN):
     """Ablation +TDL: ResNet-1D encoder -> sLSTM over its L_res steps -> MLP head."""
 
     use_fdl = False
 
 
-@register_model("resnet1d")
+@register_model("resnet1d", FTIN_CFG)
 class ResNet1D(FTIN):
     """Ablation baseline: ResNet-1D encoder -> MLP head (RoNIN ResNet's structure)."""
 

@@ -29,7 +29,7 @@ from torch import nn
 
 from ftin.models.base import VelocityModel, VelocityOutput
 from ftin.models.layers.checks import check_input, make_config, require
-from ftin.models.registry import register_model
+from ftin.models.registry import ModelCfg, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
 STEM_CHANNELS = 64
@@ -150,6 +150,6 @@ class IMUNet(VelocityModel):
         return VelocityOutput(self.fc(mixed))
 
 
-@register_model("imunet")
+@register_model("imunet", ModelCfg(IMUNetConfig, window=200, rate_hz=200.0, min_window=MIN_WINDOW))
 def imunet(**cfg) -> IMUNet:
     return IMUNet(make_config(IMUNetConfig, "imunet", cfg))

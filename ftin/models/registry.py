@@ -1,24 +1,122 @@
-"""timm-style model registry: ``create_model(name, **cfg)`` and ``list_models()``."""
+"""timm-style model registry: ``create_model(name, **options)``, ``list_models()`` and each model's
+input contract, ``model_contract(name) -> ModelCfg`` (timm's ``default_cfg``), known without building.
+
+The contract says what a model takes and gives (``ftin.models.base`` has the interface itself):
+
+* windows: its default window (samples) and the IMU rate that window is meant for, and which other
+  windows it accepts: ``Windows.FIXED`` (layer sizes depend on ``L``: built for the ``window``
+  option, it accepts only that length), ``Windows.MULTIPLE`` (any ``L >= min_window`` that is a
+  multiple of ``window_multiple``; RNIN's multiple is its ``sub_window`` option) or ``Windows.ANY``
+  (any ``L >= min_window``: the sequence-to-sequence RoNIN LSTM and TCN);
+* outputs: ``out_dim`` by default, whether it has an uncertainty (log-std) head, its parts per
+  window (``Parts``), whether it streams, and the loss its family trains with.
+
+``create_model(name, window=L, out_dim=D, ...)`` is the one way to build a model for a window:
+``window`` goes into the config of ``FIXED`` models and is checked against the contract of the others
+(``ValueError`` naming the requirement). Decision: a *contract option* (``window``, ``out_dim``) that a
+model does not take is dropped silently, so that generic callers (training, profiling, the
+benchmark) can pass the same options to every model; the model's ``config`` (what checkpoints store)
+never holds a dropped key. Any other key a model does not know is still an error, raised by the
+model's config (``ValueError``/``TypeError`` naming the valid keys), so misspellings are caught.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
-from typing import TypeVar
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, TypeVar
 
 from torch import nn
 
+# Options every caller may pass to any model; a model that does not take one ignores it.
+CONTRACT_OPTIONS = frozenset({"window", "out_dim"})
+
+
+class Windows(str, Enum):
+    FIXED = "fixed"  # built for the ``window`` option; accepts only that length
+    MULTIPLE = "multiple"  # any L >= min_window with L % window_multiple == 0
+    ANY = "any"  # any L >= min_window
+
+
+class Parts(str, Enum):
+    """What ``forward_parts`` predicts for one window (``ftin.models.base``)."""
+
+    WINDOW = "window"  # K = 1: the window's velocity
+    SUB_WINDOW = "sub_window"  # K = L / sub_window (RNIN)
+    FRAME = "frame"  # K = L: one velocity per frame (RoNIN LSTM / TCN)
+
+
+@dataclass(frozen=True)
+class ModelCfg:
+    """A registered model's input contract (module docstring); ``config`` is its config dataclass."""
+
+    config: type
+    window: int  # default window in samples
+    rate_hz: float  # the IMU rate the default window is meant for
+    windows: Windows = Windows.FIXED
+    min_window: int = 1
+    window_multiple: int | str = 1  # a number, or the config option that holds it
+    uncertainty: bool = False
+    parts: Parts = Parts.WINDOW
+    streams: bool = False
+    train_loss: str = "velocity"  # a loss name in ftin.train.losses
+
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The config keys the model takes."""
+        return tuple(f.name for f in dataclasses.fields(self.config))
+
+    def takes(self, option: str) -> bool:
+        return option in self.options
+
+    def default(self, option: str) -> Any:
+        """The default value of a config option (``KeyError`` for one the model does not take)."""
+        for f in dataclasses.fields(self.config):
+            if f.name == option:
+                return f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        raise KeyError(option)
+
+    @property
+    def out_dim(self) -> int:
+        return int(self.default("out_dim"))
+
+    def multiple(self, options: dict[str, Any] | None = None) -> int:
+        """``window_multiple`` for a model built with ``options``."""
+        options = options or {}
+        if isinstance(self.window_multiple, str):
+            return int(options.get(self.window_multiple, self.default(self.window_multiple)))
+        return self.window_multiple
+
+    def window_error(self, window: int, options: dict[str, Any] | None = None) -> str | None:
+        """Why a model built with ``options`` cannot take ``window`` samples, or None.
+
+        ``FIXED`` models are built for the window, so only their config can reject it (when built).
+        """
+        if self.windows is Windows.FIXED:
+            return None
+        multiple = self.multiple(options)
+        minimum = max(self.min_window, multiple) if self.windows is Windows.MULTIPLE else self.min_window
+        if window < minimum or window % multiple:
+            return f"window must be >= {minimum} and a multiple of {multiple}, got {window}"
+        return None
+
+
 _MODELS: dict[str, Callable[..., nn.Module]] = {}
+_CONTRACTS: dict[str, ModelCfg] = {}
 
 F = TypeVar("F", bound=Callable[..., nn.Module])
 
 
-def register_model(name: str) -> Callable[[F], F]:
-    """Decorator: make a model factory (or class) available to ``create_model(name)``."""
+def register_model(name: str, cfg: ModelCfg) -> Callable[[F], F]:
+    """Decorator: make a model factory (or class) and its contract available under ``name``."""
 
     def decorate(factory: F) -> F:
         if name in _MODELS:
             raise ValueError(f"model {name!r} registered twice")
         _MODELS[name] = factory
+        _CONTRACTS[name] = cfg
         return factory
 
     return decorate
@@ -33,12 +131,29 @@ class UnknownModelError(KeyError):
         return str(self.args[0])
 
 
-def create_model(name: str, **cfg) -> nn.Module:
-    """Build a registered model; ``cfg`` overrides its default configuration."""
-    try:
-        factory = _MODELS[name]
-    except KeyError:
-        raise UnknownModelError(
-            f"unknown model {name!r}; valid models: {', '.join(list_models())}"
-        ) from None
-    return factory(**cfg)
+def check_known_models(names: list[str] | tuple[str, ...]) -> None:
+    """Raise ``UnknownModelError`` (with the valid names) for the first unregistered name."""
+    for name in names:
+        if name not in _MODELS:
+            raise UnknownModelError(f"unknown model {name!r}; valid models: {', '.join(list_models())}")
+
+
+def model_contract(name: str) -> ModelCfg:
+    """The input contract of a registered model, without building it."""
+    check_known_models([name])
+    return _CONTRACTS[name]
+
+
+def create_model(name: str, **options: Any) -> nn.Module:
+    """Build a registered model; ``options`` override its default configuration.
+
+    ``window`` and ``out_dim`` are dropped for a model that does not take them; a ``window`` its
+    contract does not accept raises ``ValueError`` (module docstring).
+    """
+    contract = model_contract(name)
+    if "window" in options and not contract.takes("window"):
+        problem = contract.window_error(int(options["window"]), options)
+        if problem:
+            raise ValueError(f"{name}: {problem}")
+    dropped = {key for key in CONTRACT_OPTIONS if key in options and not contract.takes(key)}
+    return _MODELS[name](**{k: v for k, v in options.items() if k not in dropped})

@@ -46,7 +46,7 @@ from ftin.models.base import VelocityModel, VelocityOutput
 from ftin.models.layers.checks import check_input, make_config, require
 from ftin.models.layers.heads import MLPHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
-from ftin.models.registry import register_model
+from ftin.models.registry import ModelCfg, Parts, Windows, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
 
@@ -133,6 +133,18 @@ class RNINNet(VelocityModel):
         return VelocityOutput(parts.velocity.mean(dim=1), mean_log_std)
 
 
-@register_model("rnin")
+@register_model(
+    "rnin",
+    ModelCfg(
+        RNINConfig,
+        window=100,  # one 1 s sub-window; the reference's sequences of ten: window 10 * sub_window
+        rate_hz=100.0,
+        windows=Windows.MULTIPLE,
+        window_multiple="sub_window",
+        uncertainty=True,
+        parts=Parts.SUB_WINDOW,
+        train_loss="rnin_displacement",
+    ),
+)
 def rnin(**cfg) -> RNINNet:
     return RNINNet(make_config(RNINConfig, "rnin", cfg))

@@ -49,7 +49,7 @@ from ftin.models.layers.checks import check_input, make_config, require
 from ftin.models.layers.conv_head import ConvFlattenHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.layers.tcn import TemporalConvNet
-from ftin.models.registry import register_model
+from ftin.models.registry import ModelCfg, Parts, Windows, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
 
@@ -100,12 +100,26 @@ class RoninResNet(VelocityModel):
         return VelocityOutput(self.head(h))  # (B, D)
 
 
-@register_model("ronin_resnet")
+@register_model("ronin_resnet", ModelCfg(RoninResNetConfig, window=200, rate_hz=200.0))
 def ronin_resnet(**cfg) -> RoninResNet:
     return RoninResNet(make_config(RoninResNetConfig, "ronin_resnet", cfg))
 
 
 # ------------------------------------------------------------------------------------ bilinear LSTM
+def sequence_contract(config: type, train_loss: str) -> ModelCfg:
+    """RoNIN's sequence-to-sequence models: any length, one velocity per frame, streaming; by default
+    the reference's 400-frame training chunks (``--window 400 --stride 100``) of 200 Hz data."""
+    return ModelCfg(
+        config,
+        window=400,
+        rate_hz=200.0,
+        windows=Windows.ANY,
+        parts=Parts.FRAME,
+        streams=True,
+        train_loss=train_loss,
+    )
+
+
 @dataclass(frozen=True)
 class RoninLSTMConfig:
     out_dim: int = 2
@@ -120,10 +134,31 @@ class RoninLSTMConfig:
         require(0.0 <= self.lstm_dropout < 1.0, "ronin_lstm", "lstm_dropout must be in [0, 1)")
 
 
-class RoninLSTM(VelocityModel):
-    """RoNIN bilinear LSTM: per-frame velocity from a unidirectional LSTM (sequence to sequence)."""
+class PerFrameModel(VelocityModel):
+    """Sequence to sequence: one part per frame (``forward_parts``), ``forward`` their mean."""
 
     streams = True
+
+    def _window_frames(self, x: torch.Tensor) -> torch.Tensor:  # pragma: no cover
+        """``(B, 6, L) -> (B, L, D)`` per-frame velocity of one window from a fresh state."""
+        raise NotImplementedError
+
+    def target_parts(self, window: int) -> int:
+        return window
+
+    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        per_frame = self._window_frames(x)  # (B, L, D)
+        if features is not None:
+            features["per_frame_velocity"] = per_frame.detach()
+        return VelocityOutput(per_frame)
+
+    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
+        return VelocityOutput(self.forward_parts(x, features).velocity.mean(dim=1))  # (B, D)
+
+
+class RoninLSTM(PerFrameModel):
+    """RoNIN bilinear LSTM: per-frame velocity from a unidirectional LSTM (sequence to sequence)."""
+
     train_loss = "ronin_position_full"
 
     def __init__(self, config: RoninLSTMConfig) -> None:
@@ -144,17 +179,8 @@ class RoninLSTM(VelocityModel):
         per_frame = self.linear2(self.linear1(torch.cat([mixed, hidden], dim=2)))  # (B, T, D)
         return per_frame, new_state
 
-    def target_parts(self, window: int) -> int:
-        return window
-
-    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        per_frame, _ = self._per_frame(x, None)  # (B, L, D), zero initial state per window
-        if features is not None:
-            features["per_frame_velocity"] = per_frame.detach()
-        return VelocityOutput(per_frame)
-
-    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        return VelocityOutput(self.forward_parts(x, features).velocity.mean(dim=1))  # (B, D)
+    def _window_frames(self, x: torch.Tensor) -> torch.Tensor:
+        return self._per_frame(x, None)[0]  # (B, L, D), zero initial state per window
 
     def forward_stream(
         self, x: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None
@@ -163,7 +189,7 @@ class RoninLSTM(VelocityModel):
         return self._per_frame(x, state)
 
 
-@register_model("ronin_lstm")
+@register_model("ronin_lstm", sequence_contract(RoninLSTMConfig, "ronin_position_full"))
 def ronin_lstm(**cfg) -> RoninLSTM:
     return RoninLSTM(make_config(RoninLSTMConfig, "ronin_lstm", cfg))
 
@@ -188,10 +214,9 @@ class RoninTCNConfig:
         require(0.0 <= self.dropout < 1.0, "ronin_tcn", f"dropout must be in [0, 1), got {self.dropout}")
 
 
-class RoninTCN(VelocityModel):
+class RoninTCN(PerFrameModel):
     """RoNIN TCN: per-frame velocity from a causal TCN (sequence to sequence)."""
 
-    streams = True
     train_loss = "ronin_position_part"
 
     def __init__(self, config: RoninTCNConfig) -> None:
@@ -210,17 +235,8 @@ class RoninTCN(VelocityModel):
         check_input(x, "ronin_tcn")
         return self.output_layer(self.output_dropout(self.tcn(x))).transpose(1, 2)  # (B, L, D)
 
-    def target_parts(self, window: int) -> int:
-        return window
-
-    def forward_parts(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        per_frame = self._per_frame(x)  # (B, L, D)
-        if features is not None:
-            features["per_frame_velocity"] = per_frame.detach()
-        return VelocityOutput(per_frame)
-
-    def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        return VelocityOutput(self.forward_parts(x, features).velocity.mean(dim=1))  # (B, D)
+    def _window_frames(self, x: torch.Tensor) -> torch.Tensor:
+        return self._per_frame(x)  # (B, L, D)
 
     def forward_stream(
         self, x: torch.Tensor, state: torch.Tensor | None = None
@@ -235,6 +251,6 @@ class RoninTCN(VelocityModel):
         return per_frame, history
 
 
-@register_model("ronin_tcn")
+@register_model("ronin_tcn", sequence_contract(RoninTCNConfig, "ronin_position_part"))
 def ronin_tcn(**cfg) -> RoninTCN:
     return RoninTCN(make_config(RoninTCNConfig, "ronin_tcn", cfg))

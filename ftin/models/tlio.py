@@ -28,7 +28,7 @@ from ftin.models.base import VelocityModel, VelocityOutput
 from ftin.models.layers.checks import check_input, make_config, require
 from ftin.models.layers.conv_head import ConvFlattenHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
-from ftin.models.registry import register_model
+from ftin.models.registry import ModelCfg, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
 
@@ -74,6 +74,6 @@ class TLIONet(VelocityModel):
         return VelocityOutput(self.mean_head(h), self.log_std_head(h))  # (B, D), (B, D)
 
 
-@register_model("tlio")
+@register_model("tlio", ModelCfg(TLIOConfig, window=200, rate_hz=200.0, uncertainty=True))
 def tlio(**cfg) -> TLIONet:
     return TLIONet(make_config(TLIOConfig, "tlio", cfg))

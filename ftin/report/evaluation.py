@@ -19,7 +19,9 @@ from collections.abc import Callable, Sequence
 from fnmatch import fnmatchcase
 from pathlib import Path
 
+from ftin.checkpoint import META_SUFFIX, WEIGHTS_SUFFIX, LoadedModel, load_model
 from ftin.data.errors import DataFormatError
+from ftin.data.loading import load_sequences
 from ftin.data.types import Trajectory
 from ftin.evaluate import EvaluationReport, SequenceResult
 from ftin.infer import predict_prepared
@@ -33,8 +35,6 @@ from ftin.report.results import (
     ReportError,
     ReportResults,
 )
-from ftin.train.checkpoint import META_SUFFIX, WEIGHTS_SUFFIX, LoadedModel, load_model
-from ftin.train.loop import load_sequences
 
 
 def load_datasets(specs: Sequence[DatasetSpec]) -> list[LoadedDataset]:

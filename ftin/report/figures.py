@@ -22,6 +22,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ftin.checkpoint import atomic_write_bytes
 from ftin.report.results import (
     CONVENTION_LABELS,
     FIGURE_MODELS,
@@ -29,7 +30,6 @@ from ftin.report.results import (
     CheckpointResult,
     ReportResults,
 )
-from ftin.train.checkpoint import atomic_write_bytes
 
 GROUND_TRUTH_COLOR = "black"
 _PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")

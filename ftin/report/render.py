@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ftin.checkpoint import atomic_write_text, to_json_safe
 from ftin.metrics import TrajectoryMetrics
 from ftin.report.evaluation import representative_sequence
 from ftin.report.figures import pde_figure, trajectory_figure, write_png
@@ -36,7 +37,6 @@ from ftin.report.results import (
     ColumnGroup,
     ReportResults,
 )
-from ftin.train.checkpoint import atomic_write_text, to_json_safe
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
+from ftin.checkpoint import atomic_write_text
 from ftin.data.windows import Normalization
 
 
@@ -167,8 +168,6 @@ class TrainConfig:
             raise ConfigError(str(exc)) from None
 
     def save(self, path: Path) -> None:
-        from ftin.train.checkpoint import atomic_write_text
-
         atomic_write_text(path, json.dumps(self.to_json(), indent=2) + "\n")
 
     @classmethod

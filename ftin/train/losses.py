@@ -22,7 +22,13 @@ trains with is how its reference trains it:
 
 The NLL exists only for ``"velocity"``; the other families train with their own (MSE-based) loss
 under ``loss = "auto"`` or ``"mse"`` alike, and ``"nll"`` is a config error for them
-(``ftin.train.loop``).
+(``uses_nll``).
+
+Validation stays comparable across every model: the MSE of ~1 s mean velocities
+(``validation_blocks``, ``block_means``). K = 1 models are compared on their window's velocity;
+multi-part models average predicted and target part velocities over blocks of ``round(imu_rate_hz)``
+frames (RNIN's 1 s sub-windows are blocks of one part, a per-frame model's 400-frame chunk at 200 Hz
+two blocks).
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ import torch
 import torch.nn.functional as F
 
 from ftin.models.base import VelocityModel, VelocityOutput
+from ftin.train.config import ConfigError, LossKind
 
 # (output with velocity (B, K, D), part targets (B, K, D), warm-up epoch?) -> scalar loss
 LossFn = Callable[[VelocityOutput, torch.Tensor, bool], torch.Tensor]
@@ -121,3 +128,36 @@ def make_loss(
         return lambda output, target, warmup: ronin_position_loss(output.velocity, target, None)
     history = part_history(model.receptive_field, window)
     return lambda output, target, warmup: ronin_position_loss(output.velocity, target, history)
+
+
+def uses_nll(loss: LossKind, model: VelocityModel, model_name: str) -> bool:
+    """Whether the ``"velocity"`` loss is the NLL. Families with their own reference loss (RNIN,
+    RoNIN LSTM / TCN) train with it under ``auto``; ``nll`` is a ``ConfigError`` for them."""
+    if loss is LossKind.NLL and not model.has_uncertainty:
+        raise ConfigError(f"loss 'nll' needs a model with an uncertainty head; {model_name!r} has none")
+    if loss is LossKind.NLL and model.train_loss != "velocity":
+        raise ConfigError(
+            f"loss 'nll': {model_name!r} trains with its reference's {model.train_loss!r} loss "
+            "(ftin.train.losses); use loss 'auto'"
+        )
+    if loss is LossKind.MSE or model.train_loss != "velocity":
+        return False
+    return bool(model.has_uncertainty)
+
+
+def validation_blocks(window: int, parts: int, rate_hz: float) -> int:
+    """How many consecutive parts make one ~1 s validation block (module docstring).
+
+    A part lasts ``window / parts`` frames; a block is ``round(rate_hz)`` frames, rounded to whole
+    parts, at least one part and at most the whole window (a window shorter than 1 s is one block).
+    Parts left over after the last whole block are not scored.
+    """
+    part_frames = window // parts
+    return int(min(parts, max(1, round(round(rate_hz) / part_frames))))
+
+
+def block_means(velocity: torch.Tensor, per_block: int) -> torch.Tensor:
+    """``(B, K, D) -> (B, K // per_block, D)``: mean over consecutive blocks of ``per_block`` parts."""
+    batch, parts, dim = velocity.shape
+    blocks = parts // per_block
+    return velocity[:, : blocks * per_block].reshape(batch, blocks, per_block, dim).mean(dim=2)

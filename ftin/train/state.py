@@ -1,4 +1,8 @@
-"""Resume state of a training run, saved without pickle.
+"""The run folder of a training run, and its resume state saved without pickle.
+
+A run folder (``ftin.train.loop``) holds ``config.json`` (the resolved ``TrainConfig``, checked
+against the options of a resumed run), ``resume.safetensors`` (below), ``history.json`` (one record
+per finished epoch) and the best checkpoint.
 
 One file, ``resume.safetensors``: every tensor (model weights and buffers, optimizer moments and
 step counts, the torch RNG state) is a safetensors tensor, and everything else (scheduler state,
@@ -10,6 +14,9 @@ The JSON encoding is explicit about what plain JSON loses: tensors become ``{"__
 dicts with integer keys (optimizer state) ``{"__int_keys__": ...}``, tuples (RNG states)
 ``{"__tuple__": [...]}``, numpy arrays ``{"__ndarray__": [...], "dtype": ...}`` and non-finite floats
 (the plateau scheduler's initial ``best = inf``) ``{"__float__": "inf"}``.
+
+The ``progress`` entry is ``TrainProgress.to_dict()``: ten keys, in the order of its fields, as
+written since the first resume files (a file written by older code loads with ``from_dict``).
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ from __future__ import annotations
 import json
 import math
 import random
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -26,11 +34,114 @@ from safetensors import safe_open
 from safetensors.torch import save as save_safetensors
 from torch import nn
 
-from ftin.train.checkpoint import CheckpointError, atomic_write_bytes
+from ftin.checkpoint import CheckpointError, atomic_write_bytes, atomic_write_text, to_json_safe
+from ftin.train.config import BUDGET_FIELDS, ConfigError, TrainConfig
+
+CONFIG_FILE = "config.json"
+RESUME_FILE = "resume.safetensors"
+HISTORY_FILE = "history.json"
 
 STATE_FORMAT = "ftin-resume-state"
 STATE_VERSION = 1
 _META_KEY = "ftin_resume_state"
+
+
+@dataclass
+class TrainProgress:
+    """Where a run stands; the resume file's ``progress`` entry (field names and order are the format)."""
+
+    epoch: int = 0  # finished epochs
+    step_in_epoch: int = 0  # optimizer steps done in the current epoch
+    global_step: int = 0  # optimizer steps over the whole run
+    epoch_loss_sum: float = 0.0  # sum of batch loss x batch size in the current epoch (this rank)
+    epoch_count: int = 0  # windows behind epoch_loss_sum
+    best_val_loss: float | None = None  # the monitored loss of the best epoch
+    best_epoch: int | None = None  # 1-based epoch of the best checkpoint
+    elapsed_s: float = 0.0  # wall time over every invocation, up to the last save
+    history: list[dict[str, Any]] = field(default_factory=list)  # one record per finished epoch
+    stop_reason: str | None = None  # None while running; see ftin.train.loop.TrainResult
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TrainProgress:
+        unknown = sorted(set(data) - {f.name for f in fields(cls)})
+        if unknown:
+            raise CheckpointError(f"resume progress has unknown key(s) {unknown}")
+        return cls(**data)
+
+
+# --- the run folder ---------------------------------------------------------------------------------
+
+
+def check_run_folder(out_dir: Path, resume: bool) -> None:
+    """A new run needs a folder without a run in it; ``--resume`` one with a resume state."""
+    if resume and not (out_dir / RESUME_FILE).exists():
+        raise ConfigError(f"--resume: {out_dir} has no {RESUME_FILE} to continue from")
+    if not resume and (out_dir / RESUME_FILE).exists():
+        raise ConfigError(
+            f"--out {out_dir} already holds a run; pass --resume to continue it or choose another folder"
+        )
+
+
+def check_resumed_config(config: TrainConfig, out_dir: Path) -> None:
+    """A resumed run must have the options it started with, budgets (``BUDGET_FIELDS``) aside."""
+    saved = TrainConfig.load(out_dir / CONFIG_FILE)
+    # Compare as JSON: tuples in model_kwargs come back from config.json as lists.
+    ours = {k: v for k, v in _as_json(config.to_json()).items() if k not in BUDGET_FIELDS}
+    theirs = {k: v for k, v in _as_json(saved.to_json()).items() if k not in BUDGET_FIELDS}
+    changed = sorted(k for k in ours if ours[k] != theirs.get(k))
+    if changed:
+        details = ", ".join(f"{k}: {theirs.get(k)!r} -> {ours[k]!r}" for k in changed)
+        raise ConfigError(f"--resume: the run in {out_dir} was started with other options ({details})")
+
+
+def checkpoint_meta(
+    config: TrainConfig,
+    progress: TrainProgress,
+    normalization: Any,
+    data_info: dict[str, Any],
+    partial: bool,
+    *,
+    processes: int,
+    wall_time_s: float,
+) -> dict[str, Any]:
+    """The run's part of its best checkpoint's JSON (``ftin.checkpoint.save_checkpoint`` adds the
+    model's); ``metrics`` are those of the last finished epoch, ``partial`` before any ended."""
+    last = progress.history[-1] if progress.history else {}
+    return {
+        "model_name": config.model,
+        "imu_rate_hz": config.imu_rate_hz,
+        "window": config.window,
+        "stride": config.stride,
+        "out_dim": config.out_dim,
+        "normalization": normalization,
+        **data_info,
+        "metrics": {
+            "val_mse": last.get("val_mse"),
+            "train_loss": last.get("train_loss"),
+            "monitored_loss": progress.best_val_loss,
+            "epoch": progress.best_epoch,
+            "partial": partial,
+        },
+        "epochs": progress.epoch,
+        "steps": progress.global_step,
+        "processes": processes,
+        "wall_time_s": wall_time_s,
+        "train_config": config.to_json(),
+    }
+
+
+def write_history(out_dir: Path, history: list[dict[str, Any]]) -> None:
+    atomic_write_text(out_dir / HISTORY_FILE, json.dumps(to_json_safe(history), indent=2) + "\n")
+
+
+def _as_json(value: Any) -> Any:
+    return json.loads(json.dumps(to_json_safe(value)))
+
+
+# --- the resume state -------------------------------------------------------------------------------
 
 
 def capture_rng() -> dict[str, Any]:

@@ -10,33 +10,40 @@ import pytest
 import torch
 from safetensors.torch import load_file, save_file
 
-from ftin.models import UnknownModelError, VelocityModel, create_model, list_models
-from ftin.models.profile import create_model_for_window
+from ftin.models import (
+    Parts,
+    UnknownModelError,
+    VelocityModel,
+    Windows,
+    create_model,
+    list_models,
+    model_contract,
+)
 
 MODEL_NAMES = list_models()
 BASELINES = ("ronin_resnet", "ronin_lstm", "ronin_tcn", "tlio", "rnin", "imunet")
-FALLBACK_WINDOW = 200  # models without a ``window`` in their config: the design's reference input
 BATCH = 3
 
 
+def default_window(name: str) -> int:
+    """The default window of the model's contract (the one ``create_model(name)`` is built for)."""
+    return model_contract(name).window
 
-def default_window(model: VelocityModel) -> int:
-    return int(model.config.get("window", FALLBACK_WINDOW))
 
-
-def smallest_window(model: VelocityModel, at_least: int = 64) -> int:
-    """The smallest supported window length >= ``at_least``."""
-    multiple = model.window_multiple
-    return -(-max(model.min_window, at_least) // multiple) * multiple  # round up to a multiple
+def smallest_window(name: str, at_least: int = 64) -> int:
+    """The smallest window length >= ``at_least`` the model's contract accepts."""
+    contract = model_contract(name)
+    multiple = contract.multiple()
+    return -(-max(contract.min_window, at_least) // multiple) * multiple  # round up to a multiple
 
 
 def model_for_other_window(name: str) -> tuple[VelocityModel, int]:
     """The model built for (or simply fed) a second supported window length."""
-    model = create_model(name)
-    window = smallest_window(model)
-    if window == default_window(model):
-        window += model.window_multiple if "window" not in model.config else 32
-    return create_model_for_window(name, window), window
+    contract = model_contract(name)
+    window = smallest_window(name)
+    if window == contract.window:
+        window += 32 if contract.windows is Windows.FIXED else contract.multiple()
+    return create_model(name, window=window), window
 
 
 def imu_batch(window: int, batch: int = BATCH, seed: int = 0) -> torch.Tensor:
@@ -64,12 +71,69 @@ def test_unknown_config_key_is_rejected(name):
         create_model(name, no_such_option=1)
 
 
+# ------------------------------------------------------------------------------ the input contract
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_contract_matches_the_built_model(name):
+    contract = model_contract(name)
+    model = create_model(name)
+    assert set(model.config) == set(contract.options)
+    assert model.out_dim == contract.out_dim == contract.default("out_dim")
+    assert (model.has_uncertainty, model.streams, model.train_loss) == (
+        contract.uncertainty,
+        contract.streams,
+        contract.train_loss,
+    )
+    # which windows: FIXED models carry the window in their config, built for the default one
+    assert ("window" in model.config) == (contract.windows is Windows.FIXED)
+    if contract.windows is Windows.FIXED:
+        assert model.config["window"] == contract.window
+    assert model.window_multiple == contract.multiple()
+    assert model.min_window == max(
+        contract.min_window, contract.multiple() if contract.windows is Windows.MULTIPLE else 1
+    )
+    # outputs: parts per window and the default window runs
+    window = contract.window
+    parts = {Parts.WINDOW: 1, Parts.SUB_WINDOW: window // contract.multiple(), Parts.FRAME: window}
+    assert model.check_parts(window) == model.target_parts(window) == parts[contract.parts]
+    assert contract.rate_hz > 0 and contract.window_error(window) is None
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_create_model_takes_a_window_or_says_why_not(name):
+    contract = model_contract(name)
+    model, window = model_for_other_window(name)
+    assert contract.window_error(window) is None
+    assert model.check_parts(window) >= 1
+    with pytest.raises(ValueError, match="window"):
+        create_model(name, window=0)
+    if contract.windows is Windows.MULTIPLE:
+        with pytest.raises(ValueError, match=f"{name}: window must be >= .* multiple of"):
+            create_model(name, window=contract.multiple() + 1)
+
+
+@pytest.mark.parametrize("name", MODEL_NAMES)
+def test_contract_options_a_model_does_not_take_are_dropped(name):
+    contract = model_contract(name)
+    model = create_model(name, window=default_window(name), out_dim=contract.out_dim)
+    assert model.config == create_model(name).config  # nothing added, e.g. no window for the LSTM
+    with pytest.raises((TypeError, ValueError), match="windw"):  # a misspelling is still an error
+        create_model(name, windw=default_window(name))
+
+
+def test_contract_of_an_unknown_model_names_the_valid_ones():
+    with pytest.raises(UnknownModelError, match="valid models: .*ronin_resnet"):
+        model_contract("no_such_model")
+    assert model_contract("rnin").multiple({"sub_window": 25}) == 25
+    assert "window" not in create_model("ronin_lstm", window=400).config
+
+
+# ---------------------------------------------------------------------------------- every model
 @pytest.mark.parametrize("name", MODEL_NAMES)
 def test_output_shapes_at_default_and_other_window(name):
     model = create_model(name).eval()
     assert isinstance(model, VelocityModel)
     other_model, other_window = model_for_other_window(name)
-    for m, window in ((model, default_window(model)), (other_model.eval(), other_window)):
+    for m, window in ((model, default_window(name)), (other_model.eval(), other_window)):
         with torch.no_grad():
             out = m(imu_batch(window))
         assert out.velocity.shape == (BATCH, m.out_dim)
@@ -85,13 +149,13 @@ def test_window_sized_models_reject_another_length(name):
     if "window" not in model.config:
         pytest.skip(f"{name} accepts any supported window length")
     with pytest.raises((ValueError, RuntimeError)):
-        model(imu_batch(default_window(model) + 32))
+        model(imu_batch(default_window(name) + 32))
 
 
 @pytest.mark.parametrize("name", BASELINES)
 def test_baselines_explain_input_errors(name):
     model = create_model(name).eval()
-    window = default_window(model)
+    window = default_window(name)
     with pytest.raises(ValueError, match=r"\(B, 6, L\)"):
         model(torch.zeros(2, 5, window))
     if "window" in model.config:
@@ -103,7 +167,7 @@ def test_baselines_explain_input_errors(name):
 def test_backward_gives_finite_grads_for_every_parameter(name):
     torch.manual_seed(0)
     model = create_model(name).train()
-    out = model(imu_batch(default_window(model), batch=4))
+    out = model(imu_batch(default_window(name), batch=4))
     loss = out.velocity.square().mean()
     if out.log_std is not None:
         loss = loss + out.log_std.mean()
@@ -116,7 +180,7 @@ def test_backward_gives_finite_grads_for_every_parameter(name):
 @pytest.mark.parametrize("name", MODEL_NAMES)
 def test_no_nan_on_zeros_and_on_large_inputs(name):
     model = create_model(name)
-    window = default_window(model)
+    window = default_window(name)
     inputs = (torch.zeros(BATCH, 6, window), 50.0 * imu_batch(window, seed=1))
     for mode in (model.train, model.eval):
         mode()
@@ -131,7 +195,7 @@ def test_no_nan_on_zeros_and_on_large_inputs(name):
 @pytest.mark.parametrize("name", MODEL_NAMES)
 def test_eval_mode_is_deterministic(name):
     model = create_model(name).eval()
-    x = imu_batch(default_window(model))
+    x = imu_batch(default_window(name))
     with torch.no_grad():
         first, second = model(x), model(x)
     assert torch.equal(first.velocity, second.velocity)
@@ -144,7 +208,7 @@ def test_feature_taps_fill_the_dict_only_when_asked(name):
     model = create_model(name).eval()
     features: dict = {}
     with torch.no_grad():
-        model(imu_batch(default_window(model)), features=features)
+        model(imu_batch(default_window(name)), features=features)
     assert features, f"{name} stored no feature taps"
     assert all(isinstance(v, torch.Tensor) and v.shape[0] == BATCH for v in features.values())
 
@@ -153,7 +217,7 @@ def test_feature_taps_fill_the_dict_only_when_asked(name):
 def test_safetensors_round_trip_rebuilds_identical_model(name, tmp_path):
     torch.manual_seed(1)
     model = create_model(name)
-    window = default_window(model)
+    window = default_window(name)
     # a few training-mode passes so BatchNorm running statistics differ from their initial values
     with torch.no_grad():
         for seed in range(2):
@@ -201,8 +265,8 @@ def simulated_windows(window: int, out_dim: int, count: int = 8) -> tuple[torch.
 @pytest.mark.parametrize("name", MODEL_NAMES)
 def test_a_few_training_steps_reduce_the_velocity_loss(name):
     torch.manual_seed(0)
-    window = smallest_window(create_model(name))  # short windows keep this test fast
-    model = create_model_for_window(name, window).train()
+    window = smallest_window(name)  # short windows keep this test fast
+    model = create_model(name, window=window).train()
     x, v = simulated_windows(window, model.out_dim)
 
     def batch_loss() -> float:

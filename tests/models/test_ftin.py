@@ -1,13 +1,13 @@
-"""FTIN and its ablations: shapes per window, backward, feature taps, config round trip."""
+"""FTIN and its ablations: which stages each variant has, windows with the same L_res, gradients per
+stage, feature taps by name and shape, error messages. What every model must do (shapes, backward,
+NaN, determinism, round trip, contract) is in test_all_models.py."""
 
 from __future__ import annotations
-
-import json
 
 import pytest
 import torch
 
-from ftin.models import VelocityModel, VelocityOutput, create_model, list_models
+from ftin.models import VelocityModel, create_model, list_models
 from ftin.models.ftin_net import FTIN, FTINConfig
 
 VARIANTS = ["ftin", "resnet_fdl", "resnet_tdl", "resnet1d"]
@@ -31,16 +31,10 @@ def test_all_variants_are_registered() -> None:
     }
 
 
-@pytest.mark.parametrize("name", VARIANTS)
-@pytest.mark.parametrize("window", [100, 200, 150])
-def test_output_shape_per_window(name: str, window: int) -> None:
-    torch.manual_seed(0)
-    model = create_model(name, window=window)
-    out = model(torch.randn(3, 6, window))
-    assert isinstance(out, VelocityOutput)
-    assert out.velocity.shape == (3, 2)
-    assert out.log_std is None
-    assert torch.isfinite(out.velocity).all()
+def test_lengths_with_the_built_l_res_are_accepted() -> None:
+    model = create_model("ftin", window=100).eval()
+    with torch.no_grad():  # L = 97..100 all give L_res = 4 (module docstring of ftin_net)
+        assert model(torch.randn(2, 6, 97)).velocity.shape == (2, 2)
 
 
 def test_out_dim_three_and_channel_scan() -> None:
@@ -48,20 +42,17 @@ def test_out_dim_three_and_channel_scan() -> None:
     assert model(torch.randn(2, 6, 100)).velocity.shape == (2, 3)
 
 
-def test_backward_reaches_every_parameter() -> None:
+def test_every_stage_gets_a_gradient() -> None:
     torch.manual_seed(1)
     model = create_model("ftin", window=200)
-    x = torch.randn(4, 6, 200)
-    model(x).velocity.square().sum().backward()
-    missing = [n for n, p in model.named_parameters() if p.grad is None or not torch.isfinite(p.grad).all()]
-    assert not missing
+    model(torch.randn(4, 6, 200)).velocity.square().sum().backward()
     # Every stage learns something: FDL, sLSTM and head get non-zero gradients.
     for stage in ["fdl", "slstm", "head", "backbone"]:
         assert sum(p.grad.abs().sum() for p in getattr(model, stage).parameters()) > 0, stage
 
 
 @pytest.mark.parametrize("name", VARIANTS)
-def test_taps_present_only_when_asked(name: str) -> None:
+def test_taps_by_name_and_shape(name: str) -> None:
     torch.manual_seed(2)
     model = create_model(name, window=100).eval()
     x = torch.randn(2, 6, 100)
@@ -79,20 +70,6 @@ def test_taps_present_only_when_asked(name: str) -> None:
         assert features["fdl"].shape == (2, 64, 8)
     if "slstm" in features:
         assert features["slstm"].shape == ((2, 8, 64) if name == "ftin" else (2, 4, 128))
-
-
-@pytest.mark.parametrize("name", VARIANTS)
-def test_config_rebuilds_the_model(name: str) -> None:
-    torch.manual_seed(3)
-    model = create_model(name, window=200, embed_dim=4, head_hidden=(64,)).eval()
-    config = json.loads(json.dumps(model.config))  # what a checkpoint's JSON gives back
-    rebuilt = create_model(name, **config).eval()
-    rebuilt.load_state_dict(model.state_dict())
-    x = torch.randn(2, 6, 200)
-    with torch.no_grad():
-        torch.testing.assert_close(rebuilt(x).velocity, model(x).velocity)
-    assert rebuilt.config == model.config
-    assert model.config["window"] == 200 and model.out_dim == 2
 
 
 def test_resnet1d_is_the_ronin_resnet_structure() -> None:

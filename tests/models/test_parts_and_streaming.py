@@ -6,7 +6,6 @@ import pytest
 import torch
 
 from ftin.models import VelocityModel, VelocityOutput, create_model, list_models
-from ftin.models.profile import create_model_for_window
 
 WINDOW = 200
 
@@ -77,7 +76,7 @@ def test_chunked_stream_equals_one_whole_sequence_pass(name, chunk):
 
 def test_a_stream_window_is_a_training_chunk():
     """A window through forward_parts is a fresh stream: zero state, as the reference's training."""
-    model = create_model_for_window("ronin_lstm", 50).eval()
+    model = create_model("ronin_lstm", window=50).eval()
     x = torch.randn(1, 6, 50)
     with torch.no_grad():
         parts: VelocityOutput = model.forward_parts(x)

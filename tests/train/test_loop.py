@@ -11,7 +11,8 @@ import torch
 from ftin.models import VelocityOutput
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train import ConfigError, TrainConfig, load_model, train
-from ftin.train.loop import _stop_signals, build_model, split_validation, velocity_loss
+from ftin.train.distributed import stop_signals
+from ftin.train.losses import velocity_loss
 
 RATE_HZ = 50.0  # the sim_sequences fixture's rate
 WINDOW = 25
@@ -162,20 +163,13 @@ def test_config_errors(tmp_path, sim_sequences):
     assert TrainConfig.from_json(as_json).to_json() == as_json
 
 
-def test_build_model_passes_window_and_out_dim_only_where_taken():
-    assert build_model("ronin_resnet", 50, 3, {}).config["window"] == 50
-    assert build_model("ronin_resnet", 50, None, {}).out_dim == 2
-    lstm = build_model("ronin_lstm", 50, 3, {"hidden_size": 4, "num_layers": 1})
-    assert "window" not in lstm.config and lstm.out_dim == 3
-    assert build_model("ronin_resnet", 50, None, {"window": 64}).config["window"] == 64  # the user's wins
-
-
-def test_split_validation_holds_out_whole_sequences(sim_sequences):
-    train_seqs, val_seqs = split_validation(sim_sequences, 0.1, seed=0)
-    assert len(val_seqs) == 1 and len(train_seqs) == 2
-    assert {s.name for s in train_seqs}.isdisjoint(s.name for s in val_seqs)
-    assert split_validation(sim_sequences[:1], 0.5, seed=0) == (sim_sequences[:1], [])
-    assert split_validation(sim_sequences, 0.0, seed=0)[1] == []
+def test_the_model_gets_window_and_out_dim_only_where_taken(tmp_path, sim_sequences):
+    lstm = {"hidden_size": 4, "num_layers": 1}
+    config = _config(tmp_path, model="ronin_lstm", model_kwargs=lstm, out_dim=3, max_steps=1)
+    result = train(config, sim_sequences, progress=False)
+    meta = load_model(result.checkpoint).meta
+    assert "window" not in meta["model_kwargs"] and meta["model_kwargs"]["out_dim"] == 3
+    assert meta["window"] == WINDOW
 
 
 def test_velocity_loss():
@@ -207,7 +201,7 @@ def test_max_minutes_stops_and_leaves_a_partial_checkpoint(tmp_path, sim_sequenc
 def test_ctrl_c_asks_for_a_clean_stop_and_a_second_one_interrupts():
     before = signal.getsignal(signal.SIGINT)
     flag = {"stop": False}
-    with _stop_signals(flag):
+    with stop_signals(flag):
         os.kill(os.getpid(), signal.SIGTERM)
         assert flag["stop"]  # stop at the next step boundary, after saving the resume state
         with pytest.raises(KeyboardInterrupt):

@@ -10,12 +10,13 @@ import torch
 from ftin.data.windows import WindowDataset
 from ftin.models import VelocityOutput, create_model
 from ftin.train import TrainConfig, load_model, train
-from ftin.train.loop import block_means, validation_blocks
 from ftin.train.losses import (
+    block_means,
     make_loss,
     part_history,
     rnin_displacement_loss,
     ronin_position_loss,
+    validation_blocks,
     velocity_loss,
 )
 

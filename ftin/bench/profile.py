@@ -27,10 +27,10 @@ import torch
 from torch import nn
 from torch.utils.flop_counter import FlopCounterMode
 
-from ftin.models.registry import UnknownModelError, create_model, list_models
+from ftin.models.registry import check_known_models, create_model, list_models
 
 IN_CHANNELS = 6
-DEFAULT_WINDOW = 200  # design §3: the reference parameter counts are for 6 x 200 inputs
+DEFAULT_WINDOW = 200  # design §3: the reference parameter counts are for 6 x 200 inputs (``ftin models``)
 aten = torch.ops.aten
 
 
@@ -136,25 +136,6 @@ def windows_per_second(
 
 
 # ------------------------------------------------------------------------------------ whole models
-def create_model_for_window(name: str, window: int, **cfg) -> nn.Module:
-    """Build ``name`` able to take ``(B, 6, window)`` inputs.
-
-    Models whose layer sizes depend on the window carry ``window`` in their config and are built for
-    it; the others accept any ``L >= min_window`` that is a multiple of ``window_multiple``. Raises
-    ``ValueError`` naming the model and its requirement when ``window`` is not supported.
-    """
-    model = create_model(name, **cfg)
-    if "window" in model.config:
-        if model.config["window"] != window:
-            model = create_model(name, **{**cfg, "window": window})
-        return model
-    min_window = getattr(model, "min_window", 1)
-    multiple = getattr(model, "window_multiple", 1)
-    if window < min_window or window % multiple:
-        raise ValueError(f"{name}: window must be >= {min_window} and a multiple of {multiple}, got {window}")
-    return model
-
-
 @dataclass(frozen=True)
 class ModelProfile:
     name: str
@@ -180,14 +161,15 @@ def profile_model(
     repeats: int = 3,
     measure_speed: bool = True,
 ) -> ModelProfile:
-    """Profile one registered model at its default configuration, built for ``window``.
+    """Profile one registered model at its default configuration, built for ``window`` (the registry's
+    input contract decides whether it takes it).
 
     A window the model cannot take is reported in ``error`` (the row stays in a side-by-side table);
     an unknown name raises ``UnknownModelError``.
     """
     with torch_threads(threads) as threads_used:
         try:
-            model = create_model_for_window(name, window)
+            model = create_model(name, window=window)  # built for it, or ValueError (the contract)
         except ValueError as error:
             return ModelProfile(name, window, None, None, None, batch, threads_used, None, None, str(error))
         speed = windows_per_second(model, window, batch, None, repeats) if measure_speed else None
@@ -202,14 +184,6 @@ def profile_model(
             out_dim=getattr(model, "out_dim", None),
             has_uncertainty=bool(getattr(model, "has_uncertainty", False)),
         )
-
-
-def check_known_models(names: Sequence[str]) -> None:
-    """Raise ``UnknownModelError`` (with the valid names) for the first unregistered name, before any
-    minutes are spent measuring the valid ones."""
-    for name in names:
-        if name not in list_models():
-            raise UnknownModelError(f"unknown model {name!r}; valid models: {', '.join(list_models())}")
 
 
 def profile_models(

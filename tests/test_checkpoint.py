@@ -1,3 +1,5 @@
+"""``ftin.checkpoint``: save/load round trips, atomic writes, and clear errors for broken files."""
+
 from __future__ import annotations
 
 import json
@@ -5,9 +7,9 @@ import json
 import pytest
 import torch
 
+from ftin.checkpoint import CheckpointError, checkpoint_paths, load_model, save_checkpoint
 from ftin.data.windows import InputNormalization, Normalization
 from ftin.models import create_model
-from ftin.train.checkpoint import CheckpointError, checkpoint_paths, load_model, save_checkpoint
 
 TINY = {"channels": (8, 8), "kernel_size": 3}
 

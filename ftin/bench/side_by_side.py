@@ -4,7 +4,7 @@ Per model, on random ``(batch, 6, window)`` inputs at the model's default config
 ``window``, as ``ftin models`` does):
 
 * inference windows/s: eval mode under ``torch.inference_mode``, one warm-up pass, then the fastest
-  of ``repeats`` timed passes (``ftin.models.profile.windows_per_second``: the fastest pass is the
+  of ``repeats`` timed passes (``ftin.bench.profile.windows_per_second``: the fastest pass is the
   one least disturbed by other processes on a shared machine);
 * training windows/s: one step = zero_grad + forward + the training loss (MSE on velocity, Gaussian
   NLL for models with an uncertainty head, as ``ftin train`` by default) + backward + Adam step; one
@@ -48,15 +48,11 @@ from typing import Any
 
 import torch
 
-from ftin.models.profile import (
-    check_known_models,
-    count_parameters,
-    create_model_for_window,
-    torch_threads,
-    windows_per_second,
-)
-from ftin.models.registry import list_models
-from ftin.train.checkpoint import to_json_safe
+from ftin.bench.profile import count_parameters, torch_threads, windows_per_second
+from ftin.checkpoint import to_json_safe
+from ftin.models.registry import check_known_models, create_model, list_models
+from ftin.train.config import TrainConfig
+from ftin.train.losses import velocity_loss
 
 MEMORY_METHOD = (
     "each model and phase in its own process forked from a fork server that only imported torch; "
@@ -123,10 +119,12 @@ def _peak_rss_bytes() -> float:
     return float(peak) if sys.platform == "darwin" else float(peak) * 1024.0  # bytes on macOS, KiB else
 
 
-def _training_windows_per_second(model: torch.nn.Module, config: BenchConfig) -> float:
-    from ftin.train.config import TrainConfig
-    from ftin.train.loop import velocity_loss
+def peak_rss_mib() -> float:
+    """This process's peak resident set size so far (``getrusage``'s ``ru_maxrss``), in MiB."""
+    return _peak_rss_bytes() / _MIB
 
+
+def _training_windows_per_second(model: torch.nn.Module, config: BenchConfig) -> float:
     # ``ftin train``'s default clamp of the log-std (the config cannot be built without data paths)
     log_std_range = next(f.default for f in fields(TrainConfig) if f.name == "log_std_range")
 
@@ -163,7 +161,7 @@ def measure_phase(name: str, phase: Phase, config: BenchConfig) -> dict[str, Any
     torch.manual_seed(0)
     with torch_threads(config.threads):
         try:
-            model = create_model_for_window(name, config.window)
+            model = create_model(name, window=config.window)
         except ValueError as exc:
             return {"error": str(exc)}
         before = _peak_rss_bytes()

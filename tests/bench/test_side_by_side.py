@@ -13,7 +13,8 @@ import torch
 from typer.testing import CliRunner
 
 import ftin.cli.report  # noqa: F401  (registers `table` and `bench` until ftin.cli imports it)
-from ftin.bench import (
+from ftin.bench.profile import count_parameters
+from ftin.bench.side_by_side import (
     BenchConfig,
     Phase,
     _training_windows_per_second,
@@ -24,13 +25,11 @@ from ftin.bench import (
 )
 from ftin.cli import app
 from ftin.models import UnknownModelError, create_model
-from ftin.models.profile import count_parameters
 
 # Two small reference models at a short window and a tiny batch keep every measurement well under
 # a second; rnin cannot take 50-sample windows (it needs multiples of 100) and must say so.
 TINY = BenchConfig(window=50, batch=4, threads=1, repeats=1, stride=10, rate_hz=100.0, memory=False)
 MODELS = ["ronin_lstm", "ronin_tcn"]
-
 
 
 def _peak_rss_mib() -> float:

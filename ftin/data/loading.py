@@ -1,0 +1,80 @@
+"""Sequences as training and evaluation take them: read from paths, split, prepared for windowing.
+
+* ``load_sequences(paths)``: every sequence in files and folders (the CLI's ``--data``, the report's
+  datasets, the campaign).
+* ``split_validation``: a seeded hold-out of whole sequences (training without ``--val``).
+* ``prepare_sequence(seq, rate_hz)``: orientation (estimated when missing), then the uniform grid the
+  windows assume. This is the one place training prepares a sequence; inference
+  (``ftin.infer.prepare_for_checkpoint``) does the same two steps itself, with notes for the user.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ftin.data.errors import DataFormatError
+from ftin.data.preprocess import ensure_orientation, resample
+from ftin.data.readers import READERS, detect_format, list_sequences, read_sequence
+from ftin.data.types import ImuSequence
+
+
+def load_sequences(
+    paths: Sequence[str | Path], option: str = "--data", orientation: str | None = None
+) -> list[ImuSequence]:
+    """Every sequence in ``paths``: a folder is searched with ``list_sequences``, a file read directly.
+
+    ``orientation`` (``"ground_truth"`` or ``"device"``) goes to the readers that offer that choice
+    (OxIOD, RIDI); the others keep their own. ``option`` names the paths in error messages.
+    """
+
+    def read(ref_or_path: Any, fmt: str | None) -> ImuSequence:
+        takes = fmt is not None and "orientation" in inspect.signature(READERS[fmt].read).parameters
+        options = {"orientation": orientation} if orientation is not None and takes else {}
+        return read_sequence(ref_or_path, **options)
+
+    sequences: list[ImuSequence] = []
+    for raw in paths:
+        path = Path(raw).expanduser()
+        if not path.exists():
+            raise DataFormatError(f"{option} {raw}: no such file or folder")
+        fmt = detect_format(path)
+        if path.is_dir() and fmt is None:
+            refs = list_sequences(path)
+            if not refs:
+                raise DataFormatError(f"{option} {raw}: no recognised sequences in this folder")
+            sequences.extend(read(ref, ref.format) for ref in refs)
+        else:
+            sequences.append(read(path, fmt))
+    if not sequences:
+        raise DataFormatError(f"{option}: no sequences given")
+    return sequences
+
+
+def prepare_sequence(seq: ImuSequence, rate_hz: float) -> ImuSequence:
+    """Orientation (estimated when missing), then the uniform ``rate_hz`` grid the windows assume."""
+    return resample(ensure_orientation(seq), rate_hz)
+
+
+def data_rate_hz(sequences: Sequence[ImuSequence]) -> float:
+    """Median rate of the sequences, rounded to 1 Hz (the default ``imu_rate_hz``)."""
+    return float(round(float(np.median([seq.rate_hz for seq in sequences]))))
+
+
+def split_validation(
+    sequences: Sequence[ImuSequence], fraction: float, seed: int
+) -> tuple[list[ImuSequence], list[ImuSequence]]:
+    """Hold out a seeded ``fraction`` of whole sequences (at least one when there are two or more)."""
+    n = len(sequences)
+    if n < 2 or fraction <= 0:
+        return list(sequences), []
+    n_val = min(n - 1, max(1, round(fraction * n)))
+    order = np.random.default_rng(seed).permutation(n)
+    held_out = set(order[:n_val].tolist())
+    train = [s for i, s in enumerate(sequences) if i not in held_out]
+    val = [s for i, s in enumerate(sequences) if i in held_out]
+    return train, val

@@ -1,0 +1,99 @@
+"""The windows one training process works on (``ftin.train.loop``).
+
+``training_data(config, train_sequences, val_sequences, ...)``: without validation sequences a seeded
+``val_fraction`` of whole training sequences is held out (``ftin.data.loading.split_validation``); every
+sequence is prepared for the config's rate (``prepare_sequence``) and cut into ``WindowDataset``s with
+per-part targets; the input normalisation is fitted on the training windows; each of N processes
+takes ``ceil(batch_size / N)`` windows per step, in the order of a ``DistributedSampler`` (also with
+one process) seeded by ``config.seed`` and the epoch.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch.utils.data.distributed import DistributedSampler
+
+from ftin.data.loading import prepare_sequence, split_validation
+from ftin.data.types import ImuSequence
+from ftin.data.windows import InputNormalization, WindowDataset, fit_normalization
+from ftin.models.base import VelocityModel
+from ftin.train.config import TrainConfig
+from ftin.train.distributed import Distributed
+from ftin.train.losses import block_means, validation_blocks
+
+
+@dataclass
+class TrainData:
+    train: WindowDataset
+    val: WindowDataset | None
+    normalization: InputNormalization
+    sampler: DistributedSampler
+    batch: int  # windows per step in this process
+    val_per_block: int  # parts per ~1 s validation block (ftin.train.losses.validation_blocks)
+    info: dict[str, Any]  # training data and split, for the checkpoint's JSON
+
+    def validation_sums(
+        self, model: VelocityModel, device: torch.device, ddp: Distributed
+    ) -> tuple[float, int]:
+        """Squared-error sum and element count of ~1 s mean velocities over this rank's share of the
+        validation windows: per window for K = 1 models, per block of parts otherwise
+        (``ftin.train.losses.validation_blocks``)."""
+        model.eval()
+        indices = np.arange(len(self.val))[ddp.rank :: ddp.world]
+        sq_sum, count = 0.0, 0
+        with torch.inference_mode():
+            for i in range(0, len(indices), self.batch):
+                x, v = self.val.get_batch(indices[i : i + self.batch])
+                pred = model.forward_parts(self.normalization.apply(x.to(device))).velocity  # (B, K, D)
+                pred = block_means(pred, self.val_per_block)  # (B, blocks, D)
+                target = block_means(v.to(device), self.val_per_block)
+                sq_sum += float(((pred - target) ** 2).sum())
+                count += target.numel()
+        return sq_sum, count
+
+
+def training_data(
+    config: TrainConfig,
+    train_sequences: Sequence[ImuSequence],
+    val_sequences: Sequence[ImuSequence],
+    *,
+    parts: int,
+    out_dim: int,
+    ddp: Distributed,
+) -> TrainData:
+    """The windows of ``config`` (rate and window resolved) for a model predicting ``parts`` parts of
+    ``out_dim`` velocities per window (module docstring)."""
+    rate_hz, window = float(config.imu_rate_hz), config.resolved_window
+    val_source = "paths" if val_sequences else "none"
+    if not val_sequences:
+        train_sequences, val_sequences = split_validation(train_sequences, config.val_fraction, config.seed)
+        val_source = "held_out" if val_sequences else "none"
+    train = WindowDataset(
+        [prepare_sequence(s, rate_hz) for s in train_sequences],
+        window,
+        config.stride,
+        out_dim,
+        parts=parts,
+        augment_yaw=config.augment_yaw,
+        seed=config.seed,
+    )
+    val = None
+    if val_sequences:
+        prepared = [prepare_sequence(s, rate_hz) for s in val_sequences]
+        val = WindowDataset(prepared, window, config.stride, out_dim, parts=parts, augment_yaw=False)
+    split = {"train": train.names, "val": [] if val is None else val.names, "val_source": val_source}
+    return TrainData(
+        train=train,
+        val=val,
+        normalization=fit_normalization(train.imu_per_sequence, config.normalization),
+        sampler=DistributedSampler(train, ddp.world, ddp.rank, shuffle=True, seed=config.seed),
+        batch=math.ceil(config.batch_size / ddp.world),
+        val_per_block=validation_blocks(window, parts, rate_hz),
+        info={"training_data": {"paths": list(config.data), "sequences": train.names}, "split": split},
+    )
