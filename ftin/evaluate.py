@@ -14,18 +14,22 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
 from ftin.infer import predict_prepared
 from ftin.metrics import (
+    Alignment,
     Convention,
     TrajectoryMetrics,
+    convention_for,
+    default_alignment,
     describe,
+    evaluate_aligned,
     evaluate_trajectory,
     mean_metrics,
     stand_still,
 )
-from ftin.train.checkpoint import LoadedModel
 
 
 @dataclass(frozen=True)
@@ -54,7 +58,10 @@ class EvaluationReport:
         def values(m: TrajectoryMetrics | None) -> dict[str, float | None] | None:
             if m is None:
                 return None
-            return {"ate": m.ate, "rte": m.rte, "pde": m.pde, "path_length_ratio": m.path_length_ratio}
+            values = {"ate": m.ate, "rte": m.rte, "pde": m.pde, "path_length_ratio": m.path_length_ratio}
+            if m.alignment is not None:  # ftin.metrics.align: which alignment, and the fitted heading
+                values.update(alignment=m.alignment, heading_deg=m.heading_deg)
+            return values
 
         return {
             "checkpoint": self.checkpoint,
@@ -83,8 +90,16 @@ def evaluate_checkpoint(
     rte_window_s: float = 60.0,
     stride: int | None = None,
     on_sequence: Callable[[str], None] | None = None,
+    alignment: Alignment | str | None = None,
 ) -> EvaluationReport:
-    """Predict every sequence and score it against its ground truth (``DataFormatError`` if none)."""
+    """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
+
+    ``alignment`` (``ftin.metrics.align``) sets the convention it implies; ``None`` with the RoNIN
+    convention picks each sequence's default (``start`` where the ground truth may be in another world
+    frame than the device's, else ``none``); ``None`` with another convention scores as before.
+    """
+    if alignment is not None:
+        convention = convention_for(alignment)
     convention = Convention(convention)
     results: list[SequenceResult] = []
     for seq in sequences:
@@ -97,6 +112,12 @@ def evaluate_checkpoint(
         )
         if prediction.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(prediction.warnings[-1:])}")
+        chosen = alignment
+        if chosen is None and convention is Convention.RONIN:
+            chosen = default_alignment(prepared.meta.get("gt_frame"))
+        if chosen is not None:
+            aligned, _fit = evaluate_aligned(prediction.trajectory, prepared.gt, chosen, rte_window_s)
+            prediction.metrics = aligned
         still = evaluate_trajectory(stand_still(prepared.gt), prepared.gt, convention, rte_window_s)
         results.append(
             SequenceResult(seq.name, prediction.metrics, prepared.duration_s, prediction.warnings, still)

@@ -2,14 +2,17 @@
 
     .venv/bin/python scripts/bench_predict.py                # real uvicorn + viser, in-process
     .venv/bin/python scripts/bench_predict.py --runs 30 --testclient --no-viser
+    .venv/bin/python scripts/bench_predict.py --duration-s 1200 --runs 3 --warmup 1   # issue 10's 20 min
 
 Starts nothing external: the app runs in this process (uvicorn on a free 127.0.0.1 port, or
 FastAPI's TestClient), on the checkpoint folder the app would use (``FTIN_CHECKPOINT_DIR`` or
 ``checkpoints/``) and its default model (``ftin-oxiod``); when that checkpoint is missing, the
 app's own fallback (the first FTIN checkpoint, else the first one) is timed and the script says so.
 The scene is on by default, as in ``uvicorn app.main:app``, because a finished run is drawn before
-the response leaves. Two uploads are timed: the simulated CSV as is (device orientation and
-ground truth, so metrics too) and its IMU columns only (orientation estimated by the AHRS filter).
+the response leaves. Three uploads are timed: the simulated CSV as is (device orientation and
+ground truth, so metrics too), the same without ground truth, and its IMU columns only (orientation
+estimated by the VQF filter), side by side, with the ratio of the medians of the same recording without
+and with orientation (the cost of estimating orientation).
 Each upload is a multipart form in the field ``file``, as the upload page sends it; the time is
 the full round trip including the JSON response.
 """
@@ -32,6 +35,8 @@ import uvicorn
 
 from app.main import create_app
 from app.settings import Settings
+from ftin.data import preprocess
+from ftin.data.preprocess import AhrsMethod
 from ftin.data.readers.generic_csv import write_csv
 from ftin.sim.config import CarryMode, SimConfig
 from ftin.sim.simulator import simulate
@@ -39,15 +44,19 @@ from ftin.sim.simulator import simulate
 Post = Callable[[bytes], httpx.Response]
 
 
-def simulated_csvs(duration_s: float, rate_hz: float, seed: int) -> dict[str, bytes]:
+def simulated_csvs(
+    duration_s: float, rate_hz: float, seed: int, filter_name: str = "vqf"
+) -> dict[str, bytes]:
     """The simulated walk as CSV: full (orientation + ground truth) and IMU columns only."""
     seq = simulate(SimConfig(duration_s=duration_s, rate_hz=rate_hz, carry=CarryMode.HANDHELD, seed=seed))
-    full, imu_only = io.StringIO(), io.StringIO()
-    write_csv(seq, full)
+    oriented, imu_only, full = io.StringIO(), io.StringIO(), io.StringIO()
+    write_csv(seq.with_(gt=None), oriented)
     write_csv(seq.with_(q_world_device_wxyz=None, gt=None), imu_only)
-    return {
-        "orientation + ground truth": full.getvalue().encode(),
-        "IMU only (AHRS estimates orientation)": imu_only.getvalue().encode(),
+    write_csv(seq, full)
+    return {  # the first two are the same recording with and without orientation (the ratio)
+        "with orientation": oriented.getvalue().encode(),
+        f"IMU only ({filter_name} estimates orientation)": imu_only.getvalue().encode(),
+        "orientation + ground truth (metrics)": full.getvalue().encode(),
     }
 
 
@@ -109,6 +118,13 @@ def main() -> None:
     )
     parser.add_argument("--testclient", action="store_true", help="FastAPI TestClient instead of uvicorn")
     parser.add_argument("--no-viser", action="store_true", help="without the 3D scene")
+    parser.add_argument(
+        "--filter",
+        choices=[m.value for m in AhrsMethod],
+        default=AhrsMethod.VQF.value,
+        help="orientation filter for the IMU-only upload (default vqf; madgwick: the previous one, for "
+        "before/after timings)",
+    )
     args = parser.parse_args()
     if args.runs < 1 or args.warmup < 0:
         parser.error("--runs must be >= 1 and --warmup >= 0")
@@ -118,7 +134,9 @@ def main() -> None:
     if args.checkpoint_dir is not None:
         overrides["checkpoint_dir"] = args.checkpoint_dir
     settings = Settings(**overrides)
-    csvs = simulated_csvs(args.duration_s, args.rate_hz, args.seed)
+    # The app always uses ensure_orientation's default filter; a benchmark may swap it for comparison.
+    preprocess.ensure_orientation.__defaults__ = (AhrsMethod(args.filter),)
+    csvs = simulated_csvs(args.duration_s, args.rate_hz, args.seed, args.filter)
     poster = testclient_poster if args.testclient else uvicorn_poster
     with poster(settings) as (post, app):
         services = app.state.services
@@ -140,14 +158,27 @@ def main() -> None:
             f"{'off' if args.no_viser else 'on'}, torch threads {torch.get_num_threads()}, "
             f"{args.runs} runs after {args.warmup} warm-up"
         )
+        print(f"orientation filter for the IMU-only upload: {args.filter}")
         print(f"{'CSV':<40} {'size':>8} {'median':>9} {'p90':>9} {'max':>9}")
+        # Interleaved (one request of each upload per round), so that a machine whose load drifts
+        # during the benchmark weighs on every upload alike.
+        for data in csvs.values():
+            time_requests(post, data, 0, args.warmup)
+        timings: dict[str, list[float]] = {label: [] for label in csvs}
+        for _ in range(args.runs):
+            for label, data in csvs.items():
+                timings[label] += time_requests(post, data, 1, 0)
+        medians = []
         for label, data in csvs.items():
-            seconds = time_requests(post, data, args.runs, args.warmup)
+            seconds = timings[label]
+            medians.append(statistics.median(seconds))
             p90 = float(np.percentile(seconds, 90))
             print(
                 f"{label:<40} {len(data) / 2**20:>6.2f}MB {statistics.median(seconds):>8.3f}s "
                 f"{p90:>8.3f}s {max(seconds):>8.3f}s"
             )
+        ratio = medians[1] / medians[0]
+        print(f"ratio     IMU only / with orientation, same recording (medians): {ratio:.2f}")
 
 
 if __name__ == "__main__":

@@ -1,18 +1,19 @@
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 import torch
 
+from ftin.checkpoint import load_model, save_checkpoint
 from ftin.data.errors import DataFormatError
 from ftin.evaluate import evaluate_checkpoint
 from ftin.infer import predict_trajectory
 from ftin.metrics import Convention, evaluate_trajectory
 from ftin.models import create_model
 from ftin.sim import SimConfig, simulate
-from ftin.train.checkpoint import load_model, save_checkpoint
 
 
 @pytest.fixture(scope="module")
@@ -35,14 +36,15 @@ def test_per_sequence_and_mean(loaded, walks):
     assert [r.name for r in report.sequences] == [w.name for w in walks]
     for result, walk in zip(report.sequences, walks, strict=True):
         expected = evaluate_trajectory(predict_trajectory(loaded, walk).trajectory, walk.gt)
-        assert result.metrics == expected
+        # simulated walks have their ground truth in the device's world: no alignment by default
+        assert result.metrics == dataclasses.replace(expected, alignment="none")
         assert result.duration_s == pytest.approx(walk.duration_s)
     assert report.mean.ate == pytest.approx(np.mean([r.metrics.ate for r in report.sequences]))
     assert report.mean.rte == pytest.approx(np.mean([r.metrics.rte for r in report.sequences]))
     assert report.mean.pde == pytest.approx(np.mean([r.metrics.pde for r in report.sequences]))
     data = json.loads(json.dumps(report.to_json()))
     assert data["convention"] == "ronin"
-    assert set(data["mean"]) == {"ate", "rte", "pde", "path_length_ratio"}
+    assert set(data["mean"]) == {"ate", "rte", "pde", "path_length_ratio", "alignment", "heading_deg"}
     assert [set(s) >= {"name", "ate", "rte", "pde"} for s in data["sequences"]] == [True, True]
     assert data["sequences"][0]["ate"] == report.sequences[0].metrics.ate
     assert "RoNIN convention" in data["description"]
@@ -78,3 +80,16 @@ def test_every_result_stands_beside_the_predictor_that_never_moves(loaded, walks
     data = report.to_json()
     assert data["stand_still"]["path_length_ratio"] == 0.0
     assert data["sequences"][0]["stand_still"]["ate"] == report.sequences[0].stand_still.ate
+
+
+def test_alignment_is_named_with_its_heading(loaded, walks):
+    from ftin.metrics import Alignment
+
+    walk = walks[0]
+    turned = walk.with_(meta={**walk.meta, "gt_frame": "unknown"})  # e.g. a user CSV with motion capture
+    default = evaluate_checkpoint(loaded, [turned]).sequences[0].metrics
+    assert default.alignment == "start" and default.heading_deg is not None
+    none = evaluate_checkpoint(loaded, [turned], alignment=Alignment.NONE).sequences[0].metrics
+    assert none.alignment == "none" and none.heading_deg is None
+    se2 = evaluate_checkpoint(loaded, [turned], alignment="se2")
+    assert se2.convention is Convention.SE2 and se2.to_json()["sequences"][0]["alignment"] == "se2"

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from ftin.checkpoint import LoadedModel, load_model, save_checkpoint
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import InputNormalization, make_windows, world_imu
@@ -11,7 +12,6 @@ from ftin.infer import integrate_spans, integrate_windows, predict_trajectory, s
 from ftin.models import VelocityModel, VelocityOutput, create_model
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.sim import SimConfig, simulate
-from ftin.train.checkpoint import LoadedModel, load_model, save_checkpoint
 
 RATE_HZ = 50.0
 WINDOW = 25

@@ -39,6 +39,11 @@ class ConvertTarget(str, Enum):
 
 def _find(path: Path) -> list[SequenceRef]:
     refs = list_sequences(path)
+    if not refs and path.is_file():
+        # No format claims the file: read it as an upload is read, so that a near miss raises its own
+        # message (the missing column, sensor or unit); a file that reads is one sequence.
+        seq = read_sequence(path)
+        refs = [SequenceRef(str(seq.meta.get("dataset", "csv")), path, path.stem)]
     if not refs:
         raise DataFormatError(f"{path}: no sequence of any supported format found")
     return refs

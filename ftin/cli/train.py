@@ -21,14 +21,16 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from ftin.checkpoint import CheckpointError, atomic_write_text, load_model
 from ftin.cli import app
 from ftin.cli.common import err_console, progress_bar, user_errors
 from ftin.data.errors import DataFormatError
-from ftin.metrics import Convention
+from ftin.data.loading import load_sequences
+from ftin.metrics import Alignment, Convention
 from ftin.models import UnknownModelError
-from ftin.train.checkpoint import CheckpointError, atomic_write_text, load_model
 from ftin.train.config import ConfigError, TrainConfig
-from ftin.train.loop import CONFIG_FILE, load_sequences, run_training
+from ftin.train.loop import run_training
+from ftin.train.state import CONFIG_FILE
 
 EXPECTED_ERRORS = (
     DataFormatError,
@@ -221,6 +223,15 @@ def evaluate_command(
         Convention, typer.Option("--convention", help="How trajectories are compared.")
     ] = Convention.RONIN,
     rte_window_s: Annotated[float, typer.Option("--rte-window-s", min=0.0, help="RTE window.")] = 60.0,
+    align: Annotated[
+        Alignment | None,
+        typer.Option(
+            "--align",
+            help="none (RoNIN: raw), start (heading + start fitted on the first 10 s, like evo "
+            "--n_to_align), se2 or se3 (whole-trajectory Umeyama, like evo --align); sets the convention. "
+            "Default: start where the ground truth may be in another world frame, else none.",
+        ),
+    ] = None,
 ) -> None:
     """ATE / RTE / PDE of a checkpoint per sequence and their mean, under a stated convention."""
     from ftin.evaluate import evaluate_checkpoint
@@ -235,7 +246,7 @@ def evaluate_command(
                 bar.update(task, description=f"evaluating {escape(name)}", advance=1)
 
             report = evaluate_checkpoint(
-                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance
+                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance, alignment=align
             )
         if json_out is not None:
             atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
@@ -259,6 +270,14 @@ def evaluate_command(
     console = Console()
     console.print(table)
     console.print(report.describe(), highlight=False, soft_wrap=True)
+    aligned = [r for r in report.sequences if r.metrics.alignment is not None]
+    if aligned:
+        shown = "; ".join(
+            f"{r.name}: {r.metrics.alignment}"
+            + ("" if r.metrics.heading_deg is None else f" (heading {r.metrics.heading_deg:+.1f}°)")
+            for r in aligned
+        )
+        console.print(f"alignment: {escape(shown)}", highlight=False, soft_wrap=True)
     console.print(
         "path ratio = predicted / true horizontal path length (1 = the right distance); "
         "stand still = a predictor that never moves, scored the same way: a useful model is well below it.",
@@ -272,15 +291,40 @@ def evaluate_command(
 @app.command("predict")
 def predict_command(
     checkpoint: Annotated[Path, typer.Option("--checkpoint", help="A .safetensors, its .json, or the stem.")],
-    input_path: Annotated[Path, typer.Argument(metavar="INPUT", help="One recording (file or folder).")],
-    out: Annotated[Path, typer.Option("--out", help="Trajectory CSV to write (t,x,y,z).")],
+    input_path: Annotated[
+        Path, typer.Argument(metavar="INPUT", help="One recording: a file, a folder or a phone app ZIP.")
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", help="Trajectory to write: CSV (t,x,y,z), or TUM when it ends in .tum.")
+    ],
     stride: Annotated[
         int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
     ] = None,
+    timestamps: Annotated[
+        str,
+        typer.Option(
+            "--timestamps",
+            help="model: the samples the model ran on (the checkpoint's rate); input: the recording's own.",
+        ),
+    ] = "model",
+    align: Annotated[
+        Alignment | None,
+        typer.Option("--align", help="Alignment for the printed metrics (see ftin evaluate --align)."),
+    ] = None,
+    gt_out: Annotated[
+        Path | None,
+        typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),
+    ] = None,
 ) -> None:
-    """Predict the trajectory of one recording and write it as CSV (t,x,y,z)."""
+    """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
+    CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
     from ftin.data.readers import read_sequence
-    from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+    from ftin.data.trajectory_io import at_times, tum_text
+    from ftin.infer import FRAME_GROUND_TRUTH, predict_prepared
+    from ftin.metrics import default_alignment, evaluate_aligned
+
+    if timestamps not in ("model", "input"):
+        raise typer.BadParameter("must be 'model' or 'input'", param_hint="--timestamps")
 
     with user_errors(*EXPECTED_ERRORS):
         loaded = load_model(checkpoint)
@@ -294,7 +338,15 @@ def predict_command(
                     task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
                 bar.update(task, completed=done)
 
-            prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
+            prediction, prepared = predict_prepared(loaded, seq, stride=stride, progress=report)
+        shown_gt = seq.gt
+        if prepared.gt is not None and prediction.metrics is not None:
+            chosen = align or default_alignment(prepared.meta.get("gt_frame"))
+            prediction.metrics, fit = evaluate_aligned(prediction.trajectory, prepared.gt, chosen)
+            shown_gt = fit.gt_in_estimate_frame(seq.gt)
+        trajectory = prediction.trajectory
+        if timestamps == "input":
+            trajectory = at_times(trajectory, seq.t_s)
         if prediction.frame == FRAME_GROUND_TRUTH:
             frame = "ground-truth world frame (the input has ground truth; the estimate starts at its start)"
         else:
@@ -304,17 +356,25 @@ def predict_command(
             f"frame: {frame}",
             f"orientation: {prediction.orientation_source}; units: t in s, x y z in m",
         ]
-        atomic_write_text(
-            out, trajectory_csv(prediction.trajectory.t_s, prediction.trajectory.p_world_m, header)
-        )
+        if out.suffix.lower() == ".tum":
+            atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
+        else:
+            atomic_write_text(out, trajectory_csv(trajectory.t_s, trajectory.p_world_m, header))
+        if gt_out is not None:
+            if shown_gt is None:
+                raise DataFormatError(f"{input_path}: no ground truth to write to {gt_out}")
+            note = f"ground truth of {input_path}, in {out.name}'s frame"
+            atomic_write_text(gt_out, tum_text(shown_gt, note))
     for warning in prediction.warnings:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
-    typer.echo(
-        f"wrote {len(prediction.trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)"
-    )
+    typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     if prediction.metrics is not None:
         m = prediction.metrics
-        typer.echo(f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention)")
+        heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"
+        typer.echo(
+            f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
+            f"alignment {m.alignment}{heading})"
+        )
 
 
 def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:

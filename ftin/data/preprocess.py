@@ -142,8 +142,16 @@ def rotate_trajectory_about_z(trajectory: Trajectory, yaw: float) -> Trajectory:
 
 
 class AhrsMethod(str, Enum):
-    """IMU-only attitude filters from the ``ahrs`` package."""
+    """Attitude filters for recordings without orientation.
 
+    ``VQF`` (the default): Laidig & Seel's VQF (Information Fusion 2023) in its offline batch mode
+    (``vqf.offlineVQF``, C++ core): forward-backward filtering with gyroscope bias estimation and rest
+    detection; 9-D (magnetometer-referenced heading) when the recording carries a magnetometer
+    (``meta["mag_uT"]``, same length), else 6-D. ``MADGWICK`` / ``MAHONY``: the ``ahrs`` package's
+    filters, one Python call per sample (kept for comparison: ``scripts/orientation_quality.py``).
+    """
+
+    VQF = "vqf"
     MADGWICK = "madgwick"
     MAHONY = "mahony"
 
@@ -173,28 +181,30 @@ def _initial_orientation_from_gravity(seq: ImuSequence, init_s: float) -> np.nda
 
 def estimate_orientation(
     seq: ImuSequence,
-    method: AhrsMethod | str = AhrsMethod.MADGWICK,
+    method: AhrsMethod | str = AhrsMethod.VQF,
     init_s: float = 0.5,
     align_window_s: float = 2.0,
+    *,
+    use_magnetometer: bool = True,
     **filter_options: float,
 ) -> ImuSequence:
-    """Estimate ``q_world_device_wxyz`` with an IMU-only AHRS filter (no magnetometer).
+    """Estimate ``q_world_device_wxyz`` with an attitude filter (``AhrsMethod``, VQF by default).
 
-    ``filter_options`` go to the ``ahrs`` filter (``gain`` for Madgwick; ``k_P``, ``k_I`` for
-    Mahony). Conventions checked against the ``ahrs`` source and by a test on a synthetic rotating
-    device: its quaternions are scalar-first and rotate sensor-frame vectors into an Earth frame
-    whose +z is the direction of the measured specific force at rest, i.e. exactly our
-    ``q_world_device`` with z up; accelerometer units do not matter (it normalises). The filter
-    starts level from the gyro-compensated mean specific force of the first ``init_s`` seconds
-    (yaw 0) and uses each sample's real time step. Without a magnetometer the heading is arbitrary
-    and drifts with the gyro bias; a warning says so.
+    All filters return world-from-device quaternions whose world +z is the direction of the measured
+    specific force at rest (checked by tests on a synthetic rotating device), i.e. exactly our
+    ``q_world_device`` with z up. VQF runs on the whole recording at once (its sample time is the
+    median interval: readers guarantee a near-uniform clock); with a magnetometer in
+    ``meta["mag_uT"]`` (and ``use_magnetometer``) it runs in 9-D mode and the heading is
+    referenced to magnetic north, else in 6-D mode and the heading is arbitrary and drifts slowly;
+    ``meta["orientation_filter"]`` and a warning name the mode that ran. ``filter_options`` go to the
+    filter (VQF: its ``params`` keys, e.g. ``tauAcc``; Madgwick: ``gain``; Mahony: ``k_P``, ``k_I``).
+    Madgwick and Mahony start level from the gyro-compensated mean specific force of the first
+    ``init_s`` seconds (yaw 0) and use each sample's real time step.
 
     Ground truth, if any, must stay in the sequence's world frame: when the sequence already had an
     orientation, the gt is turned by the yaw between the new and the old world frame over the first
     ``align_window_s`` seconds; without one there is nothing to align against and a warning says so.
     """
-    from ahrs.filters import Madgwick, Mahony  # deferred: only this function needs the package
-
     try:
         method = AhrsMethod(method)
     except ValueError:
@@ -203,25 +213,23 @@ def estimate_orientation(
     if len(seq) < 2:
         raise DataFormatError(f"sequence {seq.name!r} has {len(seq)} samples: AHRS needs at least 2")
     _require_increasing_time(seq)
-    rate_hz = seq.rate_hz
-    if method is AhrsMethod.MADGWICK:
-        ahrs_filter = Madgwick(frequency=rate_hz, **filter_options)
+    if method is AhrsMethod.VQF:
+        _initial_orientation_from_gravity(seq, init_s)  # refuses a recording without gravity, by name
+        q, mode = _vqf(seq, use_magnetometer, filter_options)
+        if mode == "9d":
+            what = (
+                "the VQF filter (9-D: gyroscope, accelerometer and magnetometer; heading from magnetic north)"
+            )
+        else:
+            what = "the VQF filter (6-D, without magnetometer): heading is arbitrary and drifts"
+        filter_name = f"vqf-{mode}"
     else:
-        ahrs_filter = Mahony(frequency=rate_hz, **filter_options)
-
-    q = np.empty((len(seq), 4))
-    q[0] = _initial_orientation_from_gravity(seq, init_s)
-    dt_s = np.diff(seq.t_s)
-    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
-    for k in range(1, len(seq)):
-        # ahrs integrates gyr[k] over the step that ends at sample k.
-        q[k] = ahrs_filter.updateIMU(q[k - 1], gyr=gyro[k], acc=acc[k], dt=float(dt_s[k - 1]))
+        q = _ahrs_loop(seq, method, init_s, filter_options)
+        what = f"the {method.value} AHRS filter without magnetometer: heading is arbitrary and drifts"
+        filter_name = method.value
     q = frames.make_continuous(q)
 
-    warnings = [
-        f"orientation estimated by the {method.value} AHRS filter without magnetometer: "
-        "heading is arbitrary and drifts"
-    ]
+    warnings = [f"orientation estimated by {what}"]
     gt = seq.gt
     if gt is not None and seq.q_world_device_wxyz is not None:
         yaw, _ = yaw_offset_rad(seq.t_s, q, seq.q_world_device_wxyz, align_window_s)
@@ -235,11 +243,52 @@ def estimate_orientation(
             "ground-truth heading is not aligned with the estimated world frame "
             "(the sequence had no orientation to align against)"
         )
-    meta = _meta_with_warning(seq.meta, *warnings, orientation_source="estimated")
+    updates: dict[str, Any] = {"orientation_source": "estimated", "orientation_filter": filter_name}
+    if gt is not None and seq.q_world_device_wxyz is None:
+        updates["gt_frame"] = "unknown"  # nothing related the two world frames (ftin.metrics.align)
+    meta = _meta_with_warning(seq.meta, *warnings, **updates)
     return seq.with_(q_world_device_wxyz=q, gt=gt, meta=meta)
 
 
-def ensure_orientation(seq: ImuSequence, method: AhrsMethod | str = AhrsMethod.MADGWICK) -> ImuSequence:
+def _vqf(seq: ImuSequence, use_magnetometer: bool, options: dict[str, float]) -> tuple[np.ndarray, str]:
+    """``(q_world_device_wxyz, "6d" | "9d")`` from ``vqf.offlineVQF`` (scalar-first, z up)."""
+    from vqf import offlineVQF  # deferred: only this function needs the compiled extension
+
+    mag = seq.meta.get("mag_uT") if use_magnetometer else None
+    if mag is not None:
+        mag = np.asarray(mag, dtype=np.float64)
+        if mag.shape != (len(seq), 3) or not np.isfinite(mag).all():
+            mag = None  # resampled or sliced since the reader: not on this clock
+    gyr = np.ascontiguousarray(seq.gyro_rad_s, dtype=np.float64)
+    acc = np.ascontiguousarray(seq.acc_m_s2, dtype=np.float64)
+    sample_time_s = float(np.median(np.diff(seq.t_s)))
+    out = offlineVQF(gyr, acc, None if mag is None else np.ascontiguousarray(mag), sample_time_s,
+                     dict(options) or None)
+    if mag is not None:
+        return np.asarray(out["quat9D"], dtype=np.float64), "9d"
+    return np.asarray(out["quat6D"], dtype=np.float64), "6d"
+
+
+def _ahrs_loop(seq: ImuSequence, method: AhrsMethod, init_s: float, options: dict[str, float]) -> np.ndarray:
+    """The ``ahrs`` package's Madgwick or Mahony filter, one call per sample."""
+    from ahrs.filters import Madgwick, Mahony  # deferred: only this function needs the package
+
+    rate_hz = seq.rate_hz
+    if method is AhrsMethod.MADGWICK:
+        ahrs_filter = Madgwick(frequency=rate_hz, **options)
+    else:
+        ahrs_filter = Mahony(frequency=rate_hz, **options)
+    q = np.empty((len(seq), 4))
+    q[0] = _initial_orientation_from_gravity(seq, init_s)
+    dt_s = np.diff(seq.t_s)
+    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
+    for k in range(1, len(seq)):
+        # ahrs integrates gyr[k] over the step that ends at sample k.
+        q[k] = ahrs_filter.updateIMU(q[k - 1], gyr=gyro[k], acc=acc[k], dt=float(dt_s[k - 1]))
+    return q
+
+
+def ensure_orientation(seq: ImuSequence, method: AhrsMethod | str = AhrsMethod.VQF) -> ImuSequence:
     """``seq`` itself when it has an orientation, else :func:`estimate_orientation`."""
     if seq.q_world_device_wxyz is not None:
         return seq

@@ -1,5 +1,14 @@
 """Trajectory metrics (ATE, RTE, PDE) under an explicit convention, and rigid alignment."""
 
+from ftin.metrics.align import (
+    Alignment,
+    AlignmentFit,
+    convention_for,
+    default_alignment,
+    describe_alignment,
+    evaluate_aligned,
+    fit_alignment,
+)
 from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
 from ftin.metrics.trajectory import (
     Convention,
@@ -16,6 +25,13 @@ from ftin.metrics.trajectory import (
 )
 
 __all__ = [
+    "Alignment",
+    "AlignmentFit",
+    "convention_for",
+    "default_alignment",
+    "describe_alignment",
+    "evaluate_aligned",
+    "fit_alignment",
     "Convention",
     "RigidAlignment",
     "TrajectoryMetrics",

@@ -69,10 +69,16 @@ class TrajectoryMetrics:
     rte_window_s: float = 60.0
     # predicted / true horizontal path length; None where the truth does not move (no ratio exists)
     path_length_ratio: float | None = None
+    # Set by ``ftin.metrics.align.evaluate_aligned``: the alignment (``Alignment`` value), the fitted
+    # heading of the estimate into the ground-truth frame (deg; None when nothing was fitted) and, for
+    # "start", the seconds of the start it was fitted on.
+    alignment: str | None = None
+    heading_deg: float | None = None
+    align_window_s: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values; the convention as its string value."""
-        return {
+        out = {
             "ate": self.ate,
             "rte": self.rte,
             "pde": self.pde,
@@ -80,6 +86,11 @@ class TrajectoryMetrics:
             "convention": self.convention.value,
             "rte_window_s": self.rte_window_s,
         }
+        if self.alignment is not None:
+            out.update(
+                alignment=self.alignment, heading_deg=self.heading_deg, align_window_s=self.align_window_s
+            )
+        return out
 
 
 def ate(est_m: np.ndarray, gt_m: np.ndarray, convention: Convention = Convention.RONIN) -> float:
@@ -176,6 +187,7 @@ def mean_metrics(metrics: Sequence[TrajectoryMetrics]) -> TrajectoryMetrics:
         convention=first.convention,
         rte_window_s=first.rte_window_s,
         path_length_ratio=_mean_or_none([m.path_length_ratio for m in metrics]),
+        alignment=first.alignment if all(m.alignment == first.alignment for m in metrics) else None,
     )
 
 

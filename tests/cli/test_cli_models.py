@@ -6,9 +6,9 @@ import json
 
 from typer.testing import CliRunner
 
+from ftin.bench.profile import count_parameters
 from ftin.cli import app
-from ftin.models import list_models
-from ftin.models.profile import count_parameters, create_model_for_window
+from ftin.models import create_model, list_models
 
 runner = CliRunner()
 
@@ -27,7 +27,7 @@ def test_json_lists_every_model_with_its_size():
         assert row["window"] == 100 and row["error"] is None
         assert row["windows_per_s"] is None  # --no-speed
         assert row["flops_per_window"] > 0
-        assert row["parameters"] == count_parameters(create_model_for_window(row["name"], 100))
+        assert row["parameters"] == count_parameters(create_model(row["name"], window=100))
 
 
 def test_measured_speed_with_batch_threads_and_model_selection():

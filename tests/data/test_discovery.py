@@ -144,7 +144,9 @@ def test_mixed_folder_lists_every_sequence_once(mixed):
     assert len(refs) == len(EXPECTED)
     assert [ref.name for ref in refs] == sorted(ref.name for ref in refs)
     assert all(isinstance(ref, SequenceRef) and ref.path.exists() for ref in refs)
-    assert set(readers.READERS) == {"oxiod", "euroc", "csv", "ronin", "ridi", "tlio", "rnin", "imunet"}
+    assert set(readers.READERS) == {
+        *("oxiod", "euroc", "csv", "ronin", "ridi", "tlio", "rnin", "imunet", "sensorlogger", "phyphox")
+    }
 
 
 def test_generic_csv_never_claims_a_file_of_another_layout(mixed):
@@ -204,7 +206,8 @@ def test_read_sequence_on_folders(mixed):
     empty.mkdir()
     with pytest.raises(DataFormatError, match=rf"{empty}: not a sequence of any supported format"):
         read_sequence(empty)
-    with pytest.raises(DataFormatError, match="notes.csv: not a sequence of any supported format"):
+    # A file no format claims is read as an upload would be: the error names what is missing.
+    with pytest.raises(DataFormatError, match=r"notes.csv: missing column\(s\) t, gyro_x"):
         read_sequence(mixed / "mine" / "notes.csv")
     with pytest.raises(DataFormatError, match="absent: no such file or directory"):
         read_sequence(mixed / "absent")
@@ -257,13 +260,17 @@ def test_failing_discovery_and_unreadable_folders_do_not_crash(mixed, monkeypatc
 EXPECTED_NAMES = {name for _fmt, name in EXPECTED}
 
 
-def test_shared_data_lists_oxiod_and_euroc_only(shared_data):
+def test_shared_data_lists_every_dataset(shared_data):
     refs = list_sequences(shared_data)
     by_format: dict[str, list[str]] = {}
     for ref in refs:
         by_format.setdefault(ref.format, []).append(ref.name)
-    assert sorted(by_format) == ["euroc", "oxiod"]
-    assert len(by_format["oxiod"]) == 12 and len(by_format["euroc"]) == 5
+    assert sorted(by_format) == ["euroc", "oxiod", "phyphox", "ridi", "sensorlogger"]
+    assert len(by_format["oxiod"]) == 12 and len(by_format["euroc"]) == 5 and len(by_format["ridi"]) == 21
+    assert sorted(by_format["sensorlogger"]) == [
+        "phone/sensorlogger/2022-09-16_11-15-46",
+        "phone/sensorlogger/inhand-20-steps-Zyf",
+    ]
     assert "oxiod/handheld/data1/syn/imu2" in by_format["oxiod"]
     assert "euroc/MH_04_difficult" in by_format["euroc"]
     assert detect_format(shared_data / "oxiod" / "trolley" / "data2" / "syn" / "imu1.csv") == "oxiod"

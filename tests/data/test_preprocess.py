@@ -125,7 +125,7 @@ def test_world_frame_imu_matches_truth_and_needs_orientation():
         preprocess.world_frame_imu(seq.with_(q_world_device_wxyz=None))
 
 
-@pytest.mark.parametrize("method", ["madgwick", "mahony"])
+@pytest.mark.parametrize("method", ["vqf", "madgwick", "mahony"])
 def test_estimate_orientation_tilt_matches_truth(method):
     seq = _synthetic(duration_s=20.0, with_orientation=False, noise=1.0)
     out = preprocess.estimate_orientation(seq, method)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ftin.data.loading import load_sequences
 from ftin.data.preprocess import world_frame_imu
 from ftin.data.readers import read_sequence
-from ftin.train.loop import load_sequences
 
 
 @pytest.fixture(scope="module")

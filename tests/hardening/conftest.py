@@ -36,6 +36,7 @@ from scipy.spatial.transform import Rotation
 
 from app.main import create_app
 from app.settings import Settings
+from ftin.checkpoint import save_checkpoint
 from ftin.data import ImuSequence
 from ftin.data.readers.generic_csv import (
     COLUMNS,
@@ -48,7 +49,6 @@ from ftin.data.readers.generic_csv import (
 )
 from ftin.models import create_model
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
-from ftin.train.checkpoint import save_checkpoint
 
 FUZZ_PROFILE = "ftin-fuzz"
 FUZZ_EXAMPLES_ENV = "FTIN_FUZZ_EXAMPLES"

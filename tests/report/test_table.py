@@ -12,6 +12,7 @@ import torch
 from typer.testing import CliRunner
 
 import ftin.cli.report  # noqa: F401  (registers `table` and `bench` until ftin.cli imports it)
+from ftin.checkpoint import save_checkpoint
 from ftin.cli import app
 from ftin.cli.report import parse_dataset_options
 from ftin.data.readers.generic_csv import write_csv
@@ -31,7 +32,6 @@ from ftin.report import (
 from ftin.report.evaluation import representative_sequence
 from ftin.report.render import improvement_percent
 from ftin.sim import SimConfig, simulate
-from ftin.train.checkpoint import save_checkpoint
 
 RATE_HZ = 50.0
 WINDOW = 25

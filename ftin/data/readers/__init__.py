@@ -18,6 +18,9 @@ Decisions:
 * Names are the sequence's path relative to the listed root, POSIX separators, file suffix dropped
   (``handheld/data1/syn/imu2``): stable, readable and unique within the root; ``read_sequence`` on
   a ``SequenceRef`` gives the sequence that name.
+* Phone exports (Sensor Logger, phyphox) are folders or ZIP files; ``ftin.data.readers.uploads``
+  reads the same from bytes (uploads, gzip included). A file no format claims is still read the way
+  an upload is, so its error names the missing column or sensor instead of "no supported format".
 * Discovery never fails on one bad corner of a folder tree: unreadable folders are skipped and a
   format whose discovery fails is logged and skipped.
 """
@@ -31,7 +34,18 @@ from types import ModuleType
 from typing import Any
 
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import euroc, generic_csv, imunet, oxiod, ridi, rnin, ronin, tlio
+from ftin.data.readers import (
+    euroc,
+    generic_csv,
+    imunet,
+    oxiod,
+    phyphox,
+    ridi,
+    rnin,
+    ronin,
+    sensorlogger,
+    tlio,
+)
 from ftin.data.types import ImuSequence
 
 __all__ = ["READERS", "SequenceRef", "detect_format", "list_sequences", "read_sequence"]
@@ -39,7 +53,8 @@ __all__ = ["READERS", "SequenceRef", "detect_format", "list_sequences", "read_se
 log = logging.getLogger(__name__)
 
 READERS: dict[str, ModuleType] = {
-    module.FORMAT: module for module in (oxiod, euroc, ronin, ridi, imunet, tlio, rnin, generic_csv)
+    module.FORMAT: module
+    for module in (oxiod, euroc, ronin, ridi, imunet, tlio, rnin, phyphox, sensorlogger, generic_csv)
 }
 
 
@@ -146,6 +161,17 @@ def read_sequence(
         if refs:
             shown = ", ".join(ref.name for ref in refs[:5]) + (", ..." if len(refs) > 5 else "")
             raise DataFormatError(f"{path}: holds {len(refs)} sequences ({shown}); pass one of them")
+    if path.is_file():
+        # No format claims it: read it as an upload would be read (ZIP, gzip, phyphox CSV, generic CSV),
+        # so that a near miss names what is wrong (the missing column, sensor or unit), not just "no format".
+        from ftin.data.readers.uploads import read_bytes
+
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise DataFormatError(f"{path}: cannot read file ({exc.strerror or exc})") from None
+        seq = read_bytes(data, str(path))
+        return seq.with_(meta={**seq.meta, "source": str(path)})
     raise DataFormatError(
         f"{path}: not a sequence of any supported format ({', '.join(READERS)}); for your own recordings "
         "use the generic CSV (header t, gyro_x, gyro_y, gyro_z, acc_x, acc_y, acc_z)"

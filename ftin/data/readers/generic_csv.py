@@ -7,7 +7,10 @@ One header row, then one row per IMU sample; column order is free. Canonical col
 * ``acc_x, acc_y, acc_z`` — specific force in the device frame, gravity included [m/s²];
 * optional ``q_w, q_x, q_y, q_z`` — device orientation, world-from-device (rotates device-frame
   vectors into a gravity-aligned, z-up world frame), e.g. Android's game rotation vector;
-* optional ``gt_x, gt_y, gt_z`` — ground-truth position [m] in that same world frame.
+* optional ``gt_x, gt_y, gt_z`` — ground-truth position [m]; named ``gt_device_world_x, ...`` when it
+  is in the orientation's world frame (what ``write_csv`` writes from our readers), else it may be
+  in its own world frame (motion capture beside a phone attitude) and comparisons align it at the
+  start (``meta["gt_frame"]``, ``ftin.metrics.align``).
 
 Decisions:
 
@@ -110,7 +113,10 @@ _Q_PREFIXES = (
     "game_rotation_vector",
     "q_world_device",
 )
-_GT_PREFIXES = ("gt", "gt_p", "gt_pos", "gt_position", "pos", "position", "p", "p_world")
+_GT_PREFIXES = ("gt", "gt_p", "gt_pos", "gt_position", "pos", "position", "p", "p_world", "gt_device_world")
+# Ground truth under this name is in the orientation's world frame (what ``write_csv`` writes from
+# our readers' output); any other name may be in its own world frame (see ``meta["gt_frame"]``).
+GT_DEVICE_WORLD_PREFIX = "gt_device_world"
 
 COLUMNS: tuple[ColumnSpec, ...] = (
     ColumnSpec(
@@ -171,7 +177,7 @@ COLUMNS: tuple[ColumnSpec, ...] = (
             f"gt_{a}",
             "gt",
             "m",
-            f"ground-truth position {a} in the orientation's world frame",
+            f"ground-truth position {a}; `gt_device_world_{a}` when in the orientation's world frame",
             False,
             _axis_aliases(_GT_PREFIXES, a),
         )
@@ -380,8 +386,8 @@ def check_finite(values: np.ndarray, columns: Sequence[str], source: str, row_la
 def check_min_samples(n: int, min_samples: int, source: str) -> None:
     if n < min_samples:
         raise DataFormatError(
-            f"{source}: only {n} samples; at least {min_samples} are needed (one window; min_samples="
-            f"{min_samples})"
+            f"{source}: only {n} samples; at least {min_samples} are needed (one model window): "
+            "record a longer walk"
         )
 
 
@@ -701,6 +707,12 @@ def read_csv(
         gt_headers = [chosen[c].header.strip() for c in _GROUPS["gt"]]
         check_physical_range(gt_p, gt_headers, MAX_ABS_POSITION_M, "m", source, row_label)
         gt = Trajectory(t_s, gt_p)
+        named = re.sub(r"[^a-z0-9]+", "_", chosen["gt_x"].header.strip().lower()).strip("_")
+        # ``gt_frame`` (read by ``ftin.metrics.align.default_alignment``): "device_world" when the columns
+        # say so (written by ``ftin data convert`` / ``ftin sim``), else "unknown": a phone attitude and
+        # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
+        in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
+        meta["gt_frame"] = "device_world" if in_device_world else "unknown"
     meta["warnings"] = warnings
     return ImuSequence(name, t_s, gyro, acc, q, gt, meta)
 
@@ -725,6 +737,11 @@ def header_matches(path: Path) -> bool:
                 return False
     except OSError:
         return False
+    return header_line_matches(line)
+
+
+def header_line_matches(line: str) -> bool:
+    """True when a header line names all required columns (or their aliases)."""
     cells = _split_header_line(line)
     matches = [_match_header(i, cell) for i, cell in enumerate(cells)]
     names = {m.canonical for m in matches if m is not None}
@@ -761,8 +778,12 @@ def write_csv(seq: ImuSequence, path: str | os.PathLike | IO[str]) -> Path | Non
         for i, comp in enumerate("wxyz"):
             columns[f"q_{comp}"] = seq.q_world_device_wxyz[:, i]
     if seq.gt is not None:
+        # With an orientation, say that the ground truth lives in its world frame (readers align it so),
+        # unless the sequence itself does not know (``meta["gt_frame"] == "unknown"``).
+        device_world = seq.q_world_device_wxyz is not None and seq.meta.get("gt_frame") != "unknown"
+        prefix = GT_DEVICE_WORLD_PREFIX if device_world else "gt"
         for i, axis in enumerate("xyz"):
-            columns[f"gt_{axis}"] = seq.gt.p_world_m[:, i]
+            columns[f"{prefix}_{axis}"] = seq.gt.p_world_m[:, i]
     frame = pd.DataFrame(columns)
     if isinstance(path, (str, os.PathLike)):
         out = Path(path)

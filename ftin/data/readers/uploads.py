@@ -1,0 +1,81 @@
+"""One recording given as bytes (an upload): a CSV, a gzip-compressed CSV, or a ZIP export.
+
+``read_bytes`` is what ``POST /predict``, the upload page and the 3D scene's upload call; the CLI
+reaches the same readers through ``read_sequence`` on a path. Detection is by content, never by the
+file name: gzip magic ``1f 8b`` -> decompress (at most ``max_uncompressed_bytes``) and look again;
+ZIP magic ``PK`` -> a Sensor Logger export (its file names and headers), a phyphox export (a CSV
+whose first cell is ``Time (s)``), or a ZIP holding exactly one CSV (read as the generic CSV);
+otherwise a CSV: the generic schema when its header names the required columns, else phyphox's
+single-sensor file (first cell ``Time (s)``), else the generic schema (its error names what is
+missing). Nothing is written to disk
+(see ``exports`` for the ZIP safety rules).
+"""
+
+from __future__ import annotations
+
+import io
+import zlib
+from pathlib import PurePath
+
+from ftin.data.errors import DataFormatError
+from ftin.data.readers import exports, generic_csv, phyphox, sensorlogger
+from ftin.data.readers.exports import ExportFiles
+from ftin.data.types import ImuSequence
+
+DEFAULT_MAX_UNCOMPRESSED_BYTES = exports.MAX_UNCOMPRESSED_BYTES
+
+
+def gunzip(data: bytes, source: str, max_bytes: int) -> bytes:
+    """Decompress gzip bytes, refusing more than ``max_bytes`` of output (gzip bombs)."""
+    inflater = zlib.decompressobj(16 + zlib.MAX_WBITS)
+    try:
+        out = inflater.decompress(data, max_bytes + 1)
+    except zlib.error as exc:
+        raise DataFormatError(f"{source}: not a readable gzip file ({exc})") from None
+    if len(out) > max_bytes or inflater.unconsumed_tail:
+        raise DataFormatError(f"{source}: unpacks to more than {max_bytes / 2**20:.0f} MiB; refused")
+    return out
+
+
+def read_export_files(files: ExportFiles, name: str) -> ImuSequence:
+    """An export already in memory: Sensor Logger, phyphox, or a single generic CSV."""
+    csvs = [n for n, d in files.files.items() if d.strip()]
+    if len(csvs) == 1 and generic_csv.header_line_matches(exports.first_line(files.files[csvs[0]])):
+        return generic_csv.read_csv(files.files[csvs[0]], name=f"{files.source}:{csvs[0]}").with_(name=name)
+    if any(sensorlogger.looks_like_sensor_file(n, d) for n, d in files.files.items()):
+        return sensorlogger.read_export(files, name)
+    if any(phyphox.is_phyphox_csv(d) for d in files.files.values()):
+        return phyphox.read_export(files, name)
+    if len(csvs) == 1:  # the generic reader's own message says what is missing
+        return generic_csv.read_csv(files.files[csvs[0]], name=f"{files.source}:{csvs[0]}").with_(name=name)
+    raise DataFormatError(
+        f"{files.source}: holds {', '.join(files.names()) or 'no CSV'}: neither a Sensor Logger nor a "
+        "phyphox export, nor one CSV in the generic schema"
+    )
+
+
+def read_bytes(
+    data: bytes, filename: str = "upload.csv", *, max_uncompressed_bytes: int = DEFAULT_MAX_UNCOMPRESSED_BYTES
+) -> ImuSequence:
+    """One recording from an upload's bytes (see the module docstring)."""
+    label = filename or "upload"  # what messages name: a path for the CLI, a base name for uploads
+    name = PurePath(label).name or "upload"
+    stem = name
+    for suffix in (".gz", ".zip", ".csv"):
+        if stem.lower().endswith(suffix):
+            stem = stem[: -len(suffix)]
+    stem = stem or "upload"
+    if data[:2] == exports.GZIP_MAGIC:
+        data = gunzip(data, label, max_uncompressed_bytes)
+    if exports.is_zip(data):
+        return read_export_files(exports.read_zip(data, label, max_uncompressed_bytes), stem)
+    if phyphox.is_phyphox_csv(data) and not generic_csv.header_line_matches(exports.first_line(data)):
+        return phyphox.read_export(ExportFiles(label, {name: data}), stem)
+    lowered = name.lower()
+    if lowered in sensorlogger.KNOWN_FILES and sensorlogger.looks_like_sensor_file(lowered, data):
+        raise DataFormatError(
+            f"{label} is one file of a Sensor Logger export; upload the whole export (the ZIP the app "
+            "shares), "
+            "which holds the gyroscope, the accelerometer and gravity together"
+        )
+    return generic_csv.read_csv(io.BytesIO(data), name=label).with_(name=stem)
