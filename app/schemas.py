@@ -74,11 +74,19 @@ class SequenceInfo(BaseModel):
     samples: int | None
     has_ground_truth: bool | None
     error: str | None = Field(None, description="Why the sequence cannot be read, if it cannot.")
+    dataset_label: str | None = Field(None, description="The data folder in words, for menus.")
+    suggested_model: str | None = Field(
+        None, description="The model trained on this kind of data (else the default model)."
+    )
 
     @classmethod
-    def from_entry(cls, entry: SequenceEntry, summary: SequenceSummary | str) -> SequenceInfo:
+    def from_entry(
+        cls, entry: SequenceEntry, summary: SequenceSummary | str, suggested_model: str | None = None
+    ) -> SequenceInfo:
+        extra = {"dataset_label": entry.dataset_label or None, "suggested_model": suggested_model}
         if isinstance(summary, str):
             return cls(
+                **extra,
                 id=entry.id,
                 name=entry.name,
                 dataset=entry.dataset,
@@ -89,6 +97,7 @@ class SequenceInfo(BaseModel):
                 error=summary,
             )
         return cls(
+            **extra,
             id=entry.id,
             name=entry.name,
             dataset=entry.dataset,
@@ -104,7 +113,7 @@ class ArraysPredictRequest(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: str = Field("request", max_length=200)
+    name: str = Field("recording", max_length=200, description="A label for the recording.")
     t_s: list[float] = Field(description="Timestamps in seconds, increasing, N values.")
     gyro_rad_s: list[list[float]] = Field(description="N rows of device-frame angular rate x, y, z (rad/s).")
     acc_m_s2: list[list[float]] = Field(
@@ -140,9 +149,71 @@ class VelocityPayload(BaseModel):
 class MetricsPayload(BaseModel):
     """``None`` where a metric is undefined for this sequence (e.g. not finite)."""
 
-    ate: float | None = Field(description="Absolute trajectory error, m (RoNIN convention).")
-    rte: float | None = Field(description="Relative trajectory error over 60 s, m.")
+    ate: float | None = Field(description="Absolute trajectory error, m (see convention).")
+    rte: float | None = Field(description="Relative trajectory error over rte_window_s, m.")
     pde: float | None = Field(description="Position drift error: final error / ground-truth path length.")
+    path_length_ratio: float | None = Field(
+        None,
+        description="Predicted / true horizontal path length (1: the right distance; 0: a model that "
+        "never moves). None when the ground truth walks less than 0.5 m.",
+    )
+    predicted_path_m: float | None = Field(None, description="Horizontal length of the predicted path, m.")
+    true_path_m: float | None = Field(None, description="Horizontal length of the ground-truth path, m.")
+    convention: str = Field("ronin", description="How the estimate is aligned before scoring.")
+    convention_text: str = Field("", description="The convention, the units and the definitions in words.")
+    rte_window_s: float = Field(60.0, description="RTE window, s.")
+    duration_s: float | None = Field(
+        None, description="Length of the recording, s (below rte_window_s, RTE is the scaled drift)."
+    )
+    stand_still: dict[str, float] | None = Field(
+        None, description="ATE / RTE / PDE of a predictor that never moves, same convention: the baseline."
+    )
+    alignment: str | None = Field(
+        None, description="none, start, se2 or se3: how the prediction was aligned before scoring (align=)."
+    )
+    heading_deg: float | None = Field(
+        None, description="Fitted heading of the prediction into the ground-truth frame, deg (None: none)."
+    )
+    align_window_s: float | None = Field(None, description="Seconds of the start fitted on (align=start).")
+    alignment_text: str = Field("", description="The alignment in words.")
+
+    @classmethod
+    def from_run(cls, run: Run) -> MetricsPayload | None:
+        pred = run.prediction
+        if pred.metrics is None:
+            return None
+        from ftin.metrics import describe
+
+        values, verdict = pred.metrics.as_dict(), run.verdict
+        convention = str(values.get("convention", "ronin"))
+        window_s = float(values.get("rte_window_s", 60.0))
+        t = np.asarray(pred.trajectory.t_s)
+        return cls(
+            **{k: _finite(values[k]) for k in ("ate", "rte", "pde")},
+            path_length_ratio=verdict.path_length_ratio,
+            predicted_path_m=verdict.predicted_path_m,
+            true_path_m=verdict.true_path_m,
+            convention=convention,
+            convention_text=describe(convention, window_s),
+            rte_window_s=window_s,
+            duration_s=float(t[-1] - t[0]) if len(t) > 1 else None,
+            stand_still=verdict.stand_still,
+            **_alignment_fields(values),
+        )
+
+
+def _alignment_fields(values: dict[str, Any]) -> dict[str, Any]:
+    """The alignment of ``TrajectoryMetrics.as_dict()`` (``ftin.metrics.align``), for ``MetricsPayload``."""
+    if values.get("alignment") is None:
+        return {}
+    from ftin.metrics import describe_alignment
+
+    return {
+        "alignment": values["alignment"],
+        "heading_deg": _finite(values.get("heading_deg")) if values.get("heading_deg") is not None else None,
+        "align_window_s": values.get("align_window_s"),
+        "alignment_text": describe_alignment(values["alignment"]),
+    }
 
 
 class PredictionResponse(BaseModel):
@@ -155,19 +226,24 @@ class PredictionResponse(BaseModel):
     velocity: VelocityPayload
     orientation_source: str
     frame: str
-    warnings: list[str]
+    warnings: list[str] = Field(description="What may be wrong with this result (path length included).")
+    notes: list[str] = Field(
+        default_factory=list, description="Information on how the input was read (time unit, resampling)."
+    )
     metrics: MetricsPayload | None
     csv_url: str
+    tum_url: str = Field("", description="The trajectory in TUM format (evo): /runs/{run_id}/trajectory.tum.")
+    ground_truth_tum_url: str | None = Field(
+        None, description="The ground truth in TUM format, in the prediction's frame (None: no ground truth)."
+    )
+    metrics_url: str = Field("", description="The metrics as JSON: GET /runs/{run_id}/metrics.json.")
     scene_url: str | None
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
         pred = run.prediction
         v = np.asarray(pred.velocity_m_s)
-        metrics = None
-        if pred.metrics is not None:
-            values = pred.metrics.as_dict()
-            metrics = MetricsPayload(**{k: _finite(values[k]) for k in ("ate", "rte", "pde")})
+        verdict = run.verdict
         return cls(
             run_id=run.run_id,
             model=run.model_name,
@@ -185,9 +261,13 @@ class PredictionResponse(BaseModel):
             ),
             orientation_source=str(pred.orientation_source),
             frame=str(pred.frame),
-            warnings=[str(w) for w in pred.warnings],
-            metrics=metrics,
+            warnings=verdict.warnings,
+            notes=verdict.notes,
+            metrics=MetricsPayload.from_run(run),
             csv_url=f"/runs/{run.run_id}/trajectory.csv",
+            tum_url=f"/runs/{run.run_id}/trajectory.tum",
+            ground_truth_tum_url=None if run.sequence.gt is None else f"/runs/{run.run_id}/ground_truth.tum",
+            metrics_url=f"/runs/{run.run_id}/metrics.json",
             scene_url=scene_url,
         )
 

@@ -10,6 +10,9 @@ Decisions:
   when the configured one is taken, so the real URL is read back from the running server.
 - Model names are checkpoint file stems (``checkpoints/ftin-oxiod.safetensors`` is ``ftin-oxiod``)
   and are matched case-insensitively, so the paper's spelling ``FTIN-OxIOD`` names the same model.
+- The default model (``FTIN_DEFAULT_MODEL``) is ``ftin-pedestrian``, trained on real walks; when
+  that checkpoint is absent the first FTIN checkpoint stands in (``ModelStore``). The 3D scene ticks,
+  per sequence, the checkpoint trained on that kind of data (``app.services.kinds``).
 - Limits (issue 6): one prediction reads at most ``FTIN_MAX_SAMPLES`` samples (default one hour at
   200 Hz) and must finish within ``FTIN_INFERENCE_TIMEOUT_S`` (waiting for a free slot included);
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
@@ -36,7 +39,7 @@ import ftin
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
 DEFAULT_CHECKPOINT_DIR = REPO_ROOT / "checkpoints"
-DEFAULT_MODEL = "ftin-oxiod"  # checkpoints/ftin-oxiod.safetensors (+ .json)
+DEFAULT_MODEL = "ftin-pedestrian"  # checkpoints/ftin-pedestrian.safetensors (+ .json), trained on real walks
 
 
 class Settings(BaseSettings):
@@ -48,8 +51,16 @@ class Settings(BaseSettings):
     )
     checkpoint_dir: Path = Field(DEFAULT_CHECKPOINT_DIR, description="Folder of *.safetensors checkpoints.")
     default_model: str = Field(DEFAULT_MODEL, description="Model used when a request names none.")
-    max_upload_mb: float = Field(20.0, gt=0, description="Largest request body accepted, in MiB.")
+    # 200 MiB: FTIN_MAX_SAMPLES (720 000) rows of the generic CSV with orientation and ground truth at
+    # full float precision (~270 bytes a row) fit; gzip and ZIP bodies fit it ~3x over.
+    max_upload_mb: float = Field(200.0, gt=0, description="Largest request body accepted, in MiB.")
+    max_uncompressed_mb: float = Field(
+        1024.0, gt=0, description="Most a gzip or ZIP upload may unpack to, in MiB (zip bombs)."
+    )
     viser_enabled: bool = Field(True, description="Start the viser 3D scene with the app.")
+    scene_first_run: bool = Field(
+        True, description="At start-up, run the suggested model on the first sequence for the 3D scene."
+    )
     viser_host: str = "127.0.0.1"
     viser_port: int = Field(8080, ge=0, le=65535)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
@@ -88,6 +99,10 @@ class Settings(BaseSettings):
     @property
     def max_upload_bytes(self) -> int:
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def max_uncompressed_bytes(self) -> int:
+        return int(self.max_uncompressed_mb * 1024 * 1024)
 
     @property
     def default_model_is_explicit(self) -> bool:

@@ -83,9 +83,9 @@ def free_port() -> int:
 def write_tiny_checkpoint(folder: Path) -> str:
     import torch
 
+    from ftin.checkpoint import save_checkpoint
     from ftin.models import create_model
     from ftin.models.ftin_net import TINY_FTIN_KWARGS
-    from ftin.train.checkpoint import save_checkpoint
 
     torch.manual_seed(0)
     model = create_model("ftin", **TINY_FTIN_KWARGS, window=TINY_WINDOW)

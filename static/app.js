@@ -1,11 +1,22 @@
 // The upload page: pick a CSV and a model, POST /predict, show the trajectory, metrics and links.
 "use strict";
 
-const PRED_COLOR = "#1f77b4";
 const TRUTH_COLOR = "#3c3c3c";
+// The 3D scene's model colours (app/viz/palette.py), in the order of the model list.
+const MODEL_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+  "#17becf", "#c800c8", "#142878", "#78003c", "#006450"];
 const $ = (id) => document.getElementById(id);
 
-const state = { file: null, sceneUrl: null, polling: null, maxUploadMb: null };
+const state = {
+  file: null, sceneUrl: null, polling: null, maxUploadMb: null, models: [],
+  result: null, // the shown prediction (the page's own model)
+  compared: [], // further predictions on the same file, from "Compare all models"
+};
+
+function modelColor(name) {
+  const i = state.models.findIndex((m) => m.name === name);
+  return MODEL_COLORS[(i < 0 ? 0 : i) % MODEL_COLORS.length];
+}
 
 function showError(message) {
   $("error").textContent = message;
@@ -47,6 +58,7 @@ async function loadModels() {
     $("scene-link-header").href = state.sceneUrl;
     $("scene-link-header").hidden = false;
   }
+  state.models = models;
   const select = $("model-select");
   select.textContent = "";
   for (const m of models) {
@@ -120,11 +132,13 @@ function stopPolling() {
 
 function runPrediction() {
   const model = $("model-select").value;
+  const file = state.file;
+  const fileName = file.name;
   const runId = newRunId();
   const form = new FormData();
   form.append("file", state.file, state.file.name);
   const xhr = new XMLHttpRequest();
-  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}`);
+  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}`);
   xhr.upload.onprogress = (e) => {
     if (e.lengthComputable) setProgress(e.loaded / e.total, `Uploading ${Math.round((100 * e.loaded) / e.total)} %`);
   };
@@ -137,8 +151,11 @@ function runPrediction() {
     setProgress(null);
     $("run-button").disabled = false;
     if (xhr.status === 200) {
-      showResult(JSON.parse(xhr.responseText));
+      state.compared = [];
+      state.source = { file };
+      showResult(JSON.parse(xhr.responseText), fileName);
     } else {
+      hideResult();
       showError(errorText(xhr.status, xhr.responseText));
     }
   };
@@ -146,6 +163,7 @@ function runPrediction() {
     stopPolling();
     setProgress(null);
     $("run-button").disabled = false;
+    hideResult();
     showError(errorText(0, ""));
   };
   showError("");
@@ -154,53 +172,318 @@ function runPrediction() {
   xhr.send(form);
 }
 
-function fmt(value, digits) {
-  return value === null || value === undefined ? "–" : value.toFixed(digits);
+function fmt(value, digits, scale = 1) {
+  return value === null || value === undefined ? "–" : (value * scale).toFixed(digits);
 }
 
-function showResult(result) {
-  $("result").hidden = false;
+// A result whose plot and metrics no longer match the file and model picked: take it away.
+function hideResult() {
+  $("result").hidden = true;
+  state.result = null;
+  state.compared = [];
+}
+
+const ORIENTATION_WORDS = {
+  device: "orientation from the file",
+  ground_truth: "orientation from the ground truth",
+  estimated: "orientation estimated with the VQF filter (none in the file)",
+};
+const FRAME_WORDS = {
+  ground_truth: "trajectory in the ground truth's frame",
+  device_world: "trajectory in the phone's own world frame (no ground truth)",
+};
+
+function pathText(m) {
+  if (m.path_length_ratio === null || m.path_length_ratio === undefined) return "–";
+  return `${m.path_length_ratio.toFixed(2)} (${fmt(m.predicted_path_m, 1)} m of ${fmt(m.true_path_m, 1)} m)`;
+}
+
+function isPathWarning(m) {
+  const r = m && m.path_length_ratio;
+  return r !== null && r !== undefined && (r < 0.5 || r > 2);
+}
+
+function renderPlot() {
+  const result = state.result;
   const series = [];
   if (result.ground_truth) {
-    series.push({ label: "ground truth", color: TRUTH_COLOR, x: result.ground_truth.x, y: result.ground_truth.y, dashed: true });
+    series.push({ label: "ground truth", color: TRUTH_COLOR, x: result.ground_truth.x, y: result.ground_truth.y, dashed: true, truth: true });
   }
-  series.push({ label: `${result.model} (predicted)`, color: PRED_COLOR, x: result.trajectory.x, y: result.trajectory.y });
-  FtinPlot.render($("plot"), series);
+  for (const r of [result, ...state.compared]) {
+    series.push({ label: r.model, color: modelColor(r.model), x: r.trajectory.x, y: r.trajectory.y });
+  }
+  FtinPlot.render($("plot"), series, $("plot-legend"));
+}
+
+function metricsRows(result) {
+  const m = result.metrics;
+  if (!m) return [["Metrics", "no ground truth in the file", ""]];
+  const window = m.rte_window_s || 60;
+  const rows = [
+    ["ATE", `${fmt(m.ate, 2)} m`, "absolute trajectory error: RMSE of the position"],
+    ["RTE", `${fmt(m.rte, 2)} m`, `relative trajectory error: RMSE of the drift over ${window} s`],
+    ["PDE", `${fmt(m.pde, 1, 100)} %`, "final position error / true path length"],
+    ["Path", pathText(m), "predicted / true horizontal path length (1 is right)"],
+  ];
+  if (m.stand_still) {
+    rows.push(["Standing still", `ATE ${fmt(m.stand_still.ate, 2)} m`, "what a model that never moves scores"]);
+  }
+  return rows;
+}
+
+function showResult(result, fileName) {
+  state.result = result;
+  $("result").hidden = false;
+  $("expired").hidden = true;
+  $("result-caption").textContent = `${fileName || result.sequence} · ${result.model}`;
+  renderPlot();
 
   const table = $("metrics");
   table.textContent = "";
-  const rows = result.metrics
-    ? [["ATE", `${fmt(result.metrics.ate, 2)} m`], ["RTE", `${fmt(result.metrics.rte, 2)} m`], ["PDE", fmt(result.metrics.pde, 3)]]
-    : [["Metrics", "no ground truth in the file"]];
+  const rows = metricsRows(result);
   const t = result.trajectory.t;
-  rows.push(["Duration", `${(t[t.length - 1] - t[0]).toFixed(1)} s`]);
-  for (const [name, value] of rows) {
+  const duration = t[t.length - 1] - t[0];
+  rows.push(["Duration", `${duration.toFixed(1)} s`, ""]);
+  for (const [name, value, title] of rows) {
     const tr = table.insertRow();
     tr.insertCell().textContent = name;
     const td = tr.insertCell();
     td.textContent = value;
     td.className = "value";
+    if (title) tr.title = title;
+    if (name === "Path" && isPathWarning(result.metrics)) tr.className = "flagged";
   }
+  const m = result.metrics;
+  let convention = "";
+  if (m) {
+    const aligned = m.alignment && m.alignment !== "none"; // alignmentText() states how
+    const units = "Horizontal errors; ATE and RTE in metres, PDE in %.";
+    if (aligned) convention = units;
+    else if (m.convention === "ronin") {
+      convention = `No alignment: the prediction starts at the true start (RoNIN convention). ${units}`;
+    } else convention = `Convention: ${m.convention}. ${m.convention_text}`;
+    const window = m.rte_window_s || 60;
+    if (duration < window) {
+      convention += ` This recording is ${duration.toFixed(0)} s, shorter than the ${window} s RTE window: RTE is its whole drift scaled to ${window} s.`;
+    }
+  }
+  const alignedText = m && m.alignment && m.alignment !== "none" ? alignmentText(m) : "";
+  $("convention").textContent = [alignedText, convention].filter(Boolean).join(" ");
 
-  const warnings = $("warnings");
-  warnings.textContent = "";
-  for (const w of result.warnings) {
-    const li = document.createElement("li");
-    li.textContent = w;
-    warnings.appendChild(li);
-  }
-  $("result-meta").textContent =
-    `Run ${result.run_id} · orientation: ${result.orientation_source} · frame: ${result.frame}`;
+  fillList($("warnings"), result.warnings);
+  fillList($("notes"), result.notes || []);
+  $("result-meta").textContent = [
+    ORIENTATION_WORDS[result.orientation_source] || `orientation: ${result.orientation_source}`,
+    FRAME_WORDS[result.frame] || result.frame,
+  ].join(" · ");
   $("download-link").href = result.csv_url;
   const scene = $("scene-link");
   scene.hidden = !state.sceneUrl;
   scene.href = state.sceneUrl || "#";
   scene.dataset.runId = result.run_id;
+  renderCompareTable();
+}
+
+function fillList(list, items) {
+  list.textContent = "";
+  for (const text of items) {
+    const li = document.createElement("li");
+    li.textContent = text;
+    list.appendChild(li);
+  }
+}
+
+// --- runs kept on the server: say so when one has expired ---------------------------------------
+
+function showExpired(message) {
+  const box = $("expired");
+  box.textContent = message;
+  box.hidden = false;
+}
+
+async function downloadTrajectory(event) {
+  event.preventDefault();
+  const link = $("download-link");
+  try {
+    const r = await fetch(link.getAttribute("href"));
+    if (!r.ok) {
+      showExpired(errorText(r.status, await r.text()));
+      return;
+    }
+    const name = (r.headers.get("content-disposition") || "").match(/filename="([^"]+)"/);
+    const url = URL.createObjectURL(await r.blob());
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = name ? name[1] : "trajectory.csv";
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10_000);
+  } catch (_) {
+    showExpired(errorText(0, ""));
+  }
+}
+
+// Bring this run to the front of the 3D scene, then open it; an expired run opens nothing.
+async function openInScene(event) {
+  event.preventDefault();
+  const link = $("scene-link");
+  const runId = link.dataset.runId;
+  const tab = window.open("", "_blank"); // opened now, inside the click, so no popup blocker
+  try {
+    const r = await fetch(`/runs/${runId}/show`, { method: "POST" });
+    if (!r.ok) {
+      if (tab) tab.close();
+      showExpired(errorText(r.status, await r.text()));
+      return;
+    }
+    if (tab) tab.location.href = link.href;
+  } catch (_) {
+    if (tab) tab.close();
+    showExpired(errorText(0, ""));
+  }
+}
+
+// --- "Compare all models": the other models on the same file, one table like the scene's --------
+
+function renderCompareTable() {
+  const table = $("compare-table");
+  const rows = [state.result, ...state.compared].filter(Boolean);
+  table.hidden = rows.length < 2 && !state.comparing;
+  table.textContent = "";
+  const head = table.createTHead().insertRow();
+  for (const h of ["model", "ATE m", "RTE m", "PDE %", "path", "time s"]) {
+    const th = document.createElement("th");
+    th.textContent = h;
+    head.appendChild(th);
+  }
+  const body = table.createTBody();
+  for (const r of rows) {
+    const tr = body.insertRow();
+    tr.className = "done" + (isPathWarning(r.metrics) ? " flagged" : "");
+    const m = r.metrics || {};
+    const swatch = `<span class="swatch" style="background:${modelColor(r.model)}"></span>`;
+    tr.insertCell().innerHTML = swatch;
+    tr.cells[0].append(r.model + (isPathWarning(r.metrics) ? " ⚠" : ""));
+    for (const v of [fmt(m.ate, 2), fmt(m.rte, 2), fmt(m.pde, 1, 100),
+      fmt(m.path_length_ratio, 2), r.elapsed_s === undefined ? "–" : r.elapsed_s.toFixed(1)]) {
+      const td = tr.insertCell();
+      td.textContent = v;
+      td.className = "value";
+    }
+    if (r.warnings && r.warnings.length) tr.title = r.warnings.join("\n");
+  }
+  const still = state.result && state.result.metrics && state.result.metrics.stand_still;
+  if (still && rows.length > 1) {
+    const tr = body.insertRow();
+    tr.className = "baseline";
+    for (const v of ["standing still", fmt(still.ate, 2), fmt(still.rte, 2), fmt(still.pde, 1, 100), "0.00", ""]) {
+      const td = tr.insertCell();
+      td.textContent = v;
+    }
+  }
+}
+
+async function compareModels() {
+  const button = $("compare-button");
+  const source = state.source;
+  const base = state.result;
+  if (!source || !base) return;
+  button.disabled = true;
+  state.comparing = true;
+  const others = state.models.map((m) => m.name)
+    .filter((name) => name !== base.model && !state.compared.some((r) => r.model === name));
+  try {
+    for (const [i, name] of others.entries()) {
+      setProgress(i / others.length, `Comparing: ${name} (${i + 1} of ${others.length})`);
+      const started = performance.now();
+      const model = encodeURIComponent(name);
+      let r;
+      if (source.file) {
+        const form = new FormData();
+        form.append("file", source.file, source.file.name);
+        r = await fetch(`/predict?model=${model}${alignParam()}`, { method: "POST", body: form });
+      } else {
+        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}`, { method: "POST" });
+      }
+      if (state.result !== base) return; // a new prediction replaced this one meanwhile
+      if (!r.ok) {
+        showError(`${name}: ${errorText(r.status, await r.text())}`);
+        continue;
+      }
+      const result = await r.json();
+      result.elapsed_s = (performance.now() - started) / 1000;
+      state.compared.push(result);
+      renderPlot();
+      renderCompareTable();
+    }
+  } finally {
+    state.comparing = false;
+    setProgress(null);
+    button.disabled = false;
+    renderCompareTable();
+  }
+}
+
+// --- bundled recordings: each with the model trained on that kind of data ----------------------
+
+async function loadSamples() {
+  const sequences = await fetch("/sequences").then((r) => r.json());
+  const usable = sequences.filter((s) => !s.error && s.has_ground_truth);
+  if (!usable.length) return;
+  const select = $("sample-select");
+  select.textContent = "";
+  for (const s of usable) {
+    const option = document.createElement("option");
+    option.value = s.id;
+    option.textContent = `${s.name} (${Math.round(s.duration_s)} s)`;
+    option.dataset.model = s.suggested_model || "";
+    option.dataset.name = s.name;
+    option.dataset.dataset = s.dataset_label || s.dataset;
+    select.appendChild(option);
+  }
+  const describe = () => {
+    const o = select.selectedOptions[0];
+    $("sample-info").textContent = o ? `${o.dataset.dataset}; model: ${o.dataset.model || "the default"}` : "";
+  };
+  select.addEventListener("change", describe);
+  describe();
+  $("samples").hidden = false;
+}
+
+async function predictSample() {
+  const option = $("sample-select").selectedOptions[0];
+  if (!option) return;
+  const model = option.dataset.model;
+  const button = $("sample-button");
+  button.disabled = true;
+  showError("");
+  setProgress(0, `Running ${model || "the default model"} on ${option.dataset.name} ...`);
+  try {
+    const query = model ? `?model=${encodeURIComponent(model)}` : "";
+    const r = await fetch(`/sequences/${encodeURIComponent(option.value)}/predict${query}`, { method: "POST" });
+    const text = await r.text();
+    if (!r.ok) {
+      hideResult();
+      showError(errorText(r.status, text));
+      return;
+    }
+    state.compared = [];
+    state.source = { sampleId: option.value };
+    showResult(JSON.parse(text), `${option.dataset.name} (bundled)`);
+  } catch (_) {
+    hideResult();
+    showError(errorText(0, ""));
+  } finally {
+    setProgress(null);
+    button.disabled = false;
+  }
 }
 
 function setUp() {
   const zone = $("drop-zone");
   $("file-input").addEventListener("change", (e) => pickFile(e.target.files[0]));
+  $("align-select").addEventListener("change", hideResult); // numbers scored another way: stale
   zone.addEventListener("keydown", (e) => {
     if (e.key === "Enter" || e.key === " ") $("file-input").click();
   });
@@ -215,12 +498,30 @@ function setUp() {
     if (e.dataTransfer.files.length) pickFile(e.dataTransfer.files[0]);
   });
   $("run-button").addEventListener("click", runPrediction);
-  // Bring this run to the front of the 3D scene, then let the link open it.
-  $("scene-link").addEventListener("click", () => {
-    const runId = $("scene-link").dataset.runId;
-    if (runId) fetch(`/runs/${runId}/show`, { method: "POST" });
-  });
+  $("download-link").addEventListener("click", downloadTrajectory);
+  $("scene-link").addEventListener("click", openInScene);
+  $("compare-button").addEventListener("click", compareModels);
+  $("sample-button").addEventListener("click", predictSample);
+  loadSamples().catch(() => { /* the sample list is optional */ });
   loadModels().catch(() => showError("Could not load the model list from the server."));
 }
 
 setUp();
+
+// --- alignment (issue 10): the align option of POST /predict, and what was fitted ---------------
+function alignParam() {
+  const select = $("align-select");
+  return select && select.value ? `&align=${encodeURIComponent(select.value)}` : "";
+}
+
+function alignmentText(m) {
+  if (!m || !m.alignment) return "";
+  const heading = m.heading_deg == null ? "" : ` Fitted heading: ${m.heading_deg.toFixed(1)}°.`;
+  const words = {
+    none: "Aligned: none (raw, RoNIN).",
+    start: `Aligned: start — heading and start fitted on the first ${(m.align_window_s || 0).toFixed(0)} s only; the ground truth is drawn aligned.`,
+    se2: "Aligned: SE(2) over the whole trajectory (like evo --align); the ground truth is drawn aligned.",
+    se3: "Aligned: SE(3) over the whole trajectory (like evo --align); the ground truth is drawn aligned.",
+  };
+  return (words[m.alignment] || `Aligned: ${m.alignment}.`) + heading;
+}

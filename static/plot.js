@@ -1,11 +1,16 @@
 // A small dependency-free SVG plot of 2-D trajectories (x east, y north, equal scale).
-// FtinPlot.render(container, series): series = [{label, color, x: [...], y: [...], dashed}]
+// FtinPlot.render(container, series, legend): series = [{label, color, x: [...], y: [...], dashed, truth}]
+// The legend is HTML beside the plot (never over the data, names never cut). Markers: every path
+// starts at a green circle; the ground truth ends at a hollow grey square, a prediction at a
+// triangle in its own colour.
 "use strict";
 
 const FtinPlot = (() => {
   const SVG_NS = "http://www.w3.org/2000/svg";
   const MAX_POINTS = 4000;
   const SIZE = { width: 720, height: 540, left: 56, right: 16, top: 16, bottom: 44 };
+  const START_COLOR = "#00aa5a";
+  const TRUTH_END = "#3c3c3c";
 
   function el(name, attrs, parent) {
     const node = document.createElementNS(SVG_NS, name);
@@ -47,7 +52,25 @@ const FtinPlot = (() => {
     return { x0: cx - spanX / 2, x1: cx + spanX / 2, y0: cy - spanY / 2, y1: cy + spanY / 2, scale };
   }
 
-  function render(container, series) {
+  function renderLegend(legend, series) {
+    legend.textContent = "";
+    const item = (swatch, label) => {
+      const span = document.createElement("span");
+      span.className = "legend-item";
+      span.innerHTML = swatch;
+      span.append(label);
+      legend.appendChild(span);
+    };
+    for (const s of series) {
+      const dash = s.dashed ? "stroke-dasharray='6 4'" : "";
+      item(`<svg width="26" height="10"><line x1="0" y1="5" x2="26" y2="5" stroke="${s.color}" stroke-width="3" ${dash}/></svg>`, s.label);
+    }
+    item(`<svg width="12" height="12"><circle cx="6" cy="6" r="5" fill="${START_COLOR}"/></svg>`, "start");
+    item(`<svg width="14" height="14"><rect x="2" y="2" width="10" height="10" fill="#fff" stroke="${TRUTH_END}" stroke-width="2"/></svg>`, "true end");
+    item(`<svg width="14" height="14"><path d="M 7 1 L 13 12 L 1 12 Z" fill="#666"/></svg>`, "predicted end (in the model's colour)");
+  }
+
+  function render(container, series, legend) {
     container.textContent = "";
     const svg = el("svg", {
       viewBox: `0 0 ${SIZE.width} ${SIZE.height}`,
@@ -83,20 +106,21 @@ const FtinPlot = (() => {
         "stroke-dasharray": s.dashed ? "6 4" : "none", "stroke-linejoin": "round", class: "series",
         "data-label": s.label,
       }, svg);
+    }
+    for (const s of series) {
       const last = s.x.length - 1;
-      el("circle", { cx: px(s.x[0]), cy: py(s.y[0]), r: 5, fill: "#00aa5a", class: "start" }, svg);
-      el("rect", { x: px(s.x[last]) - 5, y: py(s.y[last]) - 5, width: 10, height: 10, fill: "#c81e1e",
-        class: "end" }, svg);
+      el("circle", { cx: px(s.x[0]), cy: py(s.y[0]), r: 5, fill: START_COLOR, class: "start" }, svg);
+      const ex = px(s.x[last]), ey = py(s.y[last]);
+      if (s.truth) {
+        el("rect", { x: ex - 6, y: ey - 6, width: 12, height: 12, fill: "#fff", stroke: s.color,
+          "stroke-width": 2.5, class: "end end-truth" }, svg);
+      } else {
+        el("path", { d: `M ${ex} ${ey - 7} L ${ex + 6.5} ${ey + 5} L ${ex - 6.5} ${ey + 5} Z`, fill: s.color,
+          stroke: "#fff", "stroke-width": 1, class: "end end-predicted" }, svg);
+      }
     }
 
-    const legend = el("g", { class: "legend" }, svg);
-    const items = [...series.map((s) => [s.label, s.color, s.dashed]), ["start", "#00aa5a"], ["end", "#c81e1e"]];
-    items.forEach(([label, color, dashed], i) => {
-      const y = SIZE.top + 8 + i * 18;
-      el("line", { x1: SIZE.width - 170, x2: SIZE.width - 146, y1: y, y2: y, stroke: color, "stroke-width": 3,
-        "stroke-dasharray": dashed ? "6 4" : "none" }, legend);
-      el("text", { x: SIZE.width - 140, y: y + 4 }, legend).textContent = label;
-    });
+    if (legend) renderLegend(legend, series);
     return svg;
   }
 

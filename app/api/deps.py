@@ -7,6 +7,7 @@ from typing import Annotated
 from fastapi import Depends, Query, Request
 
 from app.services import Services
+from ftin.metrics import Alignment
 
 
 def get_services(request: Request) -> Services:
@@ -25,5 +26,14 @@ RunIdQuery = Annotated[
         description="Optional client-chosen run id (6-64 of A-Z a-z 0-9 - _), to poll GET /runs/{run_id}"
         " for progress while the request runs.",
         max_length=64,
+    ),
+]
+AlignQuery = Annotated[
+    Alignment | None,
+    Query(
+        description="How the prediction is aligned to the ground truth before scoring: none (RoNIN, raw), "
+        "start (heading and start fitted on the first seconds only, like evo --n_to_align), se2 or se3 "
+        "(whole-trajectory Umeyama, like evo --align). Default: start when the ground truth may live in "
+        "another world frame than the device's (a CSV's gt_x columns), else none.",
     ),
 ]

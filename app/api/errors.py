@@ -1,7 +1,7 @@
 """Every error leaves the API as ``{"detail": "<plain words>"}`` with a 4xx status.
 
-- Service errors map to statuses by kind (404 unknown, 422 unusable data, 413 too large, 409 taken,
-  504 inference over its time limit).
+- Service errors map to statuses by kind (404 unknown, 410 a run dropped from memory, 422 unusable
+  data, 413 too large, 409 taken, 504 inference over its time limit).
 - Anything unexpected is logged with its traceback and answers 500 with the same JSON shape (bad
   input must never get there: the tests and the fuzzers hold that).
 - FastAPI's validation errors become one readable sentence naming the parameter or field.
@@ -27,11 +27,13 @@ from app.services.errors import (
     InvalidInputError,
     NotFoundError,
     PayloadTooLargeError,
+    RunExpiredError,
     ServiceError,
 )
 
 STATUS_BY_ERROR: dict[type[ServiceError], int] = {
     NotFoundError: 404,
+    RunExpiredError: 410,
     InvalidInputError: 422,
     PayloadTooLargeError: 413,
     ConflictError: 409,

@@ -8,7 +8,7 @@ from app.services.catalog import SequenceCatalog
 from app.services.models import ModelStore
 from app.services.prediction import PredictionService
 from app.services.runs import RunStore
-from app.settings import Settings
+from app.settings import BUNDLED_SAMPLES_DIR, Settings
 
 
 @dataclass
@@ -26,7 +26,7 @@ class Services:
         models = ModelStore.load(
             settings.checkpoint_dir, settings.default_model, settings.default_model_is_explicit
         )
-        catalog = SequenceCatalog.scan(settings.data_dirs)
+        catalog = SequenceCatalog.scan(settings.data_dirs, bundled_dir=BUNDLED_SAMPLES_DIR)
         runs = RunStore(settings.max_runs, settings.max_kept_samples)
         predictor = PredictionService(
             models,
@@ -36,6 +36,7 @@ class Services:
             max_samples=settings.max_samples,
             timeout_s=settings.inference_timeout_s,
             max_concurrent=settings.max_concurrent_inferences,
+            max_uncompressed_bytes=settings.max_uncompressed_bytes,
         )
         return cls(settings, models, catalog, runs, predictor)
 

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from app.services.errors import InvalidInputError, NotFoundError
+from app.services.kinds import SIMULATED, kind_of, label
 from ftin.data import DataFormatError, ImuSequence
 
 log = logging.getLogger(__name__)
@@ -45,9 +46,26 @@ def _is_inside(path: Path, root: Path) -> bool:
 class SequenceEntry:
     id: str
     name: str
-    dataset: str  # the reader format, e.g. "oxiod", "generic_csv"
+    dataset: str  # the reader format, e.g. "oxiod", "csv"
     folder: Path
     ref: Any  # ftin.data.readers.SequenceRef
+    kind: str | None = None  # app.services.kinds: "simulated", "oxiod", ... or None
+    dataset_label: str = ""  # the folder in words, for menus ("Simulated walks (bundled samples)")
+
+
+def describe_folder(folder: Path, dataset: str, kind: str | None, bundled_dir: Path | None) -> str:
+    """A data folder in a user's words: what it holds, never a reader id or a developer path."""
+    if bundled_dir is not None and _same_folder(folder, bundled_dir):
+        return "Simulated walks (bundled samples)"
+    what = label(kind) or ("CSV recordings" if dataset == "csv" else dataset)
+    return f"{what[:1].upper()}{what[1:]} in {folder.name or folder}"
+
+
+def _same_folder(a: Path, b: Path) -> bool:
+    try:
+        return Path(a).resolve() == Path(b).resolve()
+    except OSError:
+        return False
 
 
 @dataclass(frozen=True)
@@ -72,6 +90,7 @@ class SequenceCatalog:
         data_dirs: Iterable[Path],
         lister: Callable[[Path], list[Any]] | None = None,
         reader: Callable[[Any], ImuSequence] | None = None,
+        bundled_dir: Path | None = None,
     ) -> SequenceCatalog:
         """List every data folder; folders that are missing or unreadable become notes, not errors."""
         if lister is None:
@@ -96,7 +115,15 @@ class SequenceCatalog:
                 seq_id, k = base, 2
                 while seq_id in entries:
                     seq_id, k = f"{base}-{k}", k + 1
-                entries[seq_id] = SequenceEntry(seq_id, str(ref.name), str(ref.format), folder, ref)
+                kind = (
+                    SIMULATED
+                    if bundled_dir is not None and _same_folder(folder, bundled_dir)
+                    else kind_of([str(ref.format), str(ref.path), str(ref.name)])
+                )
+                dataset = describe_folder(folder, str(ref.format), kind, bundled_dir)
+                entries[seq_id] = SequenceEntry(
+                    seq_id, str(ref.name), str(ref.format), folder, ref, kind, dataset
+                )
         if not entries:
             notes.append("no sequences found in " + ", ".join(str(Path(d)) for d in data_dirs))
         return cls(entries, notes, reader)
@@ -106,6 +133,10 @@ class SequenceCatalog:
 
     def datasets(self) -> list[str]:
         return sorted({e.dataset for e in self.entries.values()})
+
+    def dataset_labels(self) -> list[str]:
+        """The data folders in words, in listing order (the scene's Dataset menu)."""
+        return list(dict.fromkeys(e.dataset_label or e.dataset for e in self.entries.values()))
 
     def get(self, seq_id: str) -> SequenceEntry:
         try:

@@ -14,6 +14,10 @@ class NotFoundError(ServiceError):
     """An unknown model, sequence or run (HTTP 404)."""
 
 
+class RunExpiredError(NotFoundError):
+    """A run that finished here but was dropped from memory since (HTTP 410 Gone)."""
+
+
 class InvalidInputError(ServiceError):
     """The request's data cannot be used: wrong schema, too short, not text (HTTP 422)."""
 

@@ -42,7 +42,7 @@ class ModelInput:
 def window_taps(loaded: Any, model_input: ModelInput, index: int) -> dict[str, np.ndarray] | None:
     """The dashboard taps of window ``index`` (mean over ``d``, float32), or None without FDL.
 
-    ``loaded`` is a ``ftin.train.checkpoint.LoadedModel``; the forward pass is stateless in eval
+    ``loaded`` is a ``ftin.checkpoint.LoadedModel``; the forward pass is stateless in eval
     mode, so it may run beside an inference on the same model in another thread.
     """
     features: dict[str, torch.Tensor] = {}

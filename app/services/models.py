@@ -8,7 +8,7 @@ Decisions:
 - A model's name is its checkpoint's file stem (``ftin-oxiod.safetensors`` -> ``ftin-oxiod``), and
   names are matched case-insensitively: ``FTIN-OxIOD`` (the paper's spelling) finds ``ftin-oxiod``.
   Two checkpoints whose names differ only in case are refused at start-up.
-- The default model is ``FTIN_DEFAULT_MODEL`` (built-in: ``ftin-oxiod``) when loaded. When that name
+- The default model is ``FTIN_DEFAULT_MODEL`` (built-in: ``ftin-pedestrian``) when loaded. When that name
   was set explicitly and is missing, start-up fails; when it is only the built-in default, the
   first FTIN checkpoint (else the first checkpoint) stands in and ``/health`` says so, naming the
   file it looked for.
@@ -20,10 +20,12 @@ import logging
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 from app.services.errors import NotFoundError, StartupError
+from app.services.kinds import label, training_kind
+from ftin.checkpoint import LoadedModel, load_model
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +38,7 @@ class ModelEntry:
 
     name: str
     path: Path
-    loaded: Any  # ftin.train.checkpoint.LoadedModel
+    loaded: LoadedModel
 
     @property
     def architecture(self) -> str:
@@ -47,27 +49,35 @@ class ModelEntry:
         return dict(self.loaded.meta or {})
 
     @property
-    def trained_on(self) -> str | None:
-        """``training_data`` of the checkpoint in words: where it came from and how many sequences.
+    def data_kind(self) -> str | None:
+        """What kind of data the checkpoint was trained on (``app.services.kinds``), or None."""
+        return training_kind(self.meta.get("training_data"))
 
-        ``ftin train`` records ``{"paths": [...], "sequences": [...]}``, the paths being folders or
-        every file; several paths are summarised by their common folder (``../data/oxiod (9
-        sequences)``), not listed. A plain string is kept as is.
+    @property
+    def trained_on(self) -> str | None:
+        """``training_data`` of the checkpoint in words: what data and how many sequences.
+
+        ``ftin train`` records ``{"paths": [...], "sequences": [...]}``. The paths are a developer's
+        (``../shared/data/oxiod/...``), so they are named by their kind (``OxIOD (9 sequences)``),
+        else by the last folder they share (``walks (2 sequences)``). A plain string is kept as is.
         """
         data = self.meta.get("training_data")
         if data is None or isinstance(data, str):
             return data
         if isinstance(data, dict):
-            paths = [str(p).rstrip("/") for p in data.get("paths", []) if str(p).strip()]
-            try:
-                where = os.path.commonpath(paths) if len(paths) > 1 else (paths or [""])[0]
-            except ValueError:  # absolute and relative paths mixed
-                where = ", ".join(paths)
-            paths = where or "unknown data"
+            paths = [str(p).replace("\\", "/").rstrip("/") for p in data.get("paths", []) if str(p).strip()]
+            where = label(self.data_kind)
+            if where is None:
+                try:
+                    common = os.path.commonpath(paths) if len(paths) > 1 else (paths or [""])[0]
+                except ValueError:  # absolute and relative paths mixed
+                    common = ""
+                where = PurePosixPath(common).name if common else None
+            where = where or "unknown data"
             sequences = data.get("sequences")
             if not isinstance(sequences, list):
-                return paths
-            return f"{paths} ({len(sequences)} sequence{'' if len(sequences) == 1 else 's'})"
+                return where
+            return f"{where} ({len(sequences)} sequence{'' if len(sequences) == 1 else 's'})"
         return str(data)
 
     @property
@@ -91,8 +101,7 @@ class ModelStore:
         loader: Callable[[Path], Any] | None = None,
     ) -> ModelStore:
         """Load every checkpoint in ``checkpoint_dir``; raise ``StartupError`` for a broken one."""
-        if loader is None:
-            from ftin.train.checkpoint import load_model as loader
+        loader = load_model if loader is None else loader
         notes: list[str] = []
         entries: dict[str, ModelEntry] = {}
         if not checkpoint_dir.is_dir():
@@ -138,6 +147,15 @@ class ModelStore:
 
     def names(self) -> list[str]:
         return list(self.entries)
+
+    def for_kind(self, kind: str | None) -> str | None:
+        """The model trained on ``kind`` of data (an FTIN checkpoint first), else the default."""
+        if kind is not None:
+            same = [e for e in self.entries.values() if e.data_kind == kind]
+            same.sort(key=lambda e: (e.architecture != "ftin", e.name != self.default_name))
+            if same:
+                return same[0].name
+        return self.default_name
 
     def get(self, name: str | None) -> ModelEntry:
         """The named model, or the default one when ``name`` is None or empty."""

@@ -7,8 +7,13 @@ Decisions:
   of windows. Callers run this off the event loop.
 - The sample limit (``FTIN_MAX_SAMPLES``) is checked on the input as read, and for a CSV upload
   already from its line count, before parsing. The upload size limit is checked on the file.
-- Uploads are decoded as UTF-8 (a BOM is accepted) before the CSV reader sees them, so a binary
-  file gets a plain "not a UTF-8 text file" message instead of a parser error.
+- Uploads are detected from their bytes (``ftin.data.readers.uploads``): a gzip body is unpacked
+  (at most ``max_uncompressed_bytes``) and looked at again, a ZIP is a phone app's export (Sensor
+  Logger, phyphox) or holds one CSV, anything else is a CSV: decoded as UTF-8 (a BOM is accepted)
+  first, so that a binary file gets a plain "not a UTF-8 text file" message instead of a parser error.
+- Alignment (``ftin.metrics.align``): with ground truth, the metrics follow the request's ``align``
+  or the reader's default, and the run keeps the ground truth in the prediction's frame, so that
+  the page, the scene and the TUM export draw what was scored.
 - Windows go through the model in batches of ``BATCH_WINDOWS``: small enough for frequent progress
   and deadline checks, large enough to cost nothing in speed.
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
@@ -17,7 +22,6 @@ Decisions:
 
 from __future__ import annotations
 
-import io
 import logging
 from collections.abc import Sequence
 from pathlib import PurePath
@@ -32,10 +36,12 @@ from app.services.limits import Deadline, InferenceSlots
 from app.services.models import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
 from ftin.data import DataFormatError, ImuSequence, Trajectory
+from ftin.metrics import Alignment
 
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
+GT_AS_GIVEN = "gt_as_given"  # meta key: the ground truth before a run aligned it for drawing
 
 
 def decode_upload(data: bytes, filename: str) -> str:
@@ -44,7 +50,8 @@ def decode_upload(data: bytes, filename: str) -> str:
     except UnicodeDecodeError as exc:
         raise InvalidInputError(
             f"{filename}: not a UTF-8 text file (byte {exc.start} is 0x{data[exc.start]:02x}); "
-            "upload a CSV in the generic schema"
+            "upload a CSV in the generic schema, a gzip-compressed CSV, or a phone app's ZIP export "
+            "(Sensor Logger, phyphox)"
         ) from None
 
 
@@ -113,7 +120,10 @@ def sequence_from_arrays(
     except DataFormatError as exc:
         raise InvalidInputError(str(exc)) from None
     gt = None if gt_p is None else Trajectory(t, gt_p)
-    return ImuSequence(name, t, gyro, acc, q, gt, {"dataset": "json", "source": source})
+    meta: dict[str, Any] = {"dataset": "json", "source": source}
+    if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
+        meta["gt_frame"] = "unknown"
+    return ImuSequence(name, t, gyro, acc, q, gt, meta)
 
 
 class PredictionService:
@@ -126,8 +136,10 @@ class PredictionService:
         max_samples: int = 720_000,
         timeout_s: float = 120.0,
         max_concurrent: int = 1,
+        max_uncompressed_bytes: int = 1024 * 2**20,
     ) -> None:
         self.models = models
+        self.max_uncompressed_bytes = max_uncompressed_bytes  # what a ZIP or gzip upload may unpack to
         self.catalog = catalog
         self.runs = runs
         self.max_upload_bytes = max_upload_bytes
@@ -155,10 +167,11 @@ class PredictionService:
         run_id: str | None = None,
         source: str = "upload",
         deadline: Deadline | None = None,
+        *,
+        align: str | None = None,
     ) -> Run:
-        """Read an uploaded CSV in the generic schema and run a model on it."""
-        from ftin.data.readers.generic_csv import read_csv
-
+        """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
+        Sensor Logger / phyphox export as a ZIP (``ftin.data.readers.uploads``, detected by content)."""
         entry = self.models.get(model)
         run_id = self.runs.new_id(run_id)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
@@ -171,19 +184,32 @@ class PredictionService:
                 f"{filename} is {len(data) / 2**20:.1f} MiB; the limit is "
                 f"{self.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
+        seq = self.read_upload(data, filename)
+        self.check_sample_count(len(seq), filename)
+        return self.run(seq, entry, run_id, source, deadline=deadline, align=align)
+
+    def read_upload(self, data: bytes, filename: str) -> ImuSequence:
+        """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
+        from ftin.data.readers import exports
+        from ftin.data.readers.uploads import gunzip, read_bytes
+
         if not data.strip():
-            raise InvalidInputError(f"{filename} is empty; upload a CSV in the generic schema")
-        # Lines bound the samples from above (one header, maybe comments): refuse before parsing.
-        lines = data.count(b"\n") + (not data.endswith(b"\n"))
-        if lines - 1 > self.max_samples:
-            self.check_sample_count(lines - 1, filename)
-        text = decode_upload(data, filename)
+            raise InvalidInputError(
+                f"{filename} is empty; upload a CSV in the generic schema or a phone app's ZIP export"
+            )
         try:
-            seq = read_csv(io.StringIO(text), name=PurePath(filename).stem or "upload")
+            if data[:2] == exports.GZIP_MAGIC:
+                data = gunzip(data, filename, self.max_uncompressed_bytes)
+            if not exports.is_zip(data):
+                # Lines bound the samples from above (one header, maybe comments): refuse before parsing.
+                lines = data.count(b"\n") + (not data.endswith(b"\n"))
+                if lines - 1 > self.max_samples:
+                    self.check_sample_count(lines - 1, filename)
+                decode_upload(data, filename)  # a binary file: say so in plain words
+            seq = read_bytes(data, filename, max_uncompressed_bytes=self.max_uncompressed_bytes)
         except DataFormatError as exc:
             raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
-        self.check_sample_count(len(seq), filename)
-        return self.run(seq, entry, run_id, source, deadline=deadline)
+        return seq
 
     def predict_sequence(
         self,
@@ -191,12 +217,14 @@ class PredictionService:
         model: str | None = None,
         run_id: str | None = None,
         deadline: Deadline | None = None,
+        *,
+        align: str | None = None,
     ) -> Run:
         entry = self.models.get(model)
         run_id = self.runs.new_id(run_id)
         seq = self.catalog.read(sequence_id)
         self.check_sample_count(len(seq), f"sequence {sequence_id!r}")
-        return self.run(seq, entry, run_id, "sequence", sequence_id, deadline)
+        return self.run(seq, entry, run_id, "sequence", sequence_id, deadline, align=align)
 
     def predict_imu(
         self,
@@ -205,11 +233,13 @@ class PredictionService:
         run_id: str | None = None,
         source: str = "json",
         deadline: Deadline | None = None,
+        *,
+        align: str | None = None,
     ) -> Run:
         """Run a model on a sequence built by the caller (e.g. from JSON arrays)."""
         entry = self.models.get(model)
         self.check_sample_count(len(seq), f"recording {seq.name!r}")
-        return self.run(seq, entry, self.runs.new_id(run_id), source, deadline=deadline)
+        return self.run(seq, entry, self.runs.new_id(run_id), source, deadline=deadline, align=align)
 
     def run(
         self,
@@ -219,12 +249,25 @@ class PredictionService:
         source: str,
         sequence_id: str | None = None,
         deadline: Deadline | None = None,
+        *,
+        align: str | None = None,
     ) -> Run:
-        """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners."""
+        """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
+
+        With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
+        where the truth may live in another world frame, else ``none``) and the run keeps the ground truth
+        moved into the prediction's frame by the fitted alignment: what is drawn is what was scored.
+        """
         from ftin.data.windows import window_starts, world_imu
         from ftin.infer import predict_prepared
 
         deadline = deadline or self.new_deadline()
+        if align is not None and align not in {a.value for a in Alignment}:
+            choices = ", ".join(a.value for a in Alignment)
+            raise InvalidInputError(f"align must be one of {choices}; got {align!r}")
+        if GT_AS_GIVEN in seq.meta:  # a finished run's sequence, its truth drawn aligned: start over
+            meta = {k: v for k, v in seq.meta.items() if k != GT_AS_GIVEN}
+            seq = seq.with_(gt=seq.meta[GT_AS_GIVEN], meta=meta)
         what = f"running {entry.name} on {seq.name}"
 
         def progress(done: int, total: int) -> None:
@@ -247,6 +290,9 @@ class PredictionService:
         except Exception as exc:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
+        if "orientation_filter" in prepared.meta:  # which filter ran (VQF 6-D or 9-D): metrics.json says it
+            seq = seq.with_(meta={**seq.meta, "orientation_filter": prepared.meta["orientation_filter"]})
+        seq = _aligned(seq, prepared, prediction, align)
         loaded = entry.loaded
         model_input = ModelInput(
             world_imu(prepared), window_starts(len(prepared), loaded.window, loaded.stride), loaded.window
@@ -254,3 +300,24 @@ class PredictionService:
         run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input)
         self.runs.finish(run)
         return run
+
+
+def _aligned(seq: ImuSequence, prepared: ImuSequence, prediction: Any, align: str | None) -> ImuSequence:
+    """Score ``prediction`` under the chosen alignment; ``seq`` with its ground truth in the prediction's
+    frame (unchanged without ground truth or metrics)."""
+    from ftin.metrics import Alignment, default_alignment, evaluate_aligned
+
+    if seq.gt is None or prepared.gt is None or prediction.metrics is None:
+        return seq
+    chosen = Alignment(align) if align else default_alignment(prepared.meta.get("gt_frame"))
+    try:
+        metrics, fit = evaluate_aligned(prediction.trajectory, prepared.gt, chosen)
+    except ValueError as exc:  # e.g. a ground truth that never moves
+        prediction.warnings.append(f"alignment {chosen.value} not possible ({exc}); metrics without it")
+        return seq
+    prediction.metrics = metrics
+    if chosen is Alignment.NONE:
+        return seq
+    # The run draws the aligned truth; the truth as given stays in meta, so that running another model
+    # on this sequence (the scene's "compare") starts from the file's own frames again.
+    return seq.with_(gt=fit.gt_in_estimate_frame(seq.gt), meta={**seq.meta, GT_AS_GIVEN: seq.gt})

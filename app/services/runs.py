@@ -13,15 +13,17 @@ import time
 import uuid
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
-from app.services.errors import ConflictError, InvalidInputError, NotFoundError
+from app.services.errors import ConflictError, InvalidInputError, NotFoundError, RunExpiredError
 from app.services.features import ModelInput
 from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)
 
 RUN_ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{6,64}$")
+EXPIRED_KEPT = 10_000  # ids of dropped runs remembered (a few MB at most), for the "expired" message
 
 
 class RunState(str, enum.Enum):
@@ -46,6 +48,12 @@ class Run:
     @property
     def n_samples(self) -> int:
         return len(self.sequence)
+
+    @cached_property
+    def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures
+        from app.services.verdict import judge
+
+        return judge(self.prediction, self.sequence.gt)
 
 
 @dataclass
@@ -82,6 +90,8 @@ class RunStore:
         self.max_kept_samples = max_kept_samples
         self._runs: OrderedDict[str, Run] = OrderedDict()
         self._status: OrderedDict[str, RunStatus] = OrderedDict()
+        # Ids of runs dropped from memory (-> "model on sequence"), to say "expired", not "unknown".
+        self._expired: OrderedDict[str, str] = OrderedDict()
         self._listeners: list[RunListener] = []
         self._lock = threading.Lock()
 
@@ -133,7 +143,10 @@ class RunStore:
                 and self.max_kept_samples is not None
                 and sum(r.n_samples for r in self._runs.values()) > self.max_kept_samples
             ):
-                self._runs.popitem(last=False)
+                dropped_id, dropped = self._runs.popitem(last=False)
+                self._expired[dropped_id] = f"{dropped.model_name} on {dropped.sequence.name}"
+                while len(self._expired) > EXPIRED_KEPT:
+                    self._expired.popitem(last=False)
             status = self._status.get(run.run_id)
             if status is not None:
                 status.state = RunState.DONE
@@ -164,6 +177,13 @@ class RunStore:
     def get(self, run_id: str) -> Run:
         with self._lock:
             run = self._runs.get(run_id)
+            expired = self._expired.get(run_id)
+        if run is None and expired is not None:
+            raise RunExpiredError(
+                f"This run ({expired}) has expired: the server keeps only the latest finished runs "
+                f"(at most {self.max_runs}, FTIN_MAX_RUNS, and FTIN_MAX_KEPT_SAMPLES samples in all). "
+                "Predict again to get it back."
+            )
         if run is None:
             raise NotFoundError(
                 f"unknown run id {run_id!r} (only the latest finished runs are kept, at most {self.max_runs})"

@@ -1,5 +1,5 @@
 """Scene nodes for runs and ground truth. Paths: ``/runs/{run_id}/{pred,start,end,marker,window}``,
-``/truth/{path,start,end,marker,window}`` and ``/grid``.
+``/truth/{path,start,end,marker,window}``, ``/grid`` and its scale label ``/grid_scale``.
 
 Sizes are relative to the extent of what is shown (markers ~1 % of it), so a 3 m test walk and a
 300 m trolley run both look right. Lines use screen-space thickness for the same reason.
@@ -13,11 +13,11 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.viz.palette import END_COLOR, RGB, START_COLOR, WINDOW_COLOR
+from app.viz.palette import RGB, START_COLOR, WINDOW_COLOR, darker
 from app.viz.spectra import decimate_indices, polyline_segments
 from ftin.data import Trajectory
 
-MAX_LINE_POINTS = 4000
+MAX_LINE_POINTS = 1500  # per path: plenty on screen; the browser redraws every path on every move
 LINE_PX = 3.0
 WINDOW_LINE_PX = 7.0
 
@@ -45,7 +45,8 @@ class PathNodes:
 def draw_path(
     scene: viser.SceneApi, prefix: str, path_name: str, traj: Trajectory, color: RGB, marker_radius: float
 ) -> PathNodes:
-    """Polyline + start/end markers + a position marker at the start."""
+    """Polyline + start (green sphere) and end (cube in the path's own, darker colour) markers + a
+    position marker at the start."""
     root = scene.add_frame(prefix, show_axes=False)
     keep = decimate_indices(len(traj), MAX_LINE_POINTS)
     points = traj.p_world_m[keep]
@@ -57,16 +58,35 @@ def draw_path(
         thickness_units="screen",
     )
     scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, START_COLOR, position=points[0])
-    scene.add_box(f"{prefix}/end", END_COLOR, (marker_radius * 1.4,) * 3, position=points[-1])
+    scene.add_box(f"{prefix}/end", darker(color), (marker_radius * 1.6,) * 3, position=points[-1])
     marker = scene.add_icosphere(f"{prefix}/marker", marker_radius, color, position=points[0])
     return PathNodes(prefix, root, marker)
 
 
-def draw_grid(scene: viser.SceneApi, centre: np.ndarray, size_m: float) -> Any:
-    """A square grid under the trajectories with cells of a round size (0.5, 1, 2, 5, 10 m ...)."""
+@dataclass(frozen=True)
+class GridNodes:
+    """The grid under the paths and its scale label; ``cell_m`` is one cell's side."""
+
+    grid: Any
+    label: Any
+    cell_m: float
+    side_m: float
+
+    def remove(self) -> None:
+        self.grid.remove()
+        self.label.remove()
+
+    @property
+    def caption(self) -> str:
+        return f"grid: {_fmt_m(self.cell_m)} cells, thicker lines every {_fmt_m(5 * self.cell_m)}"
+
+
+def draw_grid(scene: viser.SceneApi, centre: np.ndarray, size_m: float) -> GridNodes:
+    """A square grid under the trajectories with cells of a round size (0.5, 1, 2, 5, 10 m ...),
+    and a label at its corner stating the cell size."""
     side = float(np.ceil(size_m * 1.3))
     cell = float(_round_step(side / 20.0))
-    return scene.add_grid(
+    grid = scene.add_grid(
         "/grid",
         width=side,
         height=side,
@@ -74,6 +94,13 @@ def draw_grid(scene: viser.SceneApi, centre: np.ndarray, size_m: float) -> Any:
         section_size=cell * 5,
         position=(float(centre[0]), float(centre[1]), 0.0),
     )
+    corner = (float(centre[0]) - side / 2, float(centre[1]) - side / 2, 0.0)
+    label = scene.add_label("/grid_scale", f"grid {_fmt_m(cell)} / {_fmt_m(5 * cell)}", position=corner)
+    return GridNodes(grid, label, cell, side)
+
+
+def _fmt_m(value: float) -> str:
+    return f"{value:g} m"
 
 
 def set_window(scene: viser.SceneApi, nodes: PathNodes, points: np.ndarray) -> None:

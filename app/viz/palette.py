@@ -4,8 +4,11 @@ from __future__ import annotations
 
 RGB = tuple[int, int, int]
 
-# Tableau-10 order (its grey left out: ground truth is grey), then darker extras, so that all the
-# shipped checkpoints (ten) overlaid at once still get distinct colours; colours repeat only after 12.
+# Tableau-10 order (its grey left out: ground truth is grey; its olive replaced by magenta, which
+# was too close to the current window's yellow), then darker extras, so that all the shipped
+# checkpoints (ten) overlaid at once still get distinct colours; colours repeat only after 12.
+# No model colour is the yellow of the current window; the end cube of a path takes the path's
+# own colour (a red end cube read as a fourth model's path).
 MODEL_COLORS: tuple[RGB, ...] = (
     (31, 119, 180),
     (255, 127, 14),
@@ -15,7 +18,7 @@ MODEL_COLORS: tuple[RGB, ...] = (
     (140, 86, 75),
     (227, 119, 194),
     (23, 190, 207),
-    (188, 189, 34),
+    (200, 0, 200),
     (20, 40, 120),
     (120, 0, 60),
     (0, 100, 80),
@@ -23,7 +26,11 @@ MODEL_COLORS: tuple[RGB, ...] = (
 TRUTH_COLOR: RGB = (60, 60, 60)
 WINDOW_COLOR: RGB = (255, 200, 0)  # the current window, on every trajectory
 START_COLOR: RGB = (0, 170, 90)
-END_COLOR: RGB = (200, 30, 30)
+
+
+def darker(rgb: RGB, factor: float = 0.7) -> RGB:
+    r, g, b = (int(round(c * factor)) for c in rgb)
+    return (r, g, b)
 
 
 def hex_color(rgb: RGB) -> str:
@@ -33,8 +40,10 @@ def hex_color(rgb: RGB) -> str:
 class ColorBook:
     """Stable colour per model name for the life of the scene (the same model keeps its colour)."""
 
-    def __init__(self) -> None:
+    def __init__(self, names: list[str] | None = None) -> None:
         self._by_name: dict[str, RGB] = {}
+        for name in names or []:  # e.g. every loaded model, in the order the upload page uses
+            self.color(name)
 
     def color(self, name: str) -> RGB:
         if name not in self._by_name:

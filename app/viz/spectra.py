@@ -85,3 +85,57 @@ def polyline_segments(points: np.ndarray) -> np.ndarray:
     """``(N, 3)`` points -> ``(N - 1, 2, 3)`` line segments joining consecutive points."""
     points = np.asarray(points, dtype=np.float32)
     return np.stack([points[:-1], points[1:]], axis=1)
+
+
+def heading_error_per_window(
+    window_t_s: np.ndarray,
+    estimate: Trajectory,
+    truth: Trajectory,
+    span_s: float = 5.0,
+    min_distance_m: float = 1.0,
+) -> np.ndarray:
+    """Signed heading (yaw) error of the walking direction, degrees in (-180, 180], per window.
+
+    The direction of travel over ``span_s`` around each window time, predicted minus true (a span
+    of a few steps: the direction of one window's velocity swings with every step). Where the
+    truth moves less than ``min_distance_m`` over the span (standing) the direction is undefined:
+    the last defined error is held (0 before the first), so the curve reads as the heading drift.
+    """
+    t = np.asarray(window_t_s, dtype=np.float64)
+    lo, hi = t - 0.5 * span_s, t + 0.5 * span_s
+    d_true = (interpolate_positions(truth, hi) - interpolate_positions(truth, lo))[:, :2]
+    d_pred = (interpolate_positions(estimate, hi) - interpolate_positions(estimate, lo))[:, :2]
+    error = np.degrees(np.arctan2(d_pred[:, 1], d_pred[:, 0]) - np.arctan2(d_true[:, 1], d_true[:, 0]))
+    error = (error + 180.0) % 360.0 - 180.0
+    defined = np.linalg.norm(d_true, axis=1) >= min_distance_m
+    index = np.where(defined, np.arange(len(error)), -1)
+    last = np.maximum.accumulate(index) if len(index) else index
+    return np.where(last >= 0, error[np.maximum(last, 0)], 0.0)
+
+
+def common_time_grid(duration_s: float, max_points: int = 400) -> np.ndarray:
+    """Evenly spaced times from 0 to ``duration_s`` (at least 0.1 s apart, at most ``max_points``)."""
+    step = max(0.1, float(duration_s) / max_points)
+    return np.arange(0.0, float(duration_s) + 0.5 * step, step)
+
+
+def with_cursor(
+    x: np.ndarray, curves: list[np.ndarray], t_now: float
+) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    """Insert a vertical cursor at ``t_now`` into an aligned uPlot data set.
+
+    ``x`` gets ``t_now`` twice, every curve its interpolated value there (no gaps); the cursor
+    series is NaN everywhere but 0 and 1 at the two inserted points, for a scale fixed to [0, 1]:
+    the plot draws it as a vertical line from bottom to top.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    at = int(np.searchsorted(x, t_now))
+    new_x = np.concatenate([x[:at], [t_now, t_now], x[at:]])
+    new_curves = []
+    for y in curves:
+        y = np.asarray(y, dtype=np.float64)
+        value = float(np.interp(t_now, x, y)) if len(x) else 0.0
+        new_curves.append(np.concatenate([y[:at], [value, value], y[at:]]))
+    cursor = np.full(len(new_x), np.nan)
+    cursor[at], cursor[at + 1] = 0.0, 1.0
+    return new_x, new_curves, cursor

@@ -2,8 +2,9 @@
 
 Decisions:
 - The timeline runs in seconds from the sequence's first sample, shared by every shown run.
-- A window's span is ``window / imu_rate_hz`` seconds (the checkpoint's window) placed around its
-  time stamp as ``ftin.infer`` defines ``window_t_s``: the middle of ``[t[s], t[s + L]]``.
+- A prediction's span is the one ``ftin.infer`` reports (``Prediction.span_t_s``): a whole window
+  for window models, a 1 s sub-window for RNIN, one frame for RoNIN's LSTM / TCN. Without it (an
+  older prediction) the checkpoint's window is placed around ``window_t_s``, the middle of its span.
 - The FDL spectra are recomputed for the window on screen from the run's ``ModelInput``
   (``app.services.features``); whether a model has them at all is found once, on window 0.
 """
@@ -20,10 +21,12 @@ from app.services.runs import Run
 from app.viz.palette import RGB
 from app.viz.spectra import (
     amplitude_spectrum,
+    heading_error_per_window,
     interpolate_positions,
     position_error_per_window,
     velocity_error_per_window,
 )
+from ftin.checkpoint import LoadedModel
 from ftin.data import ImuSequence, Trajectory
 
 # Where window_t_s sits inside its window (ftin.infer: the middle of [t[s], t[s + L]]).
@@ -42,27 +45,35 @@ class RunView:
     window_t_s: np.ndarray  # (M,)
     window_start_s: np.ndarray  # (M,)
     window_end_s: np.ndarray  # (M,)
-    metrics: dict[str, float] | None
+    metrics: dict[str, float | None] | None  # ate, rte, pde, path_length_ratio
+    convention: str | None  # how the metrics align the estimate ("ronin": not at all)
+    warnings: tuple[str, ...]  # what may be wrong with this run (the path length included)
     position_error_m: np.ndarray | None  # (M,) horizontal, at window times
     velocity_error_m_s: np.ndarray | None  # (M,)
-    loaded: Any | None  # ftin.train.checkpoint.LoadedModel, to recompute feature taps
+    heading_error_deg: np.ndarray | None  # (M,) walking direction, predicted - true
+    loaded: LoadedModel | None  # to recompute feature taps
     model_input: ModelInput | None
     has_spectra: bool  # the model has FDL spectra to show
+    alignment: str | None = None  # ftin.metrics.align, in words with the fitted heading (None: no metrics)
 
     @classmethod
-    def from_run(cls, run: Run, color: RGB, window_s: float, loaded: Any | None = None) -> RunView:
+    def from_run(cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None) -> RunView:
         pred = run.prediction
         t = np.asarray(pred.window_t_s, dtype=np.float64)
-        start = t - WINDOW_T_ANCHOR * window_s
-        end = start + window_s
+        spans = pred.span_t_s
+        if spans is not None and len(spans) == len(t):
+            start, end = np.asarray(spans[:, 0], dtype=np.float64), np.asarray(spans[:, 1], dtype=np.float64)
+        else:
+            start = t - WINDOW_T_ANCHOR * window_s
+            end = start + window_s
         gt = run.sequence.gt
         model_input = run.model_input if loaded is not None and len(t) > 0 else None
         has_spectra = model_input is not None and window_taps(loaded, model_input, 0) is not None
-        metrics = (
-            None
-            if pred.metrics is None
-            else {k: float(pred.metrics.as_dict()[k]) for k in ("ate", "rte", "pde")}
-        )
+        verdict = run.verdict
+        metrics = None
+        if pred.metrics is not None:
+            metrics = {k: float(pred.metrics.as_dict()[k]) for k in ("ate", "rte", "pde")}
+            metrics["path_length_ratio"] = verdict.path_length_ratio
         return cls(
             run_id=run.run_id,
             model_name=run.model_name,
@@ -73,18 +84,27 @@ class RunView:
             window_start_s=start,
             window_end_s=end,
             metrics=metrics,
+            convention=None if pred.metrics is None else str(pred.metrics.as_dict().get("convention")),
+            warnings=tuple(verdict.warnings),
             position_error_m=None if gt is None else position_error_per_window(t, pred.trajectory, gt),
             velocity_error_m_s=(
                 None if gt is None else velocity_error_per_window(start, end, pred.velocity_m_s, gt)
             ),
+            heading_error_deg=(None if gt is None else heading_error_per_window(t, pred.trajectory, gt)),
             loaded=loaded,
             model_input=model_input,
             has_spectra=has_spectra,
+            alignment=_alignment_words(pred.metrics),
         )
 
     @property
     def t0_s(self) -> float:
         return float(self.sequence.t_s[0])
+
+    @property
+    def path_warning(self) -> bool:
+        """A warning names the path: the model walks far too little or too much."""
+        return any("path" in w for w in self.warnings)
 
     def spectra_at(self, index: int) -> tuple[np.ndarray | None, np.ndarray | None]:
         """FDL ``(channel-axis (C_res // 2 + 1, L_res), temporal-axis (C_res, L_res // 2 + 1))`` |FFT|
@@ -117,3 +137,11 @@ class RunView:
             return None
         samples = np.concatenate([seq.gyro_rad_s[mask], seq.acc_m_s2[mask]], axis=1)
         return amplitude_spectrum(samples, seq.rate_hz)
+
+
+def _alignment_words(metrics: Any) -> str | None:
+    """``start (heading +12.3°)``: the alignment the metrics used and what it fitted (issue 10)."""
+    if metrics is None or getattr(metrics, "alignment", None) is None:
+        return None
+    heading = "" if metrics.heading_deg is None else f" (fitted heading {metrics.heading_deg:+.1f}°)"
+    return f"{metrics.alignment}{heading}"

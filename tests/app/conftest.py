@@ -18,9 +18,9 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from ftin.checkpoint import save_checkpoint
 from ftin.models import create_model
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
-from ftin.train.checkpoint import save_checkpoint
 
 RATE_HZ = 100.0
 WINDOW = 50
@@ -94,7 +94,11 @@ def make_settings(checkpoint_dir: Path, data_dir: Path) -> Callable[..., Setting
             "data_dirs": [data_dir],
             "viser_enabled": False,
             "viser_port": 0,
+            "scene_first_run": False,  # tests start from an empty scene (the start-up run has its own)
         }
+        if "checkpoint_dir" not in overrides:
+            # The built-in default (ftin-pedestrian) is not among the tiny checkpoints: name theirs.
+            values["default_model"] = DEFAULT_MODEL
         values.update(overrides)
         return Settings(**values)
 

@@ -41,7 +41,7 @@ def test_health_reports_what_was_loaded(client: TestClient) -> None:
     assert body["scene_url"] is None  # viser disabled in this app
     assert body["notes"] == []
     assert body["inferences_running"] == 0
-    assert body["max_upload_mb"] == 20.0 and body["max_samples"] == 720_000
+    assert body["max_upload_mb"] == 200.0 and body["max_samples"] == 720_000
     assert body["inference_timeout_s"] == 120.0
 
 
@@ -53,7 +53,7 @@ def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
     assert ftin["default"] is True and models[OTHER_MODEL]["default"] is False
     assert ftin["imu_rate_hz"] == 100.0 and ftin["window"] == 50 and ftin["stride"] == 25
     assert ftin["trained_on"] == "simulated walks (test fixture)"
-    assert models[OTHER_MODEL]["trained_on"] == "/data/sim (2 sequences)"
+    assert models[OTHER_MODEL]["trained_on"] == "simulated walks (2 sequences)"  # no developer path
     assert ftin["metrics"] == {"ate": 1.5, "rte": 2.5, "pde": 0.05}
     assert ftin["parameters"] > 1000 and ftin["out_dim"] == 2
 
@@ -118,7 +118,11 @@ def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: b
     assert len(velocity["t"]) == len(velocity["vx"]) == len(velocity["vy"]) > 10
     assert velocity["vz"] is None  # a 2-D model
     metrics = body["metrics"]
-    assert set(metrics) == {"ate", "rte", "pde"} and all(np.isfinite(v) and v >= 0 for v in metrics.values())
+    assert {"ate", "rte", "pde", "path_length_ratio"} <= set(metrics)
+    scored = ("ate", "rte", "pde", "path_length_ratio")
+    assert all(np.isfinite(metrics[k]) and metrics[k] >= 0 for k in scored)
+    assert metrics["convention"] == "ronin" and "no alignment" in metrics["convention_text"]
+    assert metrics["predicted_path_m"] > 0 and metrics["true_path_m"] > 0
     assert body["orientation_source"] == "device" and body["frame"] == "ground_truth"
     assert body["csv_url"] == f"/runs/{body['run_id']}/trajectory.csv"
 
@@ -165,7 +169,7 @@ def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> 
         "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
         "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
         "q_world_device_wxyz": sample_frame[["q_w", "q_x", "q_y", "q_z"]].to_numpy().tolist(),
-        "gt_p_world_m": sample_frame[["gt_x", "gt_y", "gt_z"]].to_numpy().tolist(),
+        "gt_p_world_m": sample_frame[[f"gt_device_world_{a}" for a in "xyz"]].to_numpy().tolist(),
     }
     response = client.post("/predict", json=body, params={"model": DEFAULT_MODEL})
     assert response.status_code == 200, response.text
@@ -398,3 +402,71 @@ def test_cors_opens_only_for_configured_origins(make_settings: Callable[..., Set
         assert ok.headers["access-control-allow-origin"] == "http://lab.example"
         other = test_client.get("/health", headers={"Origin": "http://evil.example"})
         assert "access-control-allow-origin" not in other.headers
+
+
+# --- issue 11: results that tell the truth --------------------------------------------------------
+
+
+def still_phone_csv(sample_frame: pd.DataFrame) -> bytes:
+    """The phone lies still on a table (identity orientation, gravity only) while the ground truth walks."""
+    frame = sample_frame.copy()
+    rng = np.random.default_rng(0)
+    for column in ("gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y"):
+        frame[column] = rng.normal(0.0, 1e-3, len(frame))
+    frame["acc_z"] = 9.81 + rng.normal(0.0, 1e-3, len(frame))
+    frame["q_w"], frame["q_x"], frame["q_y"], frame["q_z"] = 1.0, 0.0, 0.0, 0.0
+    return frame.to_csv(index=False).encode()
+
+
+def test_a_phone_lying_still_while_the_truth_walks_gets_a_path_warning(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    response = upload(client, still_phone_csv(sample_frame), name="still.csv")
+    assert response.status_code == 200, response.text
+    body = response.json()
+    metrics = body["metrics"]
+    assert metrics["path_length_ratio"] < 0.5 and metrics["true_path_m"] > 5
+    path_warnings = [w for w in body["warnings"] if "path" in w]
+    assert len(path_warnings) == 1, body["warnings"]  # one warning, not one per symptom
+    assert "barely moves" in path_warnings[0] and f"{metrics['true_path_m']:.0f} m" in path_warnings[0]
+    # The stand-still baseline is scored with the same convention, for comparison.
+    assert set(metrics["stand_still"]) == {"ate", "rte", "pde"} and metrics["stand_still"]["ate"] > 0
+
+
+def test_a_plausible_path_has_no_path_warning_and_read_notes_are_not_warnings(
+    client: TestClient, csv_with_gt: bytes
+) -> None:
+    body = upload(client, csv_with_gt).json()
+    ratio = body["metrics"]["path_length_ratio"]
+    assert (0.5 <= ratio <= 2.0) == (not any("path" in w for w in body["warnings"]))
+    # "t detected as seconds" is information about reading the file, not a warning.
+    assert any(n.startswith("t detected as") for n in body["notes"])
+    assert not any(w.startswith("t detected as") for w in body["warnings"])
+    for messages in (body["warnings"], body["notes"]):
+        assert len(messages) == len(set(messages))  # no duplicates
+
+
+def test_a_json_recording_is_not_named_request(client: TestClient, sample_frame: pd.DataFrame) -> None:
+    body = {
+        "t_s": sample_frame["t"].tolist(),
+        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].values.tolist(),
+        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].values.tolist(),
+    }
+    response = client.post("/predict", json=body)
+    assert response.status_code == 200, response.text
+    assert response.json()["sequence"] == "recording"
+
+
+def test_an_expired_run_says_so_and_how_to_get_it_back(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes
+) -> None:
+    with TestClient(create_app(make_settings(max_runs=1))) as small:
+        first = upload(small, csv_with_gt).json()["run_id"]
+        upload(small, csv_with_gt)  # the first run is dropped from memory
+        for response in (
+            small.get(f"/runs/{first}/trajectory.csv"),
+            small.post(f"/runs/{first}/show"),
+        ):
+            assert response.status_code == 410
+            assert "expired" in detail(response) and "Predict again" in detail(response)
+        assert small.get("/runs/never-was-a-run/trajectory.csv").status_code == 404

@@ -102,13 +102,18 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
     page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series >> nth=1", timeout=60_000)
 
     labels = page.eval_on_selector_all("#plot polyline.series", "els => els.map(e => e.dataset.label)")
-    assert labels == ["ground truth", f"{DEFAULT_MODEL} (predicted)"]
+    assert labels == ["ground truth", DEFAULT_MODEL]
     points = page.get_attribute("#plot polyline.series >> nth=1", "points")
     assert len(points.split()) == 2000  # every sample of the 20 s walk
     metrics = page.inner_text("#metrics")
     assert "ATE" in metrics and "RTE" in metrics and "PDE" in metrics and " m" in metrics
+    assert "Path" in metrics and " %" in metrics  # the path ratio beside them; PDE in %
+    assert "No alignment" in page.inner_text("#convention")  # the convention is stated
+    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_MODEL}"
     assert page.is_hidden("#error")
 
+    assert "t detected as" in page.inner_text("#notes") and "t detected" not in page.inner_text("#warnings")
+    assert "frame:" not in page.inner_text("#result") and "ground_truth" not in page.inner_text("#result")
     run_id = page.get_attribute("#scene-link", "data-run-id")
     assert page.get_attribute("#download-link", "href") == f"/runs/{run_id}/trajectory.csv"
     download = httpx.get(f"{live_server.base_url}/runs/{run_id}/trajectory.csv", timeout=10)
@@ -176,7 +181,8 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
     live_server.scene._update_time()
     page.wait_for_function("() => document.body.innerText.includes('Spectra')", timeout=30_000)
     body = page.inner_text("body")
-    assert "FTIN Studio" in body and "ATE (m)" in body and f"{DEFAULT_MODEL} — walk" in body
+    assert "FTIN Studio" in body and "ATE m" in body and "PDE %" in body and "path" in body
+    assert "On walk:" in body and DEFAULT_MODEL in body
     assert run_id in live_server.scene.shown_run_ids()
     if SCREENSHOT_DIR:
         for close in page.query_selector_all("button.mantine-Notification-closeButton"):
@@ -206,3 +212,133 @@ def test_missing_browser_skips_or_fails_as_the_environment_says(
     monkeypatch.setenv(REQUIRE_BROWSER_ENV, "0")
     with pytest.raises(pytest.skip.Exception):
         browser_missing(problem)
+
+
+# --- issue 11: items 1-4 and 10 in the browser ------------------------------------------------------
+
+
+def still_phone_csv(sample_frame) -> bytes:
+    """The phone lies still (gravity only) while the ground truth walks 13 m."""
+    import numpy as np
+
+    frame = sample_frame.copy()
+    rng = np.random.default_rng(0)
+    for column in ("gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y"):
+        frame[column] = rng.normal(0.0, 1e-3, len(frame))
+    frame["acc_z"] = 9.81 + rng.normal(0.0, 1e-3, len(frame))
+    frame["q_w"], frame["q_x"], frame["q_y"], frame["q_z"] = 1.0, 0.0, 0.0, 0.0
+    return frame.to_csv(index=False).encode()
+
+
+def test_item1_a_model_that_barely_moves_is_flagged_on_the_page(
+    live_server, page, sample_frame, tmp_path: Path
+) -> None:
+    still = tmp_path / "still.csv"
+    still.write_bytes(still_phone_csv(sample_frame))
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    page.set_input_files("#file-input", str(still))
+    page.click("#run-button")
+    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
+    path_row = page.inner_text("#metrics tr.flagged")
+    assert path_row.startswith("Path") and "m of" in path_row
+    warnings = page.inner_text("#warnings")
+    assert "path" in warnings and "barely moves" in warnings
+    assert "No alignment" in page.inner_text("#convention")
+    assert "Standing still" in page.inner_text("#metrics")
+    screenshot(page, "upload_still_phone.png")
+
+
+def test_item2_a_failed_second_upload_leaves_no_stale_result(
+    live_server, page, sample_csv_path: Path, tmp_path: Path
+) -> None:
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    page.set_input_files("#file-input", str(sample_csv_path))
+    page.click("#run-button")
+    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
+    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_MODEL}"
+    bad = tmp_path / "notes.csv"
+    bad.write_text("time,comment\n0,hello\n")
+    page.set_input_files("#file-input", str(bad))
+    page.click("#run-button")
+    page.wait_for_selector("#error:not([hidden])", timeout=30_000)
+    assert page.is_hidden("#result")  # the first file's plot and metrics are gone with the error
+
+
+def test_item2_and_3_the_scene_shows_one_row_per_model_and_clears_everything(
+    live_server, page, csv_with_gt: bytes
+) -> None:
+    for _ in range(4):  # the same model on the same recording, again and again
+        response = httpx.post(
+            f"{live_server.base_url}/predict",
+            files={"file": ("walk.csv", csv_with_gt, "text/csv")},
+            timeout=60,
+        )
+        assert response.status_code == 200
+    live_server.scene.flush()
+    assert len(live_server.scene.shown_run_ids()) == 1
+    page.goto(live_server.scene.url)
+    page.wait_for_function("() => document.body.innerText.includes('Clear scene')", timeout=30_000)
+    page.wait_for_function("() => document.body.innerText.includes('On walk:')", timeout=30_000)
+    inputs = "() => [...document.querySelectorAll('input')].map((i) => i.value)"
+    body = page.inner_text("body")
+    assert body.count(f"| {DEFAULT_MODEL} |") == 0  # the table is rendered, not raw markdown
+    lines = body.splitlines()
+    table_rows = [line for line in lines if line.startswith(f"{DEFAULT_MODEL}\t")]
+    assert len(table_rows) == 1, table_rows  # one table row for four identical runs
+    # The Models checkbox and one legend row (flagged when the tiny model barely moves).
+    names = [line for line in lines if line in (DEFAULT_MODEL, f"{DEFAULT_MODEL} ⚠")]
+    assert len(names) == 2, names
+    page.wait_for_function(f"() => ({inputs})().includes('walk (uploaded)')", timeout=10_000)
+    page.get_by_text("Clear scene", exact=True).click()
+    page.wait_for_function("() => document.body.innerText.includes('Scene cleared')", timeout=30_000)
+    assert "Nothing shown yet" in page.inner_text("body")
+    page.wait_for_function(f"() => !({inputs})().includes('walk (uploaded)')", timeout=10_000)
+    assert live_server.scene.shown_run_ids() == [] and live_server.scene.gui_time.disabled
+
+
+def test_item4_an_expired_run_says_so_on_the_page(
+    make_settings, server_control, page, sample_csv_path: Path, csv_with_gt: bytes
+) -> None:
+    live = server_control.start(make_settings(max_runs=1, viser_enabled=True))
+    try:
+        page.goto(live.base_url)
+        page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+        page.set_input_files("#file-input", str(sample_csv_path))
+        page.click("#run-button")
+        page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
+        httpx.post(  # another prediction pushes the page's run out of memory
+            f"{live.base_url}/predict", files={"file": ("w.csv", csv_with_gt, "text/csv")}, timeout=60
+        ).raise_for_status()
+        page.click("#download-link")
+        page.wait_for_selector("#expired:not([hidden])", timeout=10_000)
+        message = page.inner_text("#expired")
+        assert "expired" in message and "Predict again" in message
+        pages_before = len(page.context.pages)
+        page.evaluate("document.getElementById('expired').hidden = true")
+        page.click("#scene-link")
+        page.wait_for_selector("#expired:not([hidden])", timeout=10_000)
+        page.wait_for_timeout(300)
+        assert len(page.context.pages) == pages_before  # no scene tab opened on another run
+        screenshot(page, "upload_expired.png")
+    finally:
+        server_control.stop(live)
+
+
+def test_item10_the_scene_opens_on_a_run_of_the_model_trained_for_the_data(
+    make_settings, server_control, page
+) -> None:
+    live = server_control.start(make_settings(viser_enabled=True, scene_first_run=True))
+    try:
+        scene = live.scene
+        suggested = scene._checked_models()
+        assert suggested == [scene.services.models.for_kind(scene._selected_entry().kind)]
+        page.goto(scene.url)
+        page.wait_for_function(
+            "() => document.body.innerText.includes('Showing')", timeout=60_000
+        )  # nobody pressed Run
+        body = page.inner_text("body")
+        assert f"Showing {suggested[0]} on walk_gt" in body and "ground truth" in body
+    finally:
+        server_control.stop(live)

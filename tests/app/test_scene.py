@@ -46,8 +46,9 @@ def test_viser_serves_its_page(scene: DashboardScene) -> None:
 
 
 def test_gui_lists_datasets_sequences_and_models(scene: DashboardScene) -> None:
-    assert scene.gui_dataset.options == ("csv",)
-    assert set(scene.gui_sequence.options) == {"walks--walk_gt", "walks--more-imu_only", "walks--broken"}
+    # In words: no reader id ("csv") or internal sequence id ("walks--walk_gt") in the menus.
+    assert scene.gui_dataset.options == ("CSV recordings in walks",)
+    assert set(scene.gui_sequence.options) == {"walk_gt", "more/imu_only", "broken"}
     assert list(scene.gui_models) == [DEFAULT_MODEL, OTHER_MODEL]
     assert scene.gui_models[DEFAULT_MODEL].value and not scene.gui_models[OTHER_MODEL].value
 
@@ -63,7 +64,7 @@ def test_a_run_is_drawn_with_ground_truth_grid_and_markers(scene: DashboardScene
     assert DEFAULT_MODEL in scene.gui_legend.content and "ground truth" in scene.gui_legend.content
     assert "| ftin-oxiod |" in scene.gui_metrics.content and "ATE" in scene.gui_metrics.content
     assert not scene.gui_time.disabled and scene.gui_time.max == pytest.approx(19.99)
-    assert "Done" in scene.gui_status.content and not scene.gui_progress.visible
+    assert "Showing **ftin-oxiod** on walk_gt" in scene.gui_status.content and not scene.gui_progress.visible
 
 
 def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> None:
@@ -89,18 +90,21 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
     )
     assert np.allclose(segments[0, 0], start, atol=1e-4)
     # Spectra of that window: FTIN has FDL, so both heatmaps and the raw IMU spectrum are filled.
-    assert scene.spectra.gui_run.value == f"{DEFAULT_MODEL} ({run.run_id})"
+    assert scene.spectra.gui_run.value == f"{DEFAULT_MODEL} on walk_gt"
     raw_freq = scene.spectra.gui_raw.data[0]
     assert len(scene.spectra.gui_raw.data) == 7 and raw_freq[-1] == pytest.approx(50.0)
     channel, temporal = view.spectra_at(index)  # recomputed for this window only
     assert channel.shape == (9, 7) and temporal.shape == (16, 4)  # (C_res // 2 + 1, L_res), (C_res, ...)
-    assert scene.spectra.gui_channel.image.shape[:2] == (9 * (240 // 9), 7 * (320 // 7))
+    assert scene.spectra.gui_channel.image.shape[2] == 3 and scene.spectra.gui_channel.visible
     assert np.allclose(scene.spectra.gui_channel_line.data[1], channel.mean(axis=1))
-    assert scene.spectra.gui_temporal.image.shape[:2] == (4 * 60, 16 * 20)
+    assert scene.spectra.gui_temporal.image.shape[2] == 3 and scene.spectra.gui_temporal.visible
     assert f"window {index + 1}/" in scene.spectra.gui_info.content
-    error_t, position_error, _ = scene.errors.gui_error.data
-    assert len(error_t) == len(view.window_t_s) and np.all(position_error >= 0)
-    assert f"{position_error[index]:.2f} m" in scene.errors.gui_now.content
+    # The Error tab: every run's error on one time axis, a cursor at the slider, the run named.
+    error_t, position_error, cursor = scene.errors.gui_position.data
+    assert np.all(position_error >= 0) and 10.0 in error_t
+    assert np.nanmin(cursor) == 0.0 and np.nanmax(cursor) == 1.0 and error_t[np.nanargmax(cursor)] == 10.0
+    assert f"{view.position_error_m[index]:.2f} m" in scene.errors.gui_now.content
+    assert DEFAULT_MODEL in scene.errors.gui_now.content and DEFAULT_MODEL in scene.errors.gui_title.content
 
 
 def test_several_models_overlay_and_another_sequence_replaces_them(scene: DashboardScene) -> None:
@@ -123,7 +127,7 @@ def test_several_models_overlay_and_another_sequence_replaces_them(scene: Dashbo
 
 
 def test_run_button_runs_every_ticked_model(scene: DashboardScene) -> None:
-    scene.gui_sequence.value = "walks--walk_gt"
+    scene.gui_sequence.value = "walk_gt"
     scene.gui_models[OTHER_MODEL].value = True
     try:
         scene._run_selected(None)
@@ -183,3 +187,140 @@ def test_the_response_does_not_wait_for_the_drawing(scene: DashboardScene, monke
     release.set()
     scene.flush()
     assert scene.shown_run_ids() == [run.run_id]
+
+
+# --- issue 11: the scene tells the truth, keeps no stale state, does not pile up repeats ---------
+
+
+def test_a_repeat_replaces_its_predecessor(scene: DashboardScene) -> None:
+    predictor = scene.services.predictor
+    runs = [predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL) for _ in range(3)]
+    other = predictor.predict_sequence("walks--walk_gt", OTHER_MODEL)
+    scene.flush()
+    assert scene.shown_run_ids() == [runs[-1].run_id, other.run_id]
+    assert not run_nodes(scene, runs[0].run_id) and not run_nodes(scene, runs[1].run_id)
+    assert scene.gui_metrics.content.count(f"| {DEFAULT_MODEL} |") == 1
+    assert scene.gui_legend.content.count(DEFAULT_MODEL) == 1
+    assert len(scene.spectra.gui_run.options) == 2
+
+
+def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_moves(
+    scene: DashboardScene,
+) -> None:
+    from dataclasses import replace
+
+    from ftin.data import Trajectory
+    from ftin.metrics import evaluate_trajectory
+
+    predictor = scene.services.predictor
+    run = predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.flush()
+    assert "path" in scene.gui_metrics.content.splitlines()[0]
+    ratio = run.verdict.path_length_ratio
+    assert f"{ratio:.2f}" in scene.gui_metrics.content and "No alignment" in scene.gui_metrics.content
+    assert "shorter than 60 s" in scene.gui_metrics.content  # a 20 s walk: RTE explained
+
+    # The same run with a trajectory that stays at the start: flagged in the legend and the table.
+    pred = run.prediction
+    still = Trajectory(pred.trajectory.t_s, np.repeat(pred.trajectory.p_world_m[:1], len(pred.trajectory), 0))
+    metrics = evaluate_trajectory(still, run.sequence.gt)
+    frozen = replace(run, run_id="still-run", prediction=replace(pred, trajectory=still, metrics=metrics))
+    assert any("path" in w for w in frozen.verdict.warnings)
+    scene.show_run(frozen)
+    assert "⚠" in scene.gui_metrics.content and "**⚠ Path:**" in scene.gui_metrics.content
+    assert "⚠" in scene.gui_legend.content
+
+
+def test_spectra_of_a_model_without_fdl_hide_the_fdl_plots(scene: DashboardScene) -> None:
+    predictor = scene.services.predictor
+    predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    predictor.predict_sequence("walks--walk_gt", OTHER_MODEL)
+    scene.flush()
+    assert scene.spectra.gui_channel.visible and scene.spectra.gui_temporal.visible
+    scene.spectra.gui_run.value = f"{OTHER_MODEL} on walk_gt"
+    scene.flush()
+    assert not scene.spectra.gui_channel.visible and not scene.spectra.gui_temporal.visible
+    assert not scene.spectra.gui_channel_line.visible
+    assert OTHER_MODEL in scene.spectra.gui_info.content and "no FDL" in scene.spectra.gui_info.content
+
+
+def test_clear_empties_the_plots_the_timeline_and_the_status(scene: DashboardScene) -> None:
+    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.flush()
+    scene.gui_time.value = 5.0
+    scene.flush()
+    scene.gui_clear_scene()
+    assert scene.gui_time.disabled and scene.gui_time.value == 0.0 and scene.gui_play.disabled
+    assert scene.spectra.gui_run.options == ("(no run)",) and not scene.spectra.gui_channel.visible
+    assert DEFAULT_MODEL not in scene.spectra.gui_info.content
+    assert DEFAULT_MODEL not in scene.errors.gui_title.content and scene.errors.gui_now.content == ""
+    assert len(scene.errors.gui_position.series) == 2  # x and an empty placeholder
+    assert "cleared" in scene.gui_status.content and "Nothing shown" in scene.gui_legend.content
+
+
+def test_the_sequence_menu_follows_what_is_shown(scene: DashboardScene, csv_with_gt: bytes) -> None:
+    predictor = scene.services.predictor
+    scene.gui_sequence.value = "broken"
+    predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.flush()
+    assert scene.gui_sequence.value == "walk_gt"
+    predictor.predict_csv(csv_with_gt, "my_walk.csv", DEFAULT_MODEL)  # e.g. from the upload page
+    scene.flush()
+    assert scene.gui_sequence.value == "my_walk (uploaded)"
+    assert "Showing **ftin-oxiod** on my_walk" in scene.gui_status.content
+    # Run on the uploaded recording works from the menu: another model joins it.
+    scene.gui_models[OTHER_MODEL].value = True
+    try:
+        scene._run_selected(None)
+    finally:
+        scene.gui_models[OTHER_MODEL].value = False
+    scene.flush()
+    assert sorted(scene._views[r].model_name for r in scene.shown_run_ids()) == [DEFAULT_MODEL, OTHER_MODEL]
+    scene.gui_clear_scene()
+    assert "my_walk (uploaded)" not in scene.gui_sequence.options
+
+
+def test_slider_moves_coalesce_into_one_redraw(scene: DashboardScene, monkeypatch) -> None:
+    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.flush()
+    calls = []
+    real = scene._update_time
+    monkeypatch.setattr(scene, "_update_time", lambda: (calls.append(scene.gui_time.value), real()))
+    block = threading.Event()
+    scene._jobs.put(block.wait)  # hold the drawing thread while the slider moves 20 times
+    for k in range(1, 21):
+        scene.gui_time.value = k * 0.5
+    block.set()
+    scene.flush()
+    assert calls == [10.0]  # one redraw, for the latest time
+
+
+def test_play_moves_the_timeline(scene: DashboardScene, wait_for) -> None:
+    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.flush()
+    scene.gui_speed.value = "30×"
+    scene.toggle_play()
+    assert scene.gui_play.label == "Pause"
+    wait_for(lambda: scene.gui_time.value >= scene.gui_time.max, timeout_s=10, what="the end of the timeline")
+    wait_for(lambda: scene.gui_play.label == "Play", what="play to stop at the end")
+
+
+def test_start_up_ticks_the_model_trained_for_the_data_and_shows_its_run(
+    make_settings: Callable[..., Settings], wait_for
+) -> None:
+    """Item 10: the first sequence's kind of data picks the checkpoint trained on it, and its run
+    is on screen without anyone pressing Run."""
+    services = Services.build(make_settings())
+    dashboard = DashboardScene.start(services, "127.0.0.1", 0, show_first_run=True)
+    try:
+        checked = dashboard._checked_models()
+        entry = dashboard._selected_entry()
+        assert checked == [services.models.for_kind(entry.kind)]
+        wait_for(lambda: dashboard.shown_run_ids() != [], timeout_s=60, what="the start-up run")
+        dashboard.flush()
+        (run_id,) = dashboard.shown_run_ids()
+        assert dashboard._views[run_id].model_name == checked[0]
+        assert dashboard.gui_sequence.value == dashboard._views[run_id].sequence.name
+        assert "/truth/path" in dashboard.node_names()  # walk_gt: its ground truth is drawn
+    finally:
+        dashboard.stop()

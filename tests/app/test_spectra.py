@@ -19,11 +19,11 @@ from app.viz.spectra import (
     position_error_per_window,
     velocity_error_per_window,
 )
+from ftin.checkpoint import load_model
 from ftin.data import Trajectory
 from ftin.data.readers.generic_csv import read_csv
 from ftin.data.windows import window_starts, world_imu
 from ftin.infer import predict_prepared
-from ftin.train.checkpoint import load_model
 
 
 def test_amplitude_spectrum_finds_a_sine_and_ignores_the_mean() -> None:
@@ -102,3 +102,27 @@ def test_every_shipped_model_gets_its_own_colour() -> None:
     assert len(set(colors)) == 12 and TRUTH_COLOR not in colors and WINDOW_COLOR not in colors
     assert book.color("model-3") == colors[3]  # stable for the life of the scene
     assert hex_color((31, 119, 180)) == "#1f77b4"
+
+
+def test_the_cursor_is_a_vertical_line_inserted_at_the_time() -> None:
+    from app.viz.spectra import with_cursor
+
+    x = np.array([0.0, 1.0, 2.0, 3.0])
+    x2, (y2,), cursor = with_cursor(x, [np.array([0.0, 10.0, 20.0, 30.0])], 1.5)
+    assert x2.tolist() == [0.0, 1.0, 1.5, 1.5, 2.0, 3.0]
+    assert y2.tolist() == [0.0, 10.0, 15.0, 15.0, 20.0, 30.0]  # no gap in the curves
+    assert np.isnan(cursor[[0, 1, 4, 5]]).all() and cursor[2] == 0.0 and cursor[3] == 1.0
+
+
+def test_heading_error_of_a_rotated_walk_is_the_rotation_and_holds_while_standing() -> None:
+    from app.viz.spectra import heading_error_per_window
+    from ftin.data import Trajectory
+
+    t = np.linspace(0.0, 40.0, 401)
+    walking = np.minimum(t, 20.0)  # walks east for 20 s, then stands
+    truth = Trajectory(t, np.stack([walking, np.zeros_like(t), np.zeros_like(t)], axis=1))
+    yaw = np.radians(30.0)
+    rotated = np.stack([walking * np.cos(yaw), walking * np.sin(yaw), np.zeros_like(t)], axis=1)
+    error = heading_error_per_window(t[::10], Trajectory(t, rotated), truth)
+    assert np.allclose(error[:15], 30.0, atol=1e-6)
+    assert np.allclose(error[-5:], 30.0, atol=1e-6)  # standing: the last defined error is held

@@ -1,9 +1,12 @@
-"""POST /predict: a recording in the request (CSV upload, raw CSV body, or JSON arrays) -> trajectory.
+"""POST /predict: a recording in the request (an upload, a raw body, or JSON arrays) -> trajectory.
 
-The body format follows ``Content-Type``: ``multipart/form-data`` with a CSV in the field ``file``
-(the upload page, ``curl -F file=@walk.csv``), ``text/csv`` with the CSV as the body, or
-``application/json`` with the arrays of ``ArraysPredictRequest``. The model runs in the threadpool,
-under a deadline that starts when the request arrives (504 when it passes).
+The body format follows ``Content-Type``: ``multipart/form-data`` with a file in the field ``file``
+(the upload page, ``curl -F file=@walk.csv``), a raw body (``text/csv``, ``application/zip``,
+``application/gzip``, ``application/octet-stream``), or ``application/json`` with the arrays of
+``ArraysPredictRequest``. A file or raw body is a CSV in the generic schema, a gzip-compressed CSV,
+or a phone app's ZIP export (Sensor Logger, phyphox): detected from the bytes, never from the name
+(``PredictionService.read_upload``). The model runs in the threadpool, under a deadline that starts
+when the request arrives (504 when it passes).
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
 
-from app.api.deps import ModelQuery, RunIdQuery, ServicesDep
+from app.api.deps import AlignQuery, ModelQuery, RunIdQuery, ServicesDep
 from app.api.errors import BadRequestError, UnsupportedMediaError
 from app.schemas import ArraysPredictRequest, ErrorResponse, PredictionResponse
 from app.services.errors import InvalidInputError
@@ -23,7 +26,20 @@ from app.services.runs import Run
 
 router = APIRouter(tags=["predict"])
 
-_CSV_SCHEMA = {"type": "string", "format": "binary", "description": "CSV in the generic schema"}
+_CSV_SCHEMA = {
+    "type": "string",
+    "format": "binary",
+    "description": "CSV in the generic schema, gzip-compressed CSV, or a Sensor Logger / phyphox ZIP export",
+}
+_RAW_BODY_TYPES = (
+    "text/csv",
+    "text/plain",
+    "application/zip",
+    "application/x-zip-compressed",
+    "application/gzip",
+    "application/x-gzip",
+    "application/octet-stream",
+)
 _OPENAPI_BODY = {
     "requestBody": {
         "required": True,
@@ -32,6 +48,8 @@ _OPENAPI_BODY = {
                 "schema": {"type": "object", "properties": {"file": _CSV_SCHEMA}, "required": ["file"]}
             },
             "text/csv": {"schema": {"type": "string"}},
+            "application/zip": {"schema": {"type": "string", "format": "binary"}},
+            "application/gzip": {"schema": {"type": "string", "format": "binary"}},
             "application/json": {"schema": ArraysPredictRequest.model_json_schema()},
         },
     }
@@ -47,7 +65,12 @@ def _describe(exc: ValidationError) -> str:
 
 
 def _predict_json(
-    predictor: PredictionService, raw: bytes, model: str | None, run_id: str | None, deadline: Deadline
+    predictor: PredictionService,
+    raw: bytes,
+    model: str | None,
+    run_id: str | None,
+    deadline: Deadline,
+    align: str | None = None,
 ) -> Run:
     try:
         body = ArraysPredictRequest.model_validate_json(raw)
@@ -57,7 +80,7 @@ def _predict_json(
     seq = sequence_from_arrays(
         body.name, body.t_s, body.gyro_rad_s, body.acc_m_s2, body.q_world_device_wxyz, body.gt_p_world_m
     )
-    return predictor.predict_imu(seq, model, run_id, deadline=deadline)
+    return predictor.predict_imu(seq, model, run_id, deadline=deadline, align=align)
 
 
 @router.post(
@@ -75,30 +98,44 @@ def _predict_json(
     },
 )
 async def predict(
-    request: Request, services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None
+    request: Request,
+    services: ServicesDep,
+    model: ModelQuery = None,
+    run_id: RunIdQuery = None,
+    align: AlignQuery = None,
 ) -> PredictionResponse:
     content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
     predictor = services.predictor
     deadline = predictor.new_deadline()
+    how = None if align is None else align.value
     if content_type == "multipart/form-data":
         async with request.form(max_files=1, max_fields=8) as form:
             upload = form.get("file")
             if not isinstance(upload, UploadFile):
-                raise BadRequestError("multipart body needs a CSV file in the field 'file'")
+                raise BadRequestError(
+                    "multipart body needs a file in the field 'file' (a CSV, a gzip-compressed CSV, or a "
+                    "Sensor Logger / phyphox ZIP)"
+                )
             data = await upload.read()
             filename = upload.filename or "upload.csv"
-        run = await run_in_threadpool(predictor.predict_csv, data, filename, model, run_id, deadline=deadline)
-    elif content_type in ("text/csv", "text/plain"):
-        data = await request.body()
         run = await run_in_threadpool(
-            predictor.predict_csv, data, "request.csv", model, run_id, deadline=deadline
+            predictor.predict_csv, data, filename, model, run_id, deadline=deadline, align=how
+        )
+    elif content_type in _RAW_BODY_TYPES:
+        data = await request.body()
+        name = {"application/zip": "request.zip", "application/x-zip-compressed": "request.zip"}.get(
+            content_type, "request.csv"
+        )
+        run = await run_in_threadpool(
+            predictor.predict_csv, data, name, model, run_id, deadline=deadline, align=how
         )
     elif content_type == "application/json":
         raw = await request.body()
-        run = await run_in_threadpool(_predict_json, predictor, raw, model, run_id, deadline)
+        run = await run_in_threadpool(_predict_json, predictor, raw, model, run_id, deadline, how)
     else:
         raise UnsupportedMediaError(
             f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"
-            " CSV in the field 'file', text/csv, or application/json arrays"
+            " file in the field 'file', a raw text/csv, application/zip or application/gzip body, or "
+            "application/json arrays"
         )
     return PredictionResponse.from_run(run, services.scene_url)

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, Path
 from starlette.concurrency import run_in_threadpool
 
-from app.api.deps import ModelQuery, RunIdQuery, ServicesDep
+from app.api.deps import AlignQuery, ModelQuery, RunIdQuery, ServicesDep
 from app.schemas import ErrorResponse, PredictionResponse, SequenceInfo
 
 router = APIRouter(tags=["sequences"])
@@ -18,8 +18,11 @@ SequenceIdPath = Annotated[str, Path(description="An id from GET /sequences.", m
 @router.get("/sequences", response_model=list[SequenceInfo])
 def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
     # A sync route runs in the threadpool: reading files for the summaries never blocks the loop.
-    catalog = services.catalog
-    return [SequenceInfo.from_entry(entry, catalog.summary(entry.id)) for entry in catalog.list()]
+    catalog, models = services.catalog, services.models
+    return [
+        SequenceInfo.from_entry(entry, catalog.summary(entry.id), models.for_kind(entry.kind))
+        for entry in catalog.list()
+    ]
 
 
 @router.post(
@@ -28,9 +31,14 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
     responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 504)},
 )
 async def predict_sequence(
-    sequence_id: SequenceIdPath, services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None
+    sequence_id: SequenceIdPath,
+    services: ServicesDep,
+    model: ModelQuery = None,
+    run_id: RunIdQuery = None,
+    align: AlignQuery = None,
 ) -> PredictionResponse:
     predictor = services.predictor
     deadline = predictor.new_deadline()
-    run = await run_in_threadpool(predictor.predict_sequence, sequence_id, model, run_id, deadline)
+    how = None if align is None else align.value
+    run = await run_in_threadpool(predictor.predict_sequence, sequence_id, model, run_id, deadline, align=how)
     return PredictionResponse.from_run(run, services.scene_url)

@@ -1,0 +1,72 @@
+"""What a finished run exports beyond its CSV: TUM trajectories for evo, the metrics as JSON, and the
+trajectory at the input's own timestamps (``GET /runs/{run_id}/...``).
+
+Decisions:
+- Frames: the predicted trajectory is in the prediction's world frame; the ground truth exported
+  beside it is the one the run keeps, already moved into that frame by the fitted alignment
+  (``PredictionService.run``), so ``evo_ape tum ground_truth.tum trajectory.tum`` without ``--align``
+  reproduces the run's unaligned comparison and ``--align`` / ``--n_to_align`` apply evo's own.
+- ``timestamps=model`` (default): the samples the model ran on (the checkpoint's rate);
+  ``timestamps=input``: interpolated at the recording's own timestamps inside the predicted span
+  (a 200 Hz upload comes back at 200 Hz; for a phone export, its merged sensor clock).
+- Timestamps are seconds from the start of the recording, as in every other output.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Any
+
+from app.services.runs import Run
+from ftin.data.trajectory_io import at_times, tum_text
+from ftin.data.types import Trajectory
+
+
+class Timestamps(str, Enum):
+    MODEL = "model"
+    INPUT = "input"
+
+
+def trajectory_at(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> Trajectory:
+    traj = run.prediction.trajectory
+    if Timestamps(timestamps) is Timestamps.INPUT:
+        return at_times(traj, run.sequence.t_s)
+    return traj
+
+
+def trajectory_tum(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:
+    comment = (
+        f"FTIN Studio: {run.model_name} on {run.sequence.name}, {run.prediction.frame} frame, "
+        f"orientation {run.prediction.orientation_source}, timestamps: {Timestamps(timestamps).value}"
+    )
+    return tum_text(trajectory_at(run, timestamps), comment)
+
+
+def ground_truth_tum(run: Run) -> str | None:
+    gt = run.sequence.gt
+    if gt is None:
+        return None
+    m = run.prediction.metrics
+    how = "" if m is None or m.alignment is None else f", alignment {m.alignment} applied"
+    return tum_text(gt, f"FTIN Studio: ground truth of {run.sequence.name} in the prediction's frame{how}")
+
+
+def metrics_json(run: Run) -> dict[str, Any]:
+    from ftin.metrics import describe, describe_alignment
+
+    m = run.prediction.metrics
+    out: dict[str, Any] = {
+        "run_id": run.run_id,
+        "model": run.model_name,
+        "sequence": run.sequence.name,
+        "orientation_source": run.prediction.orientation_source,
+        "orientation_filter": run.sequence.meta.get("orientation_filter"),
+        "frame": run.prediction.frame,
+        "metrics": None,
+    }
+    if m is not None:
+        out["metrics"] = m.as_dict()
+        out["convention_text"] = describe(m.convention, m.rte_window_s)
+        if m.alignment is not None:
+            out["alignment_text"] = describe_alignment(m.alignment)
+    return out
