@@ -6,6 +6,14 @@ equally, as the paper's tables do. Beside every result stands the predictor that
 (``ftin.metrics.stand_still``, scored on the same ground truth under the same convention): in a
 motion-capture room it scores an ATE of metres, so a model is judged by how far below it gets; and
 every result carries its path-length ratio (predicted / true horizontal path).
+
+``score(prediction)`` is the one scoring step (evo's ``ape(traj_ref, traj_est)``: outside the
+estimator): the CLI, the evaluation, the report and the app call it on what inference returned.
+It compares the trajectory with the prepared ground truth (``Prediction.prepared``) under the rules
+of ``ftin.metrics.align``: the given alignment, else, under RoNIN's convention, the sequence's
+default (``start`` where the ground truth may be in another world frame, else ``none``); an
+alignment that cannot be fitted falls back to the unaligned metrics with a warning, and a ground
+truth that cannot be scored at all (one that never moves has no PDE) gives no metrics and a warning.
 """
 
 from __future__ import annotations
@@ -17,9 +25,10 @@ from typing import Any
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
-from ftin.infer import predict_prepared
+from ftin.infer import Prediction, predict_trajectory
 from ftin.metrics import (
     Alignment,
+    AlignmentFit,
     Convention,
     TrajectoryMetrics,
     convention_for,
@@ -82,6 +91,50 @@ class EvaluationReport:
         }
 
 
+@dataclass(frozen=True)
+class Scored:
+    """What ``score`` found: the metrics (None when the ground truth cannot be scored), the fitted
+    alignment (None when none was fitted), and warnings for the result."""
+
+    metrics: TrajectoryMetrics | None
+    fit: AlignmentFit | None
+    warnings: list[str] = field(default_factory=list)
+
+
+def score(
+    prediction: Prediction,
+    alignment: Alignment | str | None = None,
+    convention: Convention = Convention.RONIN,
+    rte_window_s: float = 60.0,
+    *,
+    default_alignment_rule: bool = True,
+) -> Scored | None:
+    """The prediction's trajectory scored against its prepared ground truth (module docstring); None
+    without ground truth. ``alignment`` sets the convention it implies; ``default_alignment_rule=False``
+    scores without alignment when none is given (the report's raw tables)."""
+    prepared = prediction.prepared.seq if prediction.prepared is not None else None
+    if prepared is None or prepared.gt is None:
+        return None
+    trajectory, gt = prediction.trajectory, prepared.gt
+    if alignment is not None:
+        convention = convention_for(alignment)
+    convention = Convention(convention)
+    chosen = None if alignment is None else Alignment(alignment)
+    if chosen is None and convention is Convention.RONIN and default_alignment_rule:
+        chosen = default_alignment(prepared.meta.get("gt_frame"))
+    warnings: list[str] = []
+    if chosen is not None:
+        try:
+            metrics, fit = evaluate_aligned(trajectory, gt, chosen, rte_window_s)
+            return Scored(metrics, fit)
+        except ValueError as exc:  # e.g. a ground truth that never moves
+            warnings.append(f"alignment {chosen.value} not possible ({exc}); metrics without it")
+    try:
+        return Scored(evaluate_trajectory(trajectory, gt, convention, rte_window_s), None, warnings)
+    except ValueError as exc:  # then the alignment's failure says nothing more
+        return Scored(None, None, [f"metrics unavailable: {exc}"])
+
+
 def evaluate_checkpoint(
     loaded: LoadedModel,
     sequences: Iterable[ImuSequence],
@@ -107,21 +160,15 @@ def evaluate_checkpoint(
             raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
         if on_sequence is not None:
             on_sequence(seq.name)
-        prediction, prepared = predict_prepared(
-            loaded, seq, stride=stride, convention=convention, rte_window_s=rte_window_s
-        )
-        if prediction.metrics is None:
-            raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(prediction.warnings[-1:])}")
-        chosen = alignment
-        if chosen is None and convention is Convention.RONIN:
-            chosen = default_alignment(prepared.meta.get("gt_frame"))
-        if chosen is not None:
-            aligned, _fit = evaluate_aligned(prediction.trajectory, prepared.gt, chosen, rte_window_s)
-            prediction.metrics = aligned
+        prediction = predict_trajectory(loaded, seq, stride=stride)
+        scored = score(prediction, alignment, convention, rte_window_s)
+        prediction.warnings.extend(scored.warnings)
+        if scored.metrics is None:
+            raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(scored.warnings[-1:])}")
+        prepared = prediction.prepared.seq
         still = evaluate_trajectory(stand_still(prepared.gt), prepared.gt, convention, rte_window_s)
-        results.append(
-            SequenceResult(seq.name, prediction.metrics, prepared.duration_s, prediction.warnings, still)
-        )
+        result = SequenceResult(seq.name, scored.metrics, prepared.duration_s, prediction.warnings, still)
+        results.append(result)
     if not results:
         raise ValueError("evaluate_checkpoint needs at least one sequence")
     return EvaluationReport(

@@ -3,11 +3,10 @@
 ``predict_trajectory`` is the one function the CLI (``ftin predict``), the evaluation and the app
 call. Steps and decisions:
 
-1. Orientation: the sequence's own (device attitude, or ground truth as a reader chose); when it
-   has none, an AHRS filter estimates it (``ensure_orientation``) and a warning says so.
-2. Rate: unless the input already lies on a uniform grid at the checkpoint's ``imu_rate_hz``, it is
-   resampled to it (ground truth too), because the window length means a duration only at that
-   rate. The output trajectory is sampled at the (resampled) IMU timestamps.
+1-2. Preparation (``ftin.data.prepare.prepare``, shared with training): orientation (the sequence's
+   own, else estimated by an attitude filter, with a note), then the checkpoint's ``imu_rate_hz``
+   grid (resampled unless already on it), the world-frame IMU and the window starts. The prepared
+   sequence comes back as ``Prediction.prepared``: callers read what the model saw from it.
 3. Velocities, as each model's reference tests it (parts and streaming: ``ftin.models.base``):
    - Window models (RoNIN ResNet, TLIO, IMUNet, FTIN, RNIN): windows of ``window`` samples every
      ``stride`` samples (the checkpoint's stride unless given), exactly as in training
@@ -37,8 +36,11 @@ call. Steps and decisions:
    height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
    (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
-   with the device world frame at the start, design §2) and metrics are computed; without it, the
-   estimate is in the device's own world frame (gravity-aligned, arbitrary yaw).
+   with the device world frame at the start, design §2); without it, the estimate is in the
+   device's own world frame (gravity-aligned, arbitrary yaw).
+6. Scoring is not inference: ``ftin.evaluate.score(prediction)`` compares the trajectory with the
+   prepared ground truth under the alignment rules of ``ftin.metrics.align``, for the CLI, the
+   evaluation and the app alike. ``Prediction.metrics`` stays ``None`` until a caller scores.
 """
 
 from __future__ import annotations
@@ -51,14 +53,13 @@ import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import ensure_orientation, resample
+from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.data.windows import window_starts, window_view, world_imu
-from ftin.metrics import Convention, TrajectoryMetrics, evaluate_trajectory
+from ftin.data.windows import window_starts, window_view
+from ftin.metrics import TrajectoryMetrics
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
-_RATE_TOLERANCE = 1e-3  # relative deviation of the sample interval still called "on the grid"
 STREAM_CHUNK_MAX_FRAMES = 1 << 16  # frames per forward_stream call (TCN activations ~67 MB per layer)
 
 
@@ -70,9 +71,10 @@ class Prediction:
     orientation_source: str  # "device", "ground_truth" or "estimated"
     frame: str  # "ground_truth" or "device_world"
     warnings: list[str]
-    metrics: TrajectoryMetrics | None
+    metrics: TrajectoryMetrics | None  # None from inference; set by a caller that scores (ftin.evaluate)
     features: dict | None  # name -> (windows, ...) float32 feature taps, when asked (window models)
     span_t_s: np.ndarray | None = None  # (M, 2) start and end time of each prediction's span
+    prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare)
 
 
 def predict_trajectory(
@@ -84,97 +86,45 @@ def predict_trajectory(
     progress: Callable[[int, int], None] | None = None,
     return_features: bool = False,
 ) -> Prediction:
-    """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring."""
-    prediction, _ = predict_prepared(
-        loaded,
-        seq,
-        stride=stride,
-        batch_size=batch_size,
-        progress=progress,
-        return_features=return_features,
-    )
-    return prediction
-
-
-def predict_prepared(
-    loaded: LoadedModel,
-    seq: ImuSequence,
-    *,
-    stride: int | None = None,
-    batch_size: int = 1024,
-    progress: Callable[[int, int], None] | None = None,
-    return_features: bool = False,
-    convention: Convention = Convention.RONIN,
-    rte_window_s: float = 60.0,
-) -> tuple[Prediction, ImuSequence]:
-    """``predict_trajectory`` plus the oriented, resampled sequence it ran on (for evaluation)."""
+    """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
+    carries the prepared sequence (``Prediction.prepared``) and no metrics."""
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}")
     stride = loaded.stride if stride is None else stride
     if stride < 1:
         raise ValueError(f"stride must be >= 1 sample, got {stride}")
-    prepared, notes = prepare_for_checkpoint(loaded, seq)
-    imu = world_imu(prepared)  # (N, 6) float32
-    t_s = prepared.t_s
+    prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, stride)
+    notes = list(prepared.notes)
+    n, t_s = len(prepared), prepared.seq.t_s
     features = None
     if loaded.model.streams:
-        _check_length(loaded, seq, len(prepared), 2, "two samples (one interval)")
+        _check_length(loaded, seq, n, 2, "two samples (one interval)")
         chunk = min(batch_size * stride, STREAM_CHUNK_MAX_FRAMES)
-        velocity = _run_stream(loaded, imu, chunk, progress)  # (N - 1, D) per sample interval
-        span_start = np.arange(len(prepared) - 1)
+        velocity = _run_stream(loaded, prepared.imu_world, chunk, progress)  # (N - 1, D) per interval
+        span_start = np.arange(n - 1)
         span_end = span_start + 1
     else:
-        window, parts = _window_and_parts(loaded, seq, len(prepared), notes)
-        starts = window_starts(len(prepared), window, stride)
+        window, parts = _window_and_parts(loaded, seq, n, notes)
+        starts = prepared.starts if window == loaded.window else window_starts(n, window, stride)
         part_velocity, features = _run_windows(
-            loaded, imu, starts, window, parts, batch_size, progress, return_features
+            loaded, prepared.imu_world, starts, window, parts, batch_size, progress, return_features
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
-    start_m = prepared.gt.p_world_m[0] if prepared.gt is not None else np.zeros(3)
+    gt = prepared.seq.gt
+    start_m = gt.p_world_m[0] if gt is not None else np.zeros(3)
     p_world_m = integrate_spans(t_s, span_start, span_end, velocity, start_m)
-    trajectory = Trajectory(t_s.copy(), p_world_m, prepared.q_world_device_wxyz)
-
-    warnings = [*prepared.meta.get("warnings", []), *notes]
-    metrics = None
-    if prepared.gt is not None:
-        try:
-            metrics = evaluate_trajectory(trajectory, prepared.gt, convention, rte_window_s)
-        except ValueError as exc:  # e.g. a ground truth that never moves has no PDE
-            warnings.append(f"metrics unavailable: {exc}")
-    orientation_source = str(prepared.meta.get("orientation_source", "device"))
-    prediction = Prediction(
-        trajectory=trajectory,
+    return Prediction(
+        trajectory=Trajectory(t_s.copy(), p_world_m, prepared.seq.q_world_device_wxyz),
         window_t_s=0.5 * (t_s[span_start] + t_s[span_end]),
         velocity_m_s=velocity,
-        orientation_source=orientation_source,
-        frame=FRAME_GROUND_TRUTH if prepared.gt is not None else FRAME_DEVICE_WORLD,
-        warnings=warnings,
-        metrics=metrics,
+        orientation_source=str(prepared.seq.meta.get("orientation_source", "device")),
+        frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
+        warnings=[*prepared.seq.meta.get("warnings", []), *notes],
+        metrics=None,
         features=features,
         span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
+        prepared=prepared,
     )
-    return prediction, prepared
-
-
-def prepare_for_checkpoint(loaded: LoadedModel, seq: ImuSequence) -> tuple[ImuSequence, list[str]]:
-    """The sequence with an orientation, on a uniform grid at the checkpoint's rate; plus notes."""
-    notes: list[str] = []
-    prepared = ensure_orientation(seq)
-    if seq.q_world_device_wxyz is None:
-        notes.append(
-            f"{seq.name}: the input has no device orientation; it was estimated with an AHRS filter, "
-            "so the heading may drift"
-        )
-    rate_hz = loaded.imu_rate_hz
-    steps = np.diff(prepared.t_s)
-    on_grid = len(steps) > 0 and np.allclose(steps, 1.0 / rate_hz, rtol=_RATE_TOLERANCE, atol=0.0)
-    if not on_grid:
-        if len(prepared) > 1 and abs(prepared.rate_hz - rate_hz) > 0.01 * rate_hz:
-            notes.append(
-                f"{seq.name}: resampled from {prepared.rate_hz:.4g} Hz to the checkpoint's {rate_hz:g} Hz"
-            )
-        prepared = resample(prepared, rate_hz)
-    return prepared, notes
 
 
 def _check_length(loaded: LoadedModel, seq: ImuSequence, n: int, needed: int, what: str) -> None:

@@ -5,24 +5,18 @@ import json
 
 import numpy as np
 import pytest
-import torch
 
-from ftin.checkpoint import load_model, save_checkpoint
+from ftin.checkpoint import load_model
 from ftin.data.errors import DataFormatError
 from ftin.evaluate import evaluate_checkpoint
 from ftin.infer import predict_trajectory
 from ftin.metrics import Convention, evaluate_trajectory
-from ftin.models import create_model
 from ftin.sim import SimConfig, simulate
 
 
 @pytest.fixture(scope="module")
-def loaded(tmp_path_factory):
-    torch.manual_seed(0)
-    model = create_model("ronin_tcn", channels=(8, 8))
-    stem = tmp_path_factory.mktemp("ckpt") / "tiny"
-    save_checkpoint(stem, model, {"model_name": "ronin_tcn", "imu_rate_hz": 50.0, "window": 25, "stride": 5})
-    return load_model(stem)
+def loaded(make_checkpoint):
+    return load_model(make_checkpoint("tiny", "ronin_tcn"))  # 50 Hz, window 25, stride 5
 
 
 @pytest.fixture(scope="module")

@@ -4,14 +4,17 @@ import numpy as np
 import pytest
 import torch
 
-from ftin.checkpoint import LoadedModel, load_model, save_checkpoint
+import ftin.data.prepare
+from ftin.checkpoint import LoadedModel, load_model
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import InputNormalization, make_windows, world_imu
+from ftin.evaluate import score
 from ftin.infer import integrate_spans, integrate_windows, predict_trajectory, select_parts
-from ftin.models import VelocityModel, VelocityOutput, create_model
+from ftin.models import VelocityModel, VelocityOutput
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.sim import SimConfig, simulate
+from tests.utils.checkpoints import tiny_model_kwargs
 
 RATE_HZ = 50.0
 WINDOW = 25
@@ -45,25 +48,20 @@ def _circle_walk(rate_hz: float = 100.0, duration_s: float = 70.0) -> ImuSequenc
     return ImuSequence("circle", t, gyro, acc, q, Trajectory(t, p), {"orientation_source": "device"})
 
 
-def _tiny(tmp_path_factory, name: str, **kwargs) -> LoadedModel:
-    torch.manual_seed(0)
-    model = create_model(name, **kwargs)
-    stem = tmp_path_factory.mktemp("ckpt") / name
-    save_checkpoint(stem, model, {"model_name": name, "imu_rate_hz": RATE_HZ, "window": WINDOW, "stride": 5})
-    return load_model(stem)
+def _tiny(make_checkpoint, name: str, **kwargs) -> LoadedModel:
+    return load_model(make_checkpoint(name, name, rate_hz=RATE_HZ, window=WINDOW, model_kwargs=kwargs))
 
 
 @pytest.fixture(scope="module")
-def tiny_checkpoint(tmp_path_factory):
+def tiny_checkpoint(make_checkpoint):
     """A window model (one velocity per window)."""
-    return _tiny(tmp_path_factory, "ftin", **TINY_FTIN_KWARGS, window=WINDOW)
+    return _tiny(make_checkpoint, "ftin", **TINY_FTIN_KWARGS, window=WINDOW)
 
 
 @pytest.fixture(scope="module", params=["ronin_tcn", "ronin_lstm"])
-def tiny_streaming(request, tmp_path_factory):
+def tiny_streaming(request, make_checkpoint):
     """A sequence-to-sequence model (one velocity per frame, streamed)."""
-    kwargs = {"channels": (8, 8)} if request.param == "ronin_tcn" else {"hidden_size": 8, "num_layers": 2}
-    return _tiny(tmp_path_factory, request.param, **kwargs)
+    return _tiny(make_checkpoint, request.param, **tiny_model_kwargs(request.param))
 
 
 @pytest.fixture(scope="module")
@@ -91,25 +89,31 @@ def test_oracle_velocities_reproduce_the_ground_truth():
     assert pred.frame == "ground_truth" and pred.orientation_source == "device" and pred.warnings == []
     traj = pred.trajectory
     np.testing.assert_array_equal(traj.t_s, seq.t_s)
+    # What the model saw comes back with the prediction: the prepared sequence, its world-frame IMU
+    # and its windows (callers read it instead of preparing again).
+    assert pred.prepared.seq is seq and pred.prepared.starts[1] == 100
+    np.testing.assert_array_equal(pred.prepared.imu_world, world_imu(seq))
     # Non-overlapping windows: exact at every window boundary, and the start is the GT start.
     boundaries = np.arange(0, len(seq) - 1, 100)
     # (float32 windows: 1e-7 relative per velocity)
     np.testing.assert_allclose(traj.p_world_m[boundaries], seq.gt.p_world_m[boundaries], atol=1e-5)
     np.testing.assert_allclose(traj.p_world_m[:, 2], 1.0)
-    assert pred.metrics is not None and pred.metrics.ate < 0.02 and pred.metrics.pde < 1e-3
+    assert pred.metrics is None  # inference does not score (ftin.evaluate.score does)
+    metrics = score(pred).metrics
+    assert metrics.ate < 0.02 and metrics.pde < 1e-3
     assert pred.velocity_m_s.shape == (len(boundaries), 2)
     np.testing.assert_allclose(pred.window_t_s, (seq.t_s[boundaries] + seq.t_s[boundaries + 100]) / 2)
     chord_speed = 2 * 5 * np.sin(0.2 / 2)  # mean velocity over 1 s of a 5 m circle at 0.2 rad/s
     np.testing.assert_allclose(np.linalg.norm(pred.velocity_m_s, axis=1), chord_speed, rtol=1e-6)
     # Overlapping windows average their velocities: still close.
     overlapping = predict_trajectory(_oracle(), seq, stride=10)
-    assert overlapping.metrics.ate < 0.05 and len(overlapping.velocity_m_s) > 9 * len(boundaries)
+    assert score(overlapping).metrics.ate < 0.05 and len(overlapping.velocity_m_s) > 9 * len(boundaries)
 
 
 def test_without_ground_truth_starts_at_origin_in_device_world():
     seq = _circle_walk()
     pred = predict_trajectory(_oracle(), seq.with_(gt=None))
-    assert pred.frame == "device_world" and pred.metrics is None
+    assert pred.frame == "device_world" and pred.metrics is None and score(pred) is None
     np.testing.assert_allclose(pred.trajectory.p_world_m[0], 0.0)
     expected = seq.gt.p_world_m[:, :2] - seq.gt.p_world_m[0, :2]
     np.testing.assert_allclose(pred.trajectory.p_world_m[::100, :2], expected[::100], atol=1e-5)
@@ -120,7 +124,7 @@ def test_resamples_to_the_checkpoint_rate():
     pred = predict_trajectory(_oracle(rate_hz=50.0, window=50, stride=50), seq)
     assert np.allclose(np.diff(pred.trajectory.t_s), 0.02)
     assert any("resampled from 100 Hz to the checkpoint's 50 Hz" in w for w in pred.warnings)
-    assert pred.metrics.ate < 0.05
+    assert score(pred).metrics.ate < 0.05
 
 
 def test_velocities_are_the_model_on_training_windows(tiny_checkpoint, walk):
@@ -292,10 +296,10 @@ def test_rnin_style_parts_oracle_reproduces_the_ground_truth():
     # The reference's stride of 0.1 s: overlapping 1 s parts are averaged, a 1 s smoothing that pulls
     # a 5 m circle inwards by ~2 cm (r w^2 T^2 / 12).
     sliding = predict_trajectory(_loaded(PartsOracle(100), 1000, 10), seq)
-    assert sliding.metrics.ate < 0.03 and sliding.metrics.pde < 1e-3
+    assert score(sliding).metrics.ate < 0.03 and score(sliding).metrics.pde < 1e-3
     # One velocity per 10 s window (what RNIN did before parts): far off on the same data.
     whole_windows = predict_trajectory(_oracle(window=1000, stride=10), seq)
-    assert whole_windows.metrics.ate > 20 * sliding.metrics.ate
+    assert score(whole_windows).metrics.ate > 20 * score(sliding).metrics.ate
 
 
 def test_parts_model_runs_fewer_parts_on_a_short_recording():
@@ -338,8 +342,8 @@ def test_streaming_model_equals_one_pass_over_the_sequence(tiny_streaming, walk)
     np.testing.assert_allclose(pred.trajectory.p_world_m, expected, rtol=1e-5, atol=1e-5)
 
 
-def test_rnin_velocities_are_its_parts(tmp_path_factory, walk):
-    loaded = _tiny(tmp_path_factory, "rnin", sub_window=5, out_dim=2)  # 5 parts of 0.1 s per window
+def test_rnin_velocities_are_its_parts(make_checkpoint, walk):
+    loaded = _tiny(make_checkpoint, "rnin", sub_window=5, out_dim=2)  # 5 parts of 0.1 s per window
     pred = predict_trajectory(loaded, walk, batch_size=16)
     windows = make_windows(walk, WINDOW, 5)
     with torch.inference_mode():
@@ -366,3 +370,12 @@ def test_select_parts_and_integrate_spans():
     v = np.array([[1.0], [3.0], [5.0]])
     p = integrate_spans(t, np.array([0, 0, 2]), np.array([2, 4, 4]), v, np.zeros(3))
     np.testing.assert_allclose(np.diff(p[:, 0]) / 0.5, [2, 2, 4, 4])
+
+
+def test_the_model_input_is_computed_once_and_returned(monkeypatch: pytest.MonkeyPatch):
+    """Callers (the app's feature recompute) read ``Prediction.prepared`` instead of rotating again."""
+    calls = []
+    real = ftin.data.prepare.world_imu
+    monkeypatch.setattr(ftin.data.prepare, "world_imu", lambda seq: calls.append(seq) or real(seq))
+    pred = predict_trajectory(_oracle(), _circle_walk())
+    assert pred.prepared.imu_world is pred.prepared.imu_world and len(calls) == 1

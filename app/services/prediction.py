@@ -22,6 +22,7 @@ Decisions:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Sequence
 from pathlib import PurePath
@@ -35,7 +36,13 @@ from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
 from app.services.models import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
+from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
+from ftin.data.readers import exports
+from ftin.data.readers.uploads import gunzip, read_bytes
+from ftin.data.validate import validate
+from ftin.evaluate import score
+from ftin.infer import Prediction
 from ftin.metrics import Alignment
 
 log = logging.getLogger(__name__)
@@ -77,12 +84,8 @@ def sequence_from_arrays(
     q_world_device_wxyz: Sequence[Sequence[float]] | None = None,
     gt_p_world_m: Sequence[Sequence[float]] | None = None,
 ) -> ImuSequence:
-    """Build a sequence from plain arrays (the JSON body of ``POST /predict``), with the same checks
-    as the generic CSV reader (finite values, increasing time, rate, gaps, units, unit quaternions);
-    rows are named ``sample i`` (0-based)."""
-    from ftin.data.readers import generic_csv as checks
-
-    source = "request body"
+    """Build a sequence from plain arrays (the JSON body of ``POST /predict``), checked by
+    ``ftin.data.validate`` as every reader's output is; rows are named ``sample i`` (0-based)."""
     t = _rows("t_s", t_s, None, None)
     if len(t) < 2:
         raise InvalidInputError("t_s: expected at least 2 timestamps in seconds")
@@ -90,40 +93,14 @@ def sequence_from_arrays(
     acc = _rows("acc_m_s2", acc_m_s2, 3, len(t))
     q = None if q_world_device_wxyz is None else _rows("q_world_device_wxyz", q_world_device_wxyz, 4, len(t))
     gt_p = None if gt_p_world_m is None else _rows("gt_p_world_m", gt_p_world_m, 3, len(t))
-    label = checks.sample_row_label
-    try:
-        checks.check_finite(t[:, None], ["t_s"], source, label)
-        for field_name, array in (("gyro_rad_s", gyro), ("acc_m_s2", acc), ("q_world_device_wxyz", q)):
-            if array is not None:
-                checks.check_finite(
-                    array, [f"{field_name}[{k}]" for k in range(array.shape[1])], source, label
-                )
-        if gt_p is not None:
-            checks.check_finite(
-                gt_p, ["gt_p_world_m[0]", "gt_p_world_m[1]", "gt_p_world_m[2]"], source, label
-            )
-        checks.check_increasing(t, source, label, column="t_s")
-        checks.check_rate(float(1.0 / np.median(np.diff(t))), source)
-        checks.check_gaps(t, source, label)
-        # Per-sample limits first: one 1e308 passes the median-based unit checks, then overflows.
-        for field_name, array, limit, unit in (
-            ("gyro_rad_s", gyro, checks.MAX_ABS_GYRO_RAD_S, "rad/s"),
-            ("acc_m_s2", acc, checks.MAX_ABS_ACC_M_S2, "m/s^2"),
-            ("gt_p_world_m", gt_p, checks.MAX_ABS_POSITION_M, "m"),
-        ):
-            if array is not None:
-                columns = [f"{field_name}[{k}]" for k in range(3)]
-                checks.check_physical_range(array, columns, limit, unit, source, label)
-        checks.check_imu_units(gyro, acc, source)
-        if q is not None:
-            q = checks.check_quaternions(q, source, label)
-    except DataFormatError as exc:
-        raise InvalidInputError(str(exc)) from None
     gt = None if gt_p is None else Trajectory(t, gt_p)
-    meta: dict[str, Any] = {"dataset": "json", "source": source}
+    meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
     if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
         meta["gt_frame"] = "unknown"
-    return ImuSequence(name, t, gyro, acc, q, gt, meta)
+    try:
+        return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))
+    except DataFormatError as exc:
+        raise InvalidInputError(str(exc)) from None
 
 
 class PredictionService:
@@ -190,9 +167,6 @@ class PredictionService:
 
     def read_upload(self, data: bytes, filename: str) -> ImuSequence:
         """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
-        from ftin.data.readers import exports
-        from ftin.data.readers.uploads import gunzip, read_bytes
-
         if not data.strip():
             raise InvalidInputError(
                 f"{filename} is empty; upload a CSV in the generic schema or a phone app's ZIP export"
@@ -258,9 +232,6 @@ class PredictionService:
         where the truth may live in another world frame, else ``none``) and the run keeps the ground truth
         moved into the prediction's frame by the fitted alignment: what is drawn is what was scored.
         """
-        from ftin.data.windows import window_starts, world_imu
-        from ftin.infer import predict_prepared
-
         deadline = deadline or self.new_deadline()
         if align is not None and align not in {a.value for a in Alignment}:
             choices = ", ".join(a.value for a in Alignment)
@@ -278,7 +249,8 @@ class PredictionService:
         try:
             with self.slots.acquire(deadline):
                 deadline.check(what)
-                prediction, prepared = predict_prepared(
+                # through the module, so that a test can hold inference (tests/app/test_server.py)
+                prediction = infer.predict_trajectory(
                     entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress
                 )
         except DataFormatError as exc:
@@ -290,34 +262,29 @@ class PredictionService:
         except Exception as exc:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
-        if "orientation_filter" in prepared.meta:  # which filter ran (VQF 6-D or 9-D): metrics.json says it
-            seq = seq.with_(meta={**seq.meta, "orientation_filter": prepared.meta["orientation_filter"]})
-        seq = _aligned(seq, prepared, prediction, align)
-        loaded = entry.loaded
-        model_input = ModelInput(
-            world_imu(prepared), window_starts(len(prepared), loaded.window, loaded.stride), loaded.window
-        )
+        prepared = prediction.prepared
+        if "orientation_filter" in prepared.seq.meta:  # which filter ran (VQF 6-D or 9-D): for metrics.json
+            seq = seq.with_(meta={**seq.meta, "orientation_filter": prepared.seq.meta["orientation_filter"]})
+        seq = _aligned(seq, prediction, align)
+        starts = prepared.starts  # the model's own windows (a streaming model's too: the scene's spectra)
+        model_input = ModelInput(prepared.imu_world, starts, entry.loaded.window)
+        # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording.
+        prediction = dataclasses.replace(prediction, prepared=None)
         run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input)
         self.runs.finish(run)
         return run
 
 
-def _aligned(seq: ImuSequence, prepared: ImuSequence, prediction: Any, align: str | None) -> ImuSequence:
-    """Score ``prediction`` under the chosen alignment; ``seq`` with its ground truth in the prediction's
-    frame (unchanged without ground truth or metrics)."""
-    from ftin.metrics import Alignment, default_alignment, evaluate_aligned
-
-    if seq.gt is None or prepared.gt is None or prediction.metrics is None:
+def _aligned(seq: ImuSequence, prediction: Prediction, align: str | None) -> ImuSequence:
+    """Score ``prediction`` (``ftin.evaluate.score``: ``align``, else the sequence's default); ``seq``
+    with its ground truth in the prediction's frame (unchanged without ground truth or a fit)."""
+    scored = score(prediction, align)
+    if seq.gt is None or scored is None:
         return seq
-    chosen = Alignment(align) if align else default_alignment(prepared.meta.get("gt_frame"))
-    try:
-        metrics, fit = evaluate_aligned(prediction.trajectory, prepared.gt, chosen)
-    except ValueError as exc:  # e.g. a ground truth that never moves
-        prediction.warnings.append(f"alignment {chosen.value} not possible ({exc}); metrics without it")
-        return seq
-    prediction.metrics = metrics
-    if chosen is Alignment.NONE:
+    prediction.warnings.extend(scored.warnings)
+    prediction.metrics = scored.metrics
+    if scored.fit is None or scored.fit.alignment is Alignment.NONE:
         return seq
     # The run draws the aligned truth; the truth as given stays in meta, so that running another model
     # on this sequence (the scene's "compare") starts from the file's own frames again.
-    return seq.with_(gt=fit.gt_in_estimate_frame(seq.gt), meta={**seq.meta, GT_AS_GIVEN: seq.gt})
+    return seq.with_(gt=scored.fit.gt_in_estimate_frame(seq.gt), meta={**seq.meta, GT_AS_GIVEN: seq.gt})

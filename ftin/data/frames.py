@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from ftin.data.types import Trajectory
+
 
 def rotation_from_wxyz(q_wxyz: np.ndarray) -> Rotation:
     """A scipy ``Rotation`` from scalar-first quaternions, shape (4,) or (N, 4)."""
@@ -242,8 +244,8 @@ def repair_pose_glitches(
     a sample ``e`` reachable again from ``a``; samples in between are replaced by linear (positions)
     / Slerp (orientations) interpolation between ``a`` and ``e``. Without a jump back, the first
     reachable sample ends it instead, which spreads a lasting step over the time the limits need
-    (``ramped``); with neither, the jump is left and reported. Positions and orientations come
-    from one rigid-body solve, so a jump in either marks both as bad. With ``fill_held``, samples
+    (``ramped``); with neither, the jump is left and reported. Positions and orientations are the
+    output of one rigid-body solve, so a jump in either marks both as bad. With ``fill_held``, samples
     that exactly repeat the previous one (a dropped mocap frame copied forward) are interpolated too,
     first, so the catch-up step after them is judged against the time that really passed.
     """
@@ -350,3 +352,28 @@ def repair_quaternion_glitches(
 ) -> PoseRepair:
     """Orientation-only :func:`repair_pose_glitches` (e.g. a mocap source without positions)."""
     return repair_pose_glitches(t_s, None, q_wxyz, limits, fill_held=False)
+
+
+def yaw_offset_rad(
+    t_s: np.ndarray, q_to_wxyz: np.ndarray, q_from_wxyz: np.ndarray, window_s: float
+) -> tuple[float, float]:
+    """``(yaw, tilt)`` of the mean of ``R_to(t) R_from(t)^-1`` over the first ``window_s`` seconds.
+
+    Both series give the orientation of the same body in two gravity-aligned world frames, so the
+    product maps frame "from" into frame "to" and should be a pure yaw; the mean over a window
+    averages sensor noise, and the returned tilt (rad) says how far from a pure yaw it is.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    in_window = t <= t[0] + window_s
+    in_window[:2] = True  # at least two samples even for a zero-length window
+    offsets = rotation_from_wxyz(q_to_wxyz[in_window]) * rotation_from_wxyz(q_from_wxyz[in_window]).inv()
+    mean = wxyz_from_rotation(offsets.mean())
+    return float(yaw_rad(mean)), float(tilt_rad(mean))
+
+
+def rotate_trajectory_about_z(trajectory: Trajectory, yaw: float) -> Trajectory:
+    """The trajectory expressed in a world frame turned by ``yaw`` radians about z."""
+    turn = yaw_rotation(yaw)
+    q = trajectory.q_world_body_wxyz
+    q_new = None if q is None else wxyz_from_rotation(turn * rotation_from_wxyz(q))
+    return Trajectory(trajectory.t_s.copy(), turn.apply(trajectory.p_world_m), q_new)

@@ -3,9 +3,9 @@
 * ``load_sequences(paths)``: every sequence in files and folders (the CLI's ``--data``, the report's
   datasets, the campaign).
 * ``split_validation``: a seeded hold-out of whole sequences (training without ``--val``).
-* ``prepare_sequence(seq, rate_hz)``: orientation (estimated when missing), then the uniform grid the
-  windows assume. This is the one place training prepares a sequence; inference
-  (``ftin.infer.prepare_for_checkpoint``) does the same two steps itself, with notes for the user.
+
+Preparing a sequence for a model (orientation, rate, world frame) is ``ftin.data.prepare.prepare``,
+one function for training and inference.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import ensure_orientation, resample
 from ftin.data.readers import READERS, detect_format, list_sequences, read_sequence
 from ftin.data.types import ImuSequence
 
@@ -53,11 +52,6 @@ def load_sequences(
     if not sequences:
         raise DataFormatError(f"{option}: no sequences given")
     return sequences
-
-
-def prepare_sequence(seq: ImuSequence, rate_hz: float) -> ImuSequence:
-    """Orientation (estimated when missing), then the uniform ``rate_hz`` grid the windows assume."""
-    return resample(ensure_orientation(seq), rate_hz)
 
 
 def data_rate_hz(sequences: Sequence[ImuSequence]) -> float:

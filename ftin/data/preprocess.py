@@ -1,4 +1,4 @@
-"""Preprocessing of ``ImuSequence``: resampling, world-frame IMU, orientation estimation.
+"""Preprocessing of ``ImuSequence``: resampling and orientation estimation.
 
 Every function returns a new sequence (the types are immutable) with ``meta`` copied, never
 shared, and appends to ``meta["warnings"]`` whatever it assumed.
@@ -102,45 +102,6 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
     )
 
 
-def world_frame_imu(seq: ImuSequence) -> tuple[np.ndarray, np.ndarray]:
-    """``(gyro_world_rad_s, acc_world_m_s2)``, each (N, 3): the IMU rotated by ``q_world_device``."""
-    if seq.q_world_device_wxyz is None:
-        raise DataFormatError(
-            f"sequence {seq.name!r} has no orientation (q_world_device_wxyz): "
-            "call ftin.data.preprocess.ensure_orientation first"
-        )
-    rotation = frames.rotation_from_wxyz(seq.q_world_device_wxyz)
-    return rotation.apply(seq.gyro_rad_s), rotation.apply(seq.acc_m_s2)
-
-
-def yaw_offset_rad(
-    t_s: np.ndarray, q_to_wxyz: np.ndarray, q_from_wxyz: np.ndarray, window_s: float
-) -> tuple[float, float]:
-    """``(yaw, tilt)`` of the mean of ``R_to(t) R_from(t)^-1`` over the first ``window_s`` seconds.
-
-    Both series give the orientation of the same body in two gravity-aligned world frames, so the
-    product maps frame "from" into frame "to" and should be a pure yaw; the mean over a window
-    averages sensor noise, and the returned tilt (rad) says how far from a pure yaw it is.
-    """
-    t = np.asarray(t_s, dtype=np.float64)
-    in_window = t <= t[0] + window_s
-    in_window[:2] = True  # at least two samples even for a zero-length window
-    offsets = (
-        frames.rotation_from_wxyz(q_to_wxyz[in_window])
-        * frames.rotation_from_wxyz(q_from_wxyz[in_window]).inv()
-    )
-    mean = frames.wxyz_from_rotation(offsets.mean())
-    return float(frames.yaw_rad(mean)), float(frames.tilt_rad(mean))
-
-
-def rotate_trajectory_about_z(trajectory: Trajectory, yaw: float) -> Trajectory:
-    """The trajectory expressed in a world frame turned by ``yaw`` radians about z."""
-    turn = frames.yaw_rotation(yaw)
-    q = trajectory.q_world_body_wxyz
-    q_new = None if q is None else frames.wxyz_from_rotation(turn * frames.rotation_from_wxyz(q))
-    return Trajectory(trajectory.t_s.copy(), turn.apply(trajectory.p_world_m), q_new)
-
-
 class AhrsMethod(str, Enum):
     """Attitude filters for recordings without orientation.
 
@@ -232,8 +193,8 @@ def estimate_orientation(
     warnings = [f"orientation estimated by {what}"]
     gt = seq.gt
     if gt is not None and seq.q_world_device_wxyz is not None:
-        yaw, _ = yaw_offset_rad(seq.t_s, q, seq.q_world_device_wxyz, align_window_s)
-        gt = rotate_trajectory_about_z(gt, yaw)
+        yaw, _ = frames.yaw_offset_rad(seq.t_s, q, seq.q_world_device_wxyz, align_window_s)
+        gt = frames.rotate_trajectory_about_z(gt, yaw)
         warnings.append(
             f"ground truth turned by {np.degrees(yaw):.1f} deg about z to the estimated world frame "
             f"(aligned over the first {align_window_s} s)"

@@ -14,14 +14,14 @@ Decisions (design §2):
   above. ``WindowDataset`` computes the part targets per batch from the positions (memory O(N), not
   O(windows x K)) and yields them as ``(B, K, D)``.
 - Inputs are ``(6, L)`` float32, channels gyro xyz then acc xyz, rotated into the gravity-aligned
-  world frame by ``ftin.data.preprocess.world_frame_imu`` (the sequence must carry an orientation and
+  world frame by ``world_imu`` (the sequence must carry an orientation and
   be at the intended rate: ``ensure_orientation`` and ``resample`` come first).
 - Windows are strided views of one ``(N, 6)`` array (``sliding_window_view``) or gathered with one
   fancy index per batch; no per-window Python loop.
 - Yaw augmentation rotates gyro, acc and the targets (every part of a window alike) about world z by
   the same angle, which keeps the physics consistent and makes the network heading-agnostic
-  (RoNIN). Angles are drawn per epoch
-  from ``(seed, epoch)``, indexed by window, so a batch's augmentation does not depend on the order
+  (RoNIN). Angles are drawn per epoch out of
+  ``(seed, epoch)``, indexed by window, so a batch's augmentation does not depend on the order
   or the process that draws it: resumed and multi-process runs see the same data.
 """
 
@@ -37,6 +37,7 @@ import torch
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.spatial.transform import Rotation
 
+from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
 
@@ -66,17 +67,17 @@ def window_starts(n_samples: int, window: int, stride: int) -> np.ndarray:
     return np.arange(0, last + 1, stride, dtype=np.int64)
 
 
-def world_imu(seq: ImuSequence) -> np.ndarray:
-    """``(N, 6)`` float32 gyro xyz then acc xyz in the gravity-aligned world frame."""
-    from ftin.data.preprocess import world_frame_imu  # deferred: preprocess pulls in the AHRS stack
-
+def world_imu(seq: ImuSequence, dtype: type = np.float32) -> np.ndarray:
+    """``(N, 6)`` gyro xyz then acc xyz rotated by ``q_world_device`` into the gravity-aligned world
+    frame (float32, the model's input; ``dtype=np.float64`` for analysis)."""
     if seq.q_world_device_wxyz is None:
         raise DataFormatError(
-            f"sequence {seq.name!r} has no device orientation; call "
+            f"sequence {seq.name!r} has no orientation (q_world_device_wxyz); call "
             "ftin.data.preprocess.ensure_orientation before making world-frame windows"
         )
-    gyro_world, acc_world = world_frame_imu(seq)
-    return np.concatenate([gyro_world, acc_world], axis=1).astype(np.float32)
+    rotation = frames.rotation_from_wxyz(seq.q_world_device_wxyz)
+    imu = np.concatenate([rotation.apply(seq.gyro_rad_s), rotation.apply(seq.acc_m_s2)], axis=1)  # (N, 6)
+    return imu.astype(dtype)
 
 
 def window_view(imu: np.ndarray, window: int) -> np.ndarray:

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ftin.data import frames
 from ftin.data.types import Trajectory
 from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
 from ftin.metrics.trajectory import (
@@ -123,8 +124,6 @@ class AlignmentFit:
 def _moved(traj: Trajectory, R: Rotation, t: np.ndarray) -> Trajectory:
     q = traj.q_world_body_wxyz
     if q is not None:
-        from ftin.data import frames
-
         q = frames.wxyz_from_rotation(R * frames.rotation_from_wxyz(q))
     return Trajectory(traj.t_s.copy(), R.apply(np.array(traj.p_world_m)) + t, q)
 

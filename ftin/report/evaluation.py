@@ -23,8 +23,8 @@ from ftin.checkpoint import META_SUFFIX, WEIGHTS_SUFFIX, LoadedModel, load_model
 from ftin.data.errors import DataFormatError
 from ftin.data.loading import load_sequences
 from ftin.data.types import Trajectory
-from ftin.evaluate import EvaluationReport, SequenceResult
-from ftin.infer import predict_prepared
+from ftin.evaluate import EvaluationReport, SequenceResult, score
+from ftin.infer import predict_trajectory
 from ftin.metrics import Convention, evaluate_trajectory, mean_metrics, stand_still
 from ftin.report.results import (
     FIGURE_MODELS,
@@ -141,14 +141,15 @@ def evaluate_checkpoints(
             for seq in dataset.sequences:
                 if on_evaluation is not None:
                     on_evaluation(loaded.name, dataset.name, seq.name)
-                prediction, prepared = predict_prepared(
-                    loaded, seq, stride=stride, convention=convention, rte_window_s=rte_window_s
-                )
-                if prediction.metrics is None:
-                    reason = "; ".join(prediction.warnings[-1:])
+                prediction = predict_trajectory(loaded, seq, stride=stride)
+                scored = score(prediction, None, convention, rte_window_s, default_alignment_rule=False)
+                prediction.warnings.extend(scored.warnings)
+                if scored.metrics is None:
+                    reason = "; ".join(scored.warnings[-1:])
                     raise DataFormatError(f"--dataset {dataset.name}, sequence {seq.name!r}: {reason}")
+                prepared = prediction.prepared.seq
                 sequences.append(
-                    SequenceResult(seq.name, prediction.metrics, prepared.duration_s, prediction.warnings)
+                    SequenceResult(seq.name, scored.metrics, prepared.duration_s, prediction.warnings)
                 )
                 ground_truth[dataset.name].setdefault(seq.name, prepared.gt)
                 if loaded.model_name in FIGURE_MODELS:

@@ -2,10 +2,10 @@
 
 ``training_data(config, train_sequences, val_sequences, ...)``: without validation sequences a seeded
 ``val_fraction`` of whole training sequences is held out (``ftin.data.loading.split_validation``); every
-sequence is prepared for the config's rate (``prepare_sequence``) and cut into ``WindowDataset``s with
-per-part targets; the input normalisation is fitted on the training windows; each of N processes
-takes ``ceil(batch_size / N)`` windows per step, in the order of a ``DistributedSampler`` (also with
-one process) seeded by ``config.seed`` and the epoch.
+sequence is prepared for the config's rate (``ftin.data.prepare.prepare``, as inference prepares it)
+and cut into ``WindowDataset``s with per-part targets; the input normalisation is fitted on the
+training windows; each of N processes takes ``ceil(batch_size / N)`` windows per step, in the order
+of a ``DistributedSampler`` (also with one process) seeded by ``config.seed`` and the epoch.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ import numpy as np
 import torch
 from torch.utils.data.distributed import DistributedSampler
 
-from ftin.data.loading import prepare_sequence, split_validation
+from ftin.data.loading import split_validation
+from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence
 from ftin.data.windows import InputNormalization, WindowDataset, fit_normalization
 from ftin.models.base import VelocityModel
@@ -75,7 +76,7 @@ def training_data(
         train_sequences, val_sequences = split_validation(train_sequences, config.val_fraction, config.seed)
         val_source = "held_out" if val_sequences else "none"
     train = WindowDataset(
-        [prepare_sequence(s, rate_hz) for s in train_sequences],
+        [prepare(s, rate_hz).seq for s in train_sequences],
         window,
         config.stride,
         out_dim,
@@ -85,7 +86,7 @@ def training_data(
     )
     val = None
     if val_sequences:
-        prepared = [prepare_sequence(s, rate_hz) for s in val_sequences]
+        prepared = [prepare(s, rate_hz).seq for s in val_sequences]
         val = WindowDataset(prepared, window, config.stride, out_dim, parts=parts, augment_yaw=False)
     split = {"train": train.names, "val": [] if val is None else val.names, "val_source": val_source}
     return TrainData(

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ftin.data.errors import DataFormatError
-from ftin.data.loading import data_rate_hz, load_sequences, prepare_sequence, split_validation
+from ftin.data.loading import data_rate_hz, load_sequences, split_validation
+from ftin.data.prepare import prepare
 from ftin.data.readers.generic_csv import write_csv
 from ftin.sim import SimConfig, simulate
 
@@ -37,7 +38,16 @@ def test_load_sequences_reads_files_and_folders_and_names_the_option(walks, tmp_
     assert data_rate_hz(folder) == 50.0
 
 
-def test_prepare_sequence_puts_the_sequence_on_the_rate_grid(walks):
-    prepared = prepare_sequence(walks[0].with_(q_world_device_wxyz=None), 25.0)
-    assert prepared.q_world_device_wxyz is not None
-    np.testing.assert_allclose(np.diff(prepared.t_s), 1 / 25.0, rtol=1e-6)
+def test_prepare_puts_the_sequence_on_the_rate_grid(walks):
+    prepared = prepare(walks[0].with_(q_world_device_wxyz=None), 25.0, window=10, stride=5)
+    assert prepared.seq.q_world_device_wxyz is not None
+    assert any("no device orientation" in note for note in prepared.notes)
+    np.testing.assert_allclose(np.diff(prepared.seq.t_s), 1 / 25.0, rtol=1e-6)
+    assert prepared.imu_world.shape == (len(prepared), 6) and prepared.imu_world.dtype == np.float32
+    np.testing.assert_array_equal(prepared.starts, np.arange(0, len(prepared) - 10, 5))
+
+
+def test_prepare_keeps_a_sequence_already_on_the_grid(walks):
+    seq = walks[0]
+    prepared = prepare(seq, seq.rate_hz)
+    assert prepared.seq is seq and prepared.notes == [] and prepared.starts is None

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from ftin.data import frames, preprocess
+from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.readers import oxiod
+from ftin.data.windows import world_imu
 
 G = oxiod.STANDARD_GRAVITY_M_S2
 
@@ -25,7 +26,7 @@ def _velocity_change_ratio(seq, window_s: float = 1.0) -> float:
     """RMS error of IMU-integrated horizontal velocity change over ``window_s`` against the gt's,
     relative to the RMS of the gt's change. Small only when orientation, signs, units, frames and
     timing all agree."""
-    _, acc_world = preprocess.world_frame_imu(seq)
+    _, acc_world = np.split(world_imu(seq, np.float64), 2, axis=1)
     t, p = seq.t_s, seq.gt.p_world_m
     h, L = 10, int(round(window_s * seq.meta["rate_hz"]))
     v = np.full_like(p, np.nan)
@@ -87,7 +88,7 @@ def test_all_sequences_load_with_meta(gt_sequences):
 def test_world_frame_specific_force_is_gravity_up(option, gt_sequences, device_sequences):
     sequences = gt_sequences if option == "gt" else device_sequences
     for seq in sequences.values():
-        _, acc_world = preprocess.world_frame_imu(seq)
+        _, acc_world = np.split(world_imu(seq, np.float64), 2, axis=1)
         mean = acc_world.mean(axis=0)
         assert mean[2] == pytest.approx(9.8, abs=0.2), seq.name
         assert np.hypot(mean[0], mean[1]) < 0.5, seq.name
@@ -221,7 +222,7 @@ def test_written_sequence_ground_truth_orientation(tmp_path: Path):
     assert np.linalg.norm(np.diff(seq.gt.p_world_m, axis=0), axis=1).max() < 0.05
     assert any("rows 1501-1505" in w for w in seq.meta["warnings"])
     assert any("2501-2520" in w for w in seq.meta["warnings"])
-    _, acc_world = preprocess.world_frame_imu(seq)
+    _, acc_world = np.split(world_imu(seq, np.float64), 2, axis=1)
     np.testing.assert_allclose(acc_world, a[kept] + [0.0, 0.0, G], atol=0.3)
 
 

@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 from ftin.data import frames, preprocess
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.windows import world_imu
 
 GRAVITY_M_S2 = 9.80665
 RATE_HZ = 100.0
@@ -74,7 +75,7 @@ def test_resample_uniform_grid_and_interpolation(rate_hz):
         < 0.05
     )
     # Specific force stays consistent with the resampled orientation (edges excluded: filter start-up).
-    _, acc_world = preprocess.world_frame_imu(out)
+    _, acc_world = np.split(world_imu(out, np.float64), 2, axis=1)
     inner = slice(len(out) // 10, -len(out) // 10)
     np.testing.assert_allclose(acc_world[inner], (a + [0, 0, GRAVITY_M_S2])[inner], atol=0.02)
 
@@ -115,14 +116,14 @@ def test_resample_rejects_bad_input():
         preprocess.resample(seq.with_(t_s=t_s, gt=None), 50.0)
 
 
-def test_world_frame_imu_matches_truth_and_needs_orientation():
+def test_world_imu_matches_truth_and_needs_orientation():
     seq = _synthetic(duration_s=5.0)
-    gyro_world, acc_world = preprocess.world_frame_imu(seq)
+    gyro_world, acc_world = np.split(world_imu(seq, np.float64), 2, axis=1)
     rotation, _, a = _truth(seq.t_s)
     np.testing.assert_allclose(acc_world, a + [0.0, 0.0, GRAVITY_M_S2], atol=1e-9)
     np.testing.assert_allclose(gyro_world, rotation.apply(seq.gyro_rad_s), atol=1e-12)
     with pytest.raises(DataFormatError, match="no orientation.*ensure_orientation"):
-        preprocess.world_frame_imu(seq.with_(q_world_device_wxyz=None))
+        world_imu(seq.with_(q_world_device_wxyz=None))
 
 
 @pytest.mark.parametrize("method", ["vqf", "madgwick", "mahony"])

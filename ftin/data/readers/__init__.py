@@ -164,7 +164,7 @@ def read_sequence(
     if path.is_file():
         # No format claims it: read it as an upload would be read (ZIP, gzip, phyphox CSV, generic CSV),
         # so that a near miss names what is wrong (the missing column, sensor or unit), not just "no format".
-        from ftin.data.readers.uploads import read_bytes
+        from ftin.data.readers.uploads import read_bytes  # deferred: uploads imports this package
 
         try:
             data = path.read_bytes()

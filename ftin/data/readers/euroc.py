@@ -28,6 +28,7 @@ from scipy.spatial.transform import Slerp
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import validate_read
 
 FORMAT = "euroc"
 
@@ -155,7 +156,7 @@ def read(path: Path, max_gt_gap_s: float = 0.05) -> ImuSequence:
         "t0_ns": t0_ns,
         "warnings": warnings,
     }
-    return ImuSequence(
+    seq = ImuSequence(
         seq_dir.name,
         t_s,
         imu[inside, 0:3],
@@ -164,3 +165,4 @@ def read(path: Path, max_gt_gap_s: float = 0.05) -> ImuSequence:
         Trajectory(t_s, p_world_m, q_world_device),
         meta,
     )
+    return validate_read(seq)  # the checks every reader shares

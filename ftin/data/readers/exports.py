@@ -32,7 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import butter, sosfiltfilt
 
+from ftin.data import frames, validate
 from ftin.data.errors import DataFormatError
 
 MAX_UNCOMPRESSED_BYTES = 2 * 1024**3  # 2 GiB of CSV text: several hours of every sensor at 200 Hz
@@ -311,23 +314,21 @@ def on_clock(series: SensorSeries, grid_s: np.ndarray, source: str, warnings: li
 
 # --- units and signs, derived from the data -------------------------------------------------------
 
-STANDARD_GRAVITY_M_S2 = 9.80665
+STANDARD_GRAVITY_M_S2 = validate.STANDARD_GRAVITY_M_S2
 _MIN_ROTATION_FOR_GYRO_CHECK_RAD_S = 0.15
 
 
 def check_imu(gyro_rad_s: np.ndarray, acc_m_s2: np.ndarray, source: str) -> None:
     """The generic CSV's per-sample checks on the merged IMU (finite, within physical limits)."""
-    from ftin.data.readers import generic_csv as checks
-
-    label = checks.sample_row_label
+    label = validate.sample_row_label
     with np.errstate(all="ignore"):
         for what, values, limit, unit in (
-            ("gyroscope", gyro_rad_s, checks.MAX_ABS_GYRO_RAD_S, "rad/s"),
-            ("specific force", acc_m_s2, checks.MAX_ABS_ACC_M_S2, "m/s^2"),
+            ("gyroscope", gyro_rad_s, validate.MAX_ABS_GYRO_RAD_S, "rad/s"),
+            ("specific force", acc_m_s2, validate.MAX_ABS_ACC_M_S2, "m/s^2"),
         ):
             columns = [f"{what} {a}" for a in "xyz"]
-            checks.check_finite(values, columns, source, label)
-            checks.check_physical_range(values, columns, limit, unit, source, label)
+            validate.check_finite(values, columns, source, label)
+            validate.check_physical_range(values, columns, limit, unit, source, label)
 
 
 def includes_gravity(series: SensorSeries) -> bool:
@@ -335,8 +336,6 @@ def includes_gravity(series: SensorSeries) -> bool:
     mean keeps most of the magnitude) while a carried phone's own acceleration (steps, sway) averages
     out. Magnitudes alone cannot tell: 1 g of total acceleration and 1 m/s² of linear acceleration
     look alike in numbers."""
-    from scipy.ndimage import uniform_filter1d
-
     v = series.values[np.isfinite(series.values).all(axis=1)]
     if len(v) < 4:
         return False
@@ -401,8 +400,6 @@ def gravity_sign(
     on +z. Without one the platform does (iOS reports the opposite sign of Android); without either,
     Android's convention is assumed, with a warning.
     """
-    from ftin.data import frames
-
     if q_wxyz is not None:
         for q, note in ((q_wxyz, None), (q_wxyz * np.array([1.0, -1.0, -1.0, -1.0]), "inverted")):
             f_world = frames.rotate_to_world(q, total).mean(axis=0)
@@ -433,8 +430,6 @@ def gravity_sign(
 
 def low_pass(acc: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
     """Gravity's direction in the device frame: specific force low-passed at ``cutoff_hz``."""
-    from scipy.signal import butter, sosfiltfilt
-
     rate = 1.0 / float(np.median(np.diff(t_s)))
     if len(acc) < 30 or rate <= 2 * cutoff_hz:
         return np.repeat(acc.mean(axis=0, keepdims=True), len(acc), axis=0)

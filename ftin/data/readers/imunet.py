@@ -30,7 +30,7 @@ from pathlib import Path
 
 from scipy.spatial.transform import Rotation
 
-from ftin.data.readers import ridi
+import ftin.data.readers.ridi as ridi
 from ftin.data.types import ImuSequence
 
 FORMAT = "imunet"

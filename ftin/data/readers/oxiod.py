@@ -57,8 +57,8 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import rotate_trajectory_about_z, yaw_offset_rad
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import validate_read
 
 FORMAT = "oxiod"
 
@@ -307,8 +307,8 @@ def read(
                     f"removed (rows {', '.join(str(k + 1) for k in heading.jumps)})"
                 )
         q_world_device = q_world_device[keep]
-        yaw, tilt = yaw_offset_rad(t_s[keep], q_world_device, q_gt, align_window_s)
-        gt = rotate_trajectory_about_z(gt, yaw)
+        yaw, tilt = frames.yaw_offset_rad(t_s[keep], q_world_device, q_gt, align_window_s)
+        gt = frames.rotate_trajectory_about_z(gt, yaw)
         meta_extra["gt_yaw_offset_deg"] = round(float(np.degrees(yaw)), 3)
         meta_extra["gt_tilt_offset_deg"] = round(float(np.degrees(tilt)), 3)
         warnings.append(
@@ -330,7 +330,8 @@ def read(
         "warnings": warnings,
     }
     name = _sequence_name(imu_path)
-    return ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta)
+    seq = ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta)
+    return validate_read(seq)  # the checks every reader shares
 
 
 def _sequence_name(imu_path: Path) -> str:

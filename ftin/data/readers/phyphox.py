@@ -32,10 +32,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+import ftin.data.readers.exports as exports
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import exports
 from ftin.data.readers.exports import ExportFiles, SensorSeries
 from ftin.data.types import ImuSequence
+from ftin.data.validate import validate_read
 
 FORMAT = "phyphox"
 
@@ -227,7 +228,8 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         mag_series = exports.clean_series(mag_series, source, warnings)
         meta["mag_uT"] = exports.on_clock(mag_series, clock, source, warnings) * mag_scale
     meta["warnings"] = warnings
-    return ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta)
+    seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta)
+    return validate_read(seq)  # the checks every reader shares
 
 
 def read(path: Path, **options: Any) -> ImuSequence:

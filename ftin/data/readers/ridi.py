@@ -16,7 +16,7 @@ Decisions (options of :func:`read`):
 * World alignment: RIDI recorded IMU and Tango pose on the same phone, so ``R_tango_world(t) =
   ori(t) rv(t)^-1`` should be one constant yaw. RoNIN's loader takes it from the first sample; we
   take the mean over the first ``align_window_s`` seconds (averages sensor noise) with
-  :func:`ftin.data.preprocess.yaw_offset_rad`, keep its yaw only, and turn the ground truth into the
+  :func:`ftin.data.frames.yaw_offset_rad`, keep its yaw only, and turn the ground truth into the
   device's world. The tilt left over is reported in ``meta`` (warned above 5 deg).
 * ``gt.q_world_body_wxyz``: the Tango orientation of the phone in that same world.
 * Carry mode from the sequence folder's name (``*_body*``, ``*_handheld*``, ``*_leg*`` (trouser
@@ -40,15 +40,15 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import rotate_trajectory_about_z, yaw_offset_rad
-from ftin.data.readers.generic_csv import (
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import (
     check_finite,
     check_increasing,
     check_quaternions,
     check_rate,
     csv_row_label,
+    validate_read,
 )
-from ftin.data.types import ImuSequence, Trajectory
 
 FORMAT = "ridi"
 PROCESSED_CSV = Path("processed") / "data.csv"
@@ -216,10 +216,10 @@ def read_processed_csv(
     q_gt_device = frames.make_continuous(frames.wxyz_from_rotation(R_ref))
     if orientation not in ("device", "ground_truth"):
         raise ValueError(f"orientation must be 'device' or 'ground_truth', got {orientation!r}")
-    yaw, tilt = yaw_offset_rad(t_s, q_device, q_gt_device, align_window_s)
+    yaw, tilt = frames.yaw_offset_rad(t_s, q_device, q_gt_device, align_window_s)
     if orientation == "ground_truth":  # inputs rotated by the reference itself: one world, no offset
         q_device, yaw = q_gt_device, 0.0
-    gt = rotate_trajectory_about_z(Trajectory(t_s, p_m, q_gt_device), yaw)  # gt world -> device world
+    gt = frames.rotate_trajectory_about_z(Trajectory(t_s, p_m, q_gt_device), yaw)  # gt world -> device world
     if np.degrees(tilt) > MAX_ALIGNMENT_TILT_DEG:
         warnings.append(
             f"reference and device orientations differ by {np.degrees(tilt):.1f} deg of tilt at the start; "
@@ -236,7 +236,8 @@ def read_processed_csv(
         "gt_tilt_offset_deg": round(float(np.degrees(tilt)), 3),
         "warnings": warnings,
     }
-    return ImuSequence(folder.name, t_s, gyro, acc, q_device, gt, meta)
+    seq = ImuSequence(folder.name, t_s, gyro, acc, q_device, gt, meta)
+    return validate_read(seq)  # the checks every reader shares
 
 
 def read(path: Path, align_window_s: float = 1.0, orientation: str = "device") -> ImuSequence:

@@ -30,14 +30,15 @@ import pandas as pd
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.readers.folders import MarkedFolderLayout
-from ftin.data.readers.generic_csv import (
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import (
     check_finite,
     check_increasing,
     check_quaternions,
     check_rate,
     csv_row_label,
+    validate_read,
 )
-from ftin.data.types import ImuSequence, Trajectory
 
 FORMAT = "rnin"
 DATA_FILE = "SenseINS.csv"
@@ -118,4 +119,5 @@ def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
         "warnings": warnings,
     }
     name = "/".join(folder.parts[-2:]) if folder.parent.name.startswith("data_") else folder.name
-    return ImuSequence(name, t_s, gyro, acc, q, Trajectory(t_s, pose[:, :3], q), meta)
+    seq = ImuSequence(name, t_s, gyro, acc, q, Trajectory(t_s, pose[:, :3], q), meta)
+    return validate_read(seq)  # the checks every reader shares

@@ -44,16 +44,16 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import rotate_trajectory_about_z
 from ftin.data.readers.folders import MarkedFolderLayout
-from ftin.data.readers.generic_csv import (
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import (
     check_finite,
     check_increasing,
     check_quaternions,
     check_rate,
     sample_row_label,
+    validate_read,
 )
-from ftin.data.types import ImuSequence, Trajectory
 
 FORMAT = "ronin"
 DATA_FILE = "data.hdf5"
@@ -196,7 +196,7 @@ def read(
         )
         q_rotor = frames.wxyz_from_rotation(R_tango_src)
         yaw, tilt = float(frames.yaw_rad(q_rotor)), float(frames.tilt_rad(q_rotor))
-        gt = rotate_trajectory_about_z(Trajectory(t_s, p_tango), -yaw)  # Tango world -> device world
+        gt = frames.rotate_trajectory_about_z(Trajectory(t_s, p_tango), -yaw)  # Tango world -> device world
         meta["gt_yaw_offset_deg"] = round(np.degrees(yaw), 3)
         meta["gt_tilt_offset_deg"] = round(np.degrees(tilt), 3)
         if np.degrees(tilt) > MAX_ALIGNMENT_TILT_DEG:
@@ -227,4 +227,5 @@ def read(
         device=info.get("device", "unknown"),
         warnings=warnings,
     )
-    return ImuSequence(folder.name, t_s, gyro, acc, frames.make_continuous(q_src), gt, meta)
+    seq = ImuSequence(folder.name, t_s, gyro, acc, frames.make_continuous(q_src), gt, meta)
+    return validate_read(seq)  # the checks every reader shares

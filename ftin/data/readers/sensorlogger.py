@@ -35,11 +35,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+import ftin.data.readers.exports as exports
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import exports
 from ftin.data.readers.exports import ExportFiles, SensorSeries
 from ftin.data.types import ImuSequence
+from ftin.data.validate import validate_read
 
 FORMAT = "sensorlogger"
 
@@ -277,7 +278,8 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     if mag_key is not None:
         meta["mag_uT"] = exports.on_clock(series[mag_key], clock, source, warnings)
     meta["warnings"] = warnings
-    return ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta)
+    seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta)
+    return validate_read(seq)  # the checks every reader shares
 
 
 def _acceleration_keys(series: dict[str, SensorSeries], source: str, files: ExportFiles) -> list[str]:

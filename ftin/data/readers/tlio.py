@@ -38,14 +38,15 @@ import numpy as np
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.readers.folders import MarkedFolderLayout
-from ftin.data.readers.generic_csv import (
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import (
     check_finite,
     check_increasing,
     check_quaternions,
     check_rate,
     sample_row_label,
+    validate_read,
 )
-from ftin.data.types import ImuSequence, Trajectory
 
 FORMAT = "tlio"
 DATA_FILE = "imu0_resampled.npy"
@@ -209,4 +210,5 @@ def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSe
         "orientation_source": "ground_truth",
         "warnings": warnings,
     }
-    return ImuSequence(folder.name, t_s, gyro, acc, q_world_device, gt, meta)
+    seq = ImuSequence(folder.name, t_s, gyro, acc, q_world_device, gt, meta)
+    return validate_read(seq)  # the checks every reader shares

@@ -17,8 +17,11 @@ import io
 import zlib
 from pathlib import PurePath
 
+import ftin.data.readers.exports as exports
+import ftin.data.readers.generic_csv as generic_csv
+import ftin.data.readers.phyphox as phyphox
+import ftin.data.readers.sensorlogger as sensorlogger
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import exports, generic_csv, phyphox, sensorlogger
 from ftin.data.readers.exports import ExportFiles
 from ftin.data.types import ImuSequence
 
