@@ -47,7 +47,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         for note in services.notes:
             log.warning("%s", note)
         if settings.viser_enabled:
-            from app.viz.scene import DashboardScene
+            from app.viz.scene import DashboardScene  # deferred: viser loads only when the scene is enabled
 
             scene = DashboardScene.start(
                 services, settings.viser_host, settings.viser_port, settings.scene_first_run

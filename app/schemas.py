@@ -16,6 +16,7 @@ from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.models import ModelEntry
 from app.services.runs import Run, RunStatus
 from ftin.data import Trajectory
+from ftin.metrics import describe, describe_alignment
 
 
 class ErrorResponse(BaseModel):
@@ -182,8 +183,6 @@ class MetricsPayload(BaseModel):
         pred = run.prediction
         if pred.metrics is None:
             return None
-        from ftin.metrics import describe
-
         values, verdict = pred.metrics.as_dict(), run.verdict
         convention = str(values.get("convention", "ronin"))
         window_s = float(values.get("rte_window_s", 60.0))
@@ -206,8 +205,6 @@ def _alignment_fields(values: dict[str, Any]) -> dict[str, Any]:
     """The alignment of ``TrajectoryMetrics.as_dict()`` (``ftin.metrics.align``), for ``MetricsPayload``."""
     if values.get("alignment") is None:
         return {}
-    from ftin.metrics import describe_alignment
-
     return {
         "alignment": values["alignment"],
         "heading_deg": _finite(values.get("heading_deg")) if values.get("heading_deg") is not None else None,

@@ -88,12 +88,11 @@ def _predict_materialised(loaded, seq, batch_size: int) -> int:
     import numpy as np
     import torch
 
-    from ftin.data.windows import window_starts, window_view, world_imu
-    from ftin.infer import prepare_for_checkpoint
+    from ftin.data.prepare import prepare
+    from ftin.data.windows import window_view
 
-    prepared, _ = prepare_for_checkpoint(loaded, seq)
-    imu = world_imu(prepared)
-    starts = window_starts(len(prepared), loaded.window, loaded.stride)
+    prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, loaded.stride)
+    imu, starts = prepared.imu_world, prepared.starts
     x_all = np.ascontiguousarray(window_view(imu, loaded.window)[starts])  # (M, 6, L): all at once
     with torch.inference_mode():
         for first in range(0, len(x_all), batch_size):

@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import io
 import statistics
-import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -31,9 +30,9 @@ from pathlib import Path
 import httpx
 import numpy as np
 import torch
-import uvicorn
 
 from app.main import create_app
+from app.serve import ServerStartError, serve_in_thread
 from app.settings import Settings
 from ftin.data import preprocess
 from ftin.data.preprocess import AhrsMethod
@@ -63,20 +62,15 @@ def simulated_csvs(
 @contextmanager
 def uvicorn_poster(settings: Settings) -> Iterator[tuple[Post, object]]:
     app = create_app(settings)
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
-    thread = threading.Thread(target=server.run, name="bench-uvicorn", daemon=True)
-    thread.start()
-    while not server.started:
-        if not thread.is_alive():
-            raise SystemExit("the app did not start (see the log above)")
-        time.sleep(0.05)
-    base = f"http://127.0.0.1:{server.servers[0].sockets[0].getsockname()[1]}"
     try:
-        with httpx.Client(base_url=base, timeout=600) as client:
+        served = serve_in_thread(app, name="bench-uvicorn")
+    except ServerStartError as exc:
+        raise SystemExit(f"the app did not start: {exc}") from None
+    try:
+        with httpx.Client(base_url=served.base_url, timeout=600) as client:
             yield (lambda data: client.post("/predict", files={"file": ("walk.csv", data, "text/csv")})), app
     finally:
-        server.should_exit = True
-        thread.join(30)
+        served.stop()
 
 
 @contextmanager

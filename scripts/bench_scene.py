@@ -45,21 +45,14 @@ def main() -> None:
     parser.add_argument("--chromium", default="/usr/bin/chromium", help="'' to time without a browser")
     args = parser.parse_args()
 
-    import threading
-
-    import uvicorn
-
     from app.main import create_app
+    from app.serve import serve_in_thread
     from app.settings import Settings
 
     data = walk_csv(args.minutes)
     app = create_app(Settings(viser_port=0, scene_first_run=False))
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    while not server.started:
-        time.sleep(0.05)
-    base = f"http://127.0.0.1:{server.servers[0].sockets[0].getsockname()[1]}"
+    served = serve_in_thread(app)
+    base = served.base_url
     playwright = browser = page = None
     try:
         scene = app.state.scene
@@ -145,8 +138,7 @@ def main() -> None:
         if browser is not None:
             browser.close()
             playwright.stop()
-        server.should_exit = True
-        thread.join(30)
+        served.stop()
 
 
 if __name__ == "__main__":

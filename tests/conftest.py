@@ -1,11 +1,18 @@
-"""Shared fixtures. Real recordings live in ../shared/data beside the checkout (CI has them)."""
+"""Shared fixtures. Real recordings live in ../shared/data beside the checkout (CI has them).
+Tiny checkpoints come from one factory, ``tests/utils/checkpoints.py`` (``make_checkpoint``)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 import torch
+
+from ftin.sim import SimConfig, simulate
+from tests.utils.checkpoints import RATE_HZ, write_checkpoint
+from tests.utils.tables import write_table_checkpoints, write_table_datasets, write_two_of_one_model
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
@@ -26,3 +33,41 @@ def _one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(previous)
+
+
+@pytest.fixture(scope="session")
+def make_checkpoint(tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
+    """``make_checkpoint("name", "ftin", window=50, ...)``: a tiny real checkpoint in a fresh folder
+    (or in ``folder=``); the options are ``tests.utils.checkpoints.write_checkpoint``'s."""
+
+    def make(
+        name: str = "tiny", model_name: str = "ronin_tcn", folder: Path | None = None, **options: Any
+    ) -> Path:
+        folder = tmp_path_factory.mktemp("checkpoints") if folder is None else folder
+        return write_checkpoint(folder / name, model_name, **options)
+
+    return make
+
+
+@pytest.fixture(scope="session")
+def sim_sequences():
+    """Three 20 s walks at 50 Hz, with orientation and ground truth (training and CLI tests)."""
+    return [simulate(SimConfig(duration_s=20.0, rate_hz=RATE_HZ, seed=seed)) for seed in (1, 2, 3)]
+
+
+@pytest.fixture(scope="session")
+def table_checkpoints(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Tiny untrained checkpoints of four of ``ftin table``'s models (``tests.utils.tables``)."""
+    return write_table_checkpoints(tmp_path_factory.mktemp("table_checkpoints"))
+
+
+@pytest.fixture(scope="session")
+def table_data(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two small simulated datasets for ``ftin table`` ("walk" and "pocket")."""
+    return write_table_datasets(tmp_path_factory.mktemp("table_data"))
+
+
+@pytest.fixture
+def two_of_one_model(tmp_path: Path) -> Path:
+    """``tcn-oxiod`` and ``tcn-sim``: two checkpoints for the RoNIN TCN column."""
+    return write_two_of_one_model(tmp_path / "checkpoints")

@@ -23,6 +23,7 @@ from typing import Any
 from app.services.errors import InvalidInputError, NotFoundError
 from app.services.kinds import SIMULATED, kind_of, label
 from ftin.data import DataFormatError, ImuSequence
+from ftin.data.readers import list_sequences, read_sequence
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +95,7 @@ class SequenceCatalog:
     ) -> SequenceCatalog:
         """List every data folder; folders that are missing or unreadable become notes, not errors."""
         if lister is None:
-            from ftin.data.readers import list_sequences as lister
+            lister = list_sequences
         entries: dict[str, SequenceEntry] = {}
         notes: list[str] = []
         for folder in data_dirs:
@@ -150,7 +151,7 @@ class SequenceCatalog:
         entry = self.get(seq_id)
         reader = self.reader
         if reader is None:
-            from ftin.data.readers import read_sequence as reader
+            reader = read_sequence
         try:
             return reader(entry.ref)
         except (DataFormatError, OSError) as exc:

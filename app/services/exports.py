@@ -20,6 +20,7 @@ from typing import Any
 from app.services.runs import Run
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.data.types import Trajectory
+from ftin.metrics import describe, describe_alignment
 
 
 class Timestamps(str, Enum):
@@ -52,8 +53,6 @@ def ground_truth_tum(run: Run) -> str | None:
 
 
 def metrics_json(run: Run) -> dict[str, Any]:
-    from ftin.metrics import describe, describe_alignment
-
     m = run.prediction.metrics
     out: dict[str, Any] = {
         "run_id": run.run_id,

@@ -18,6 +18,7 @@ from typing import Any
 
 from app.services.errors import ConflictError, InvalidInputError, NotFoundError, RunExpiredError
 from app.services.features import ModelInput
+from app.services.verdict import judge
 from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)
@@ -51,8 +52,6 @@ class Run:
 
     @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures
-        from app.services.verdict import judge
-
         return judge(self.prediction, self.sequence.gt)
 
 

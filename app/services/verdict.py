@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ftin.data import Trajectory
+from ftin.metrics import evaluate_trajectory, path_length_ratio, stand_still
 
 MIN_PATH_RATIO = 0.5
 MAX_PATH_RATIO = 2.0
@@ -97,8 +98,6 @@ def judge(prediction: Any, truth: Trajectory | None) -> Verdict:
     metrics = prediction.metrics
     ratio = None if metrics is None else getattr(metrics, "path_length_ratio", None)
     if ratio is None and metrics is not None and truth is not None:
-        from ftin.metrics import path_length_ratio
-
         ratio = path_length_ratio(prediction.trajectory.p_world_m, truth.p_world_m)
     warnings = unique(warnings + path_warnings(prediction.trajectory, truth, ratio))
     if truth is None or metrics is None:
@@ -114,8 +113,6 @@ def judge(prediction: Any, truth: Trajectory | None) -> Verdict:
 
 
 def _stand_still_metrics(truth: Trajectory, metrics: Any) -> dict[str, float] | None:
-    from ftin.metrics import evaluate_trajectory, stand_still
-
     try:
         still = evaluate_trajectory(stand_still(truth), truth, metrics.convention, metrics.rte_window_s)
     except ValueError:

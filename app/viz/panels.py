@@ -76,6 +76,7 @@ class HeatmapRenderer:
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
     def _build(self, unit: np.ndarray) -> None:
+        # deferred: matplotlib adds ~1 s to the app's start-up (as in spectra.py)
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
         from matplotlib.ticker import MaxNLocator

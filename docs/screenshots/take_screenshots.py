@@ -27,16 +27,15 @@ Needs Playwright and Debian's chromium (``/usr/bin/chromium``).
 from __future__ import annotations
 
 import argparse
-import threading
 import time
 from pathlib import Path
 
 import httpx
 import pandas as pd
-import uvicorn
 from playwright.sync_api import sync_playwright
 
 from app.main import create_app
+from app.serve import serve_in_thread
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 
 HERE = Path(__file__).resolve().parent
@@ -71,12 +70,8 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
 
     app = create_app(Settings(viser_port=0))
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    while not server.started:
-        time.sleep(0.05)
-    base = f"http://127.0.0.1:{server.servers[0].sockets[0].getsockname()[1]}"
+    served = serve_in_thread(app)
+    base = served.base_url
     scene = app.state.scene
     try:
         with sync_playwright() as playwright:
@@ -188,8 +183,7 @@ def main() -> None:
                 still.unlink()
             browser.close()
     finally:
-        server.should_exit = True
-        thread.join(30)
+        served.stop()
 
 
 if __name__ == "__main__":

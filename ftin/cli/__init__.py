@@ -1,18 +1,12 @@
-"""The ``ftin`` command line: thin callers of the library. Each sub-module registers its commands."""
+"""The ``ftin`` command line: thin callers of the library. One sub-module per command (``data`` a
+group of them) registers it on ``app`` (``ftin.cli.common``) on import; shared plumbing lives in
+``common`` too, so no command module imports this package back."""
 
 from __future__ import annotations
 
-import typer
-
-app = typer.Typer(
-    name="ftin",
-    help="FTIN Studio: inertial odometry data tools, models, training, evaluation and prediction.",
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-)
-
-# Sub-modules add their commands to `app` on import.
-from ftin.cli import data, models, report, sim, train  # noqa: E402,F401
+# Sub-modules add their commands to `app` on import; the import order is `ftin --help`'s order.
+from ftin.cli import bench, data, evaluate, models, predict, sim, table, train  # noqa: E402,F401,I001
+from ftin.cli.common import app
 
 
 def main() -> None:

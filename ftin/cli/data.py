@@ -18,8 +18,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.cli import app
-from ftin.cli.common import err_console, progress_bar, user_errors
+from ftin.cli.common import app, err_console, progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.data.readers import SequenceRef, list_sequences, read_sequence
 from ftin.data.readers.generic_csv import write_csv

@@ -11,8 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ftin.bench.profile import DEFAULT_WINDOW, ModelProfile, profile_model, torch_threads
-from ftin.cli import app
-from ftin.cli.common import err_console, user_errors
+from ftin.cli.common import app, err_console, user_errors
 from ftin.models import UnknownModelError, check_known_models, list_models
 
 CONVENTIONS = (

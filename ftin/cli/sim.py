@@ -8,8 +8,7 @@ from typing import Annotated
 import typer
 from tqdm import tqdm
 
-from ftin.cli import app
-from ftin.cli.common import user_errors
+from ftin.cli.common import app, user_errors
 from ftin.data.readers.generic_csv import write_csv
 from ftin.sim import CarryMode, SimConfig, simulate
 
@@ -29,7 +28,10 @@ def sim_command(
         for i in tqdm(range(count), desc="simulating", unit="seq"):
             carry = carries[i % len(carries)]
             config = SimConfig(
-                duration_s=duration_s, rate_hz=rate_hz, carry=carry, seed=seed + i,
+                duration_s=duration_s,
+                rate_hz=rate_hz,
+                carry=carry,
+                seed=seed + i,
                 name=f"sim_{seed + i:04d}_{carry.value}",
             )
             write_csv(simulate(config), out / f"{config.name}.csv")

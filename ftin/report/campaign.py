@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
 
@@ -242,8 +243,6 @@ def _cell(stats: dict[str, Any] | None, metric: str) -> str:
 
 def ate_figure(summary: dict[str, Any]) -> Any:
     """Test ATE per model (ground-truth orientation), mean ± sd over seeds, stand still as a line."""
-    from matplotlib.figure import Figure
-
     datasets = [d for d in (OXIOD, RIDI) if "test/ground_truth" in summary["datasets"].get(d, {})]
     fig = Figure(figsize=(5.2 * max(len(datasets), 1), 4.2))
     for i, dataset in enumerate(datasets):

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ftin.data.readers.generic_csv import read_csv, write_csv
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.sim.config import CarryMode, SimConfig
 from ftin.sim.simulator import simulate
@@ -76,8 +77,6 @@ def storage_rounded(seq: ImuSequence) -> ImuSequence:
 
 def write_samples(directory: Path = SAMPLES_DIR) -> list[Path]:
     """Simulate every sample and write it as ``<directory>/<name>.csv``."""
-    from ftin.data.readers.generic_csv import write_csv
-
     paths = []
     for name, config in SAMPLES.items():
         path = sample_path(name, directory)
@@ -88,8 +87,6 @@ def write_samples(directory: Path = SAMPLES_DIR) -> list[Path]:
 
 def load_sample(name: str, directory: Path = SAMPLES_DIR) -> ImuSequence:
     """Read a shipped sample, with the simulation's facts (carry, seed, orientation) in ``meta``."""
-    from ftin.data.readers.generic_csv import read_csv
-
     config = SAMPLES.get(name)
     if config is None:
         raise _unknown(name)

@@ -66,6 +66,8 @@ def distributed() -> Iterator[Distributed]:
         dist.init_process_group(backend="gloo")
     try:
         yield Distributed(rank=dist.get_rank(), world=dist.get_world_size(), owns_group=owns)
+        if owns:  # every rank is done before the group goes: gloo aborts a rank still talking to it
+            dist.barrier()
     finally:
         if owns:
             dist.destroy_process_group()

@@ -3,7 +3,6 @@ live uvicorn + viser server. Everything runs on 127.0.0.1 with OS-assigned ports
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -11,16 +10,13 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-import torch
-import uvicorn
-from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
 from app.main import create_app
+from app.serve import ThreadedServer, serve_in_thread
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
-from ftin.checkpoint import save_checkpoint
-from ftin.models import create_model
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
+from tests.utils import checkpoints
 
 RATE_HZ = 100.0
 WINDOW = 50
@@ -30,21 +26,20 @@ OTHER_MODEL = "resnet-tiny"
 SAMPLE_ROWS = 2000  # 20 s at 100 Hz
 
 
-
 def write_checkpoint(
     folder: Path, name: str, model_name: str, seed: int = 0, training_data: object = None
 ) -> Path:
-    torch.manual_seed(seed)
-    model = create_model(model_name, **TINY_FTIN)
-    meta = {
-        "model_name": model_name,
-        "imu_rate_hz": RATE_HZ,
-        "window": WINDOW,
-        "stride": WINDOW // 2,
-        "training_data": training_data or "simulated walks (test fixture)",
-        "metrics": {"ate": 1.5, "rte": 2.5, "pde": 0.05},
-    }
-    return save_checkpoint(folder / name, model, meta)
+    return checkpoints.write_checkpoint(
+        folder / name,
+        model_name,
+        seed=seed,
+        rate_hz=RATE_HZ,
+        window=WINDOW,
+        stride=WINDOW // 2,
+        model_kwargs=TINY_FTIN,
+        training_data=training_data or "simulated walks (test fixture)",
+        metrics={"ate": 1.5, "rte": 2.5, "pde": 0.05},
+    )
 
 
 @pytest.fixture(scope="session")
@@ -119,38 +114,16 @@ def sample_csv_path(tmp_path: Path, csv_with_gt: bytes) -> Path:
     return path
 
 
-@dataclass
-class LiveServer:
-    app: FastAPI
-    server: uvicorn.Server
-    thread: threading.Thread
-    base_url: str
-
-    @property
-    def scene(self):  # app.viz.scene.DashboardScene
-        return self.app.state.scene
+LiveServer = ThreadedServer  # the real app under uvicorn in a thread (app/serve.py)
 
 
 def start_live_server(settings: Settings) -> LiveServer:
     """The real app under uvicorn in a thread, on a free port (the OS picks it)."""
-    app = create_app(settings)
-    config = uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning", lifespan="on")
-    server = uvicorn.Server(config)
-    thread = threading.Thread(target=server.run, name="test-uvicorn", daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 60
-    while not server.started:
-        if not thread.is_alive() or time.monotonic() > deadline:
-            raise RuntimeError("uvicorn did not start")
-        time.sleep(0.02)
-    port = server.servers[0].sockets[0].getsockname()[1]
-    return LiveServer(app, server, thread, f"http://127.0.0.1:{port}")
+    return serve_in_thread(create_app(settings), name="test-uvicorn")
 
 
 def stop_live_server(live: LiveServer) -> None:
-    live.server.should_exit = True
-    live.thread.join(timeout=30)
-    assert not live.thread.is_alive(), "uvicorn did not stop"
+    assert live.stop(), "uvicorn did not stop"
 
 
 @dataclass(frozen=True)

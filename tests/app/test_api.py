@@ -13,6 +13,7 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
+from tests.utils.recordings import still_phone_csv
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
@@ -325,6 +326,10 @@ def test_unsupported_content_type_is_415(client: TestClient) -> None:
         ({"acc_m_s2": [[0, 0, 9.8]] * 3}, "acc_m_s2 has 3 rows, t_s has 4"),
         ({"acc_m_s2": [[0, 0, 1.0]] * 4}, "looks like g"),
         ({"q_world_device_wxyz": [[0, 0, 0, 0]] * 4}, "sample 0: orientation quaternion has norm 0"),
+        (  # the JSON path runs ftin.data.validate as the readers do: device-from-world is refused
+            {"acc_m_s2": [[0, 9.8, 0]] * 4, "q_world_device_wxyz": [[0.5**0.5, -(0.5**0.5), 0, 0]] * 4},
+            "look like device-from-world",
+        ),
         ({"t_s": [0.0, 1.0, 2.0, 3.0]}, "sample rate 1 Hz"),
         ({"t_s": "soon"}, "body field t_s"),
         ({"extra": 1}, "body field extra"),
@@ -405,17 +410,6 @@ def test_cors_opens_only_for_configured_origins(make_settings: Callable[..., Set
 
 
 # --- issue 11: results that tell the truth --------------------------------------------------------
-
-
-def still_phone_csv(sample_frame: pd.DataFrame) -> bytes:
-    """The phone lies still on a table (identity orientation, gravity only) while the ground truth walks."""
-    frame = sample_frame.copy()
-    rng = np.random.default_rng(0)
-    for column in ("gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y"):
-        frame[column] = rng.normal(0.0, 1e-3, len(frame))
-    frame["acc_z"] = 9.81 + rng.normal(0.0, 1e-3, len(frame))
-    frame["q_w"], frame["q_x"], frame["q_y"], frame["q_z"] = 1.0, 0.0, 0.0, 0.0
-    return frame.to_csv(index=False).encode()
 
 
 def test_a_phone_lying_still_while_the_truth_walks_gets_a_path_warning(

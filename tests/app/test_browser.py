@@ -16,6 +16,8 @@ from pathlib import Path
 import httpx
 import pytest
 
+from tests.utils.recordings import still_phone_csv
+
 CHROMIUM = Path(os.environ.get("FTIN_CHROMIUM", "/usr/bin/chromium"))
 REQUIRE_BROWSER_ENV = "FTIN_REQUIRE_BROWSER"
 
@@ -39,6 +41,20 @@ def browser_problem(chromium: Path) -> str | None:
 
 
 DEFAULT_MODEL = "ftin-oxiod"
+
+
+def open_upload_page(page, live_server) -> None:
+    """Open the upload page and wait until the model menu is filled."""
+    page.goto(live_server.base_url)
+    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+
+
+def run_file(page, path: str) -> None:
+    """Pick ``path`` in the file input and press Run."""
+    page.set_input_files("#file-input", path)
+    page.click("#run-button")
+
+
 # No sandbox (containers, root), no GPU, and nothing that phones home: the test runs offline.
 CHROMIUM_ARGS = [
     "--no-sandbox",
@@ -92,8 +108,7 @@ def screenshot(page, name: str) -> None:
 
 
 def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Path) -> None:
-    page.goto(live_server.base_url)
-    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    open_upload_page(page, live_server)
     assert page.input_value("#model-select") == DEFAULT_MODEL  # the default is preselected
     assert page.is_disabled("#run-button")
     page.set_input_files("#file-input", str(sample_csv_path))
@@ -126,8 +141,7 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
 
 
 def test_dropping_a_file_selects_it(live_server, page, csv_with_gt: bytes) -> None:
-    page.goto(live_server.base_url)
-    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    open_upload_page(page, live_server)
     transfer = page.evaluate_handle(
         "(text) => { const dt = new DataTransfer();"
         " dt.items.add(new File([text], 'dropped.csv', {type: 'text/csv'})); return dt; }",
@@ -141,10 +155,8 @@ def test_dropping_a_file_selects_it(live_server, page, csv_with_gt: bytes) -> No
 def test_api_errors_are_shown_in_plain_words(live_server, page, tmp_path: Path) -> None:
     bad = tmp_path / "notes.csv"
     bad.write_text("time,comment\n0,hello\n")
-    page.goto(live_server.base_url)
-    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
-    page.set_input_files("#file-input", str(bad))
-    page.click("#run-button")
+    open_upload_page(page, live_server)
+    run_file(page, str(bad))
     page.wait_for_selector("#error:not([hidden])", timeout=30_000)
     message = page.inner_text("#error")
     assert "notes.csv" in message and "gyro" in message
@@ -217,28 +229,13 @@ def test_missing_browser_skips_or_fails_as_the_environment_says(
 # --- issue 11: items 1-4 and 10 in the browser ------------------------------------------------------
 
 
-def still_phone_csv(sample_frame) -> bytes:
-    """The phone lies still (gravity only) while the ground truth walks 13 m."""
-    import numpy as np
-
-    frame = sample_frame.copy()
-    rng = np.random.default_rng(0)
-    for column in ("gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y"):
-        frame[column] = rng.normal(0.0, 1e-3, len(frame))
-    frame["acc_z"] = 9.81 + rng.normal(0.0, 1e-3, len(frame))
-    frame["q_w"], frame["q_x"], frame["q_y"], frame["q_z"] = 1.0, 0.0, 0.0, 0.0
-    return frame.to_csv(index=False).encode()
-
-
 def test_item1_a_model_that_barely_moves_is_flagged_on_the_page(
     live_server, page, sample_frame, tmp_path: Path
 ) -> None:
     still = tmp_path / "still.csv"
     still.write_bytes(still_phone_csv(sample_frame))
-    page.goto(live_server.base_url)
-    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
-    page.set_input_files("#file-input", str(still))
-    page.click("#run-button")
+    open_upload_page(page, live_server)
+    run_file(page, str(still))
     page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
     path_row = page.inner_text("#metrics tr.flagged")
     assert path_row.startswith("Path") and "m of" in path_row
@@ -252,16 +249,13 @@ def test_item1_a_model_that_barely_moves_is_flagged_on_the_page(
 def test_item2_a_failed_second_upload_leaves_no_stale_result(
     live_server, page, sample_csv_path: Path, tmp_path: Path
 ) -> None:
-    page.goto(live_server.base_url)
-    page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
-    page.set_input_files("#file-input", str(sample_csv_path))
-    page.click("#run-button")
+    open_upload_page(page, live_server)
+    run_file(page, str(sample_csv_path))
     page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
     assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_MODEL}"
     bad = tmp_path / "notes.csv"
     bad.write_text("time,comment\n0,hello\n")
-    page.set_input_files("#file-input", str(bad))
-    page.click("#run-button")
+    run_file(page, str(bad))
     page.wait_for_selector("#error:not([hidden])", timeout=30_000)
     assert page.is_hidden("#result")  # the first file's plot and metrics are gone with the error
 

@@ -39,6 +39,16 @@ def run_nodes(scene: DashboardScene, run_id: str) -> set[str]:
     return {name for name in scene.node_names() if name.startswith(f"/runs/{run_id}/")}
 
 
+def run_with_other_model_ticked(scene: DashboardScene) -> None:
+    """Press Run with OTHER_MODEL ticked too (then untick it) and wait for the drawing."""
+    scene.gui_models[OTHER_MODEL].value = True
+    try:
+        scene._run_selected(None)
+    finally:
+        scene.gui_models[OTHER_MODEL].value = False
+    scene.flush()
+
+
 def test_viser_serves_its_page(scene: DashboardScene) -> None:
     assert scene.url.startswith("http://127.0.0.1:") and scene.port > 0
     page = httpx.get(scene.url, timeout=10)
@@ -128,12 +138,7 @@ def test_several_models_overlay_and_another_sequence_replaces_them(scene: Dashbo
 
 def test_run_button_runs_every_ticked_model(scene: DashboardScene) -> None:
     scene.gui_sequence.value = "walk_gt"
-    scene.gui_models[OTHER_MODEL].value = True
-    try:
-        scene._run_selected(None)
-    finally:
-        scene.gui_models[OTHER_MODEL].value = False
-    scene.flush()
+    run_with_other_model_ticked(scene)
     models = sorted(scene._views[r].model_name for r in scene.shown_run_ids())
     assert models == [DEFAULT_MODEL, OTHER_MODEL]
     assert not scene.gui_run.disabled
@@ -269,12 +274,7 @@ def test_the_sequence_menu_follows_what_is_shown(scene: DashboardScene, csv_with
     assert scene.gui_sequence.value == "my_walk (uploaded)"
     assert "Showing **ftin-oxiod** on my_walk" in scene.gui_status.content
     # Run on the uploaded recording works from the menu: another model joins it.
-    scene.gui_models[OTHER_MODEL].value = True
-    try:
-        scene._run_selected(None)
-    finally:
-        scene.gui_models[OTHER_MODEL].value = False
-    scene.flush()
+    run_with_other_model_ticked(scene)
     assert sorted(scene._views[r].model_name for r in scene.shown_run_ids()) == [DEFAULT_MODEL, OTHER_MODEL]
     scene.gui_clear_scene()
     assert "my_walk (uploaded)" not in scene.gui_sequence.options

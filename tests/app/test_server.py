@@ -47,14 +47,14 @@ def test_health_answers_while_a_model_runs(
     live_server, csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     started, release = threading.Event(), threading.Event()
-    real_predict = ftin.infer.predict_prepared
+    real_predict = ftin.infer.predict_trajectory
 
     def held_predict(*args, **kwargs):  # inference that only finishes when the test says so
         started.set()
         assert release.wait(30), "test never released the inference"
         return real_predict(*args, **kwargs)
 
-    monkeypatch.setattr(ftin.infer, "predict_prepared", held_predict)
+    monkeypatch.setattr(ftin.infer, "predict_trajectory", held_predict)
     result: dict = {}
 
     def post() -> None:

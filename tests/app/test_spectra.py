@@ -22,8 +22,7 @@ from app.viz.spectra import (
 from ftin.checkpoint import load_model
 from ftin.data import Trajectory
 from ftin.data.readers.generic_csv import read_csv
-from ftin.data.windows import window_starts, world_imu
-from ftin.infer import predict_prepared
+from ftin.infer import predict_trajectory
 
 
 def test_amplitude_spectrum_finds_a_sine_and_ignores_the_mean() -> None:
@@ -79,9 +78,9 @@ def test_window_taps_equal_those_of_the_full_inference_pass(
     """The scene recomputes one window's FDL spectra; they must be what the prediction computed."""
     loaded = load_model(checkpoint_dir / "ftin-oxiod")
     seq = read_csv(io.StringIO(sample_frame.head(400).to_csv(index=False)), name="walk")
-    prediction, prepared = predict_prepared(loaded, seq, return_features=True)
-    starts = window_starts(len(prepared), loaded.window, loaded.stride)
-    model_input = ModelInput(world_imu(prepared), starts, loaded.window)
+    prediction = predict_trajectory(loaded, seq, return_features=True)
+    starts = prediction.prepared.starts
+    model_input = ModelInput(prediction.prepared.imu_world, starts, loaded.window)
     assert len(starts) == len(prediction.window_t_s) == 14
     for index in (0, 6, 13):
         taps = window_taps(loaded, model_input, index)

@@ -4,9 +4,7 @@ metrics JSON, the input's own timestamps)."""
 from __future__ import annotations
 
 import gzip
-import importlib.util
 import io
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -15,21 +13,9 @@ from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
 from ftin.data.trajectory_io import read_tum
+from tests.data.test_phone_exports import phyphox_export, sensor_logger, zip_bytes
 
 DEFAULT_MODEL = "ftin-oxiod"
-
-
-def _phone_exports():
-    """The synthetic export writers of tests/data/test_phone_exports.py (tests are not a package)."""
-    path = Path(__file__).resolve().parents[1] / "data" / "test_phone_exports.py"
-    spec = importlib.util.spec_from_file_location("_phone_exports_for_app_tests", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-_phone = _phone_exports()
-phyphox_export, sensor_logger, zip_bytes = _phone.phyphox_export, _phone.sensor_logger, _phone.zip_bytes
 
 
 def test_sensor_logger_zip_as_multipart_and_raw_body(client: TestClient) -> None:

@@ -10,9 +10,7 @@ import sys
 import numpy as np
 import pytest
 import torch
-from typer.testing import CliRunner
 
-import ftin.cli.report  # noqa: F401  (registers `table` and `bench` until ftin.cli imports it)
 from ftin.bench.profile import count_parameters
 from ftin.bench.side_by_side import (
     BenchConfig,
@@ -23,7 +21,6 @@ from ftin.bench.side_by_side import (
     bench_models,
     measure_phase,
 )
-from ftin.cli import app
 from ftin.models import UnknownModelError, create_model
 
 # Two small reference models at a short window and a tiny batch keep every measurement well under
@@ -96,35 +93,3 @@ def test_bad_config_and_unknown_model():
         BenchConfig(rate_hz=0.0)
     with pytest.raises(UnknownModelError, match="no_such_model.*valid models"):
         bench_models(["ronin_lstm", "no_such_model"], TINY)
-
-
-runner = CliRunner()
-TINY_ARGS = ["--window", "50", "--batch", "4", "--threads", "1", "--repeats", "1", "--no-memory"]
-
-
-def test_cli_bench_writes_json(tmp_path):
-    out = tmp_path / "bench.json"
-    result = runner.invoke(app, ["bench", "--models", "ronin_tcn", *TINY_ARGS, "--json", str(out)])
-    assert result.exit_code == 0, result.output
-    assert "ronin_tcn" in result.output and "RTF" in result.output and f"wrote {out}" in result.output
-    data = json.loads(out.read_text())
-    assert [m["model"] for m in data["models"]] == ["ronin_tcn"]
-    assert data["models"][0]["inference"]["windows_per_s"] > 0
-    assert data["config"]["window"] == 50 and data["machine"]["threads"] == 1
-
-
-@pytest.mark.parametrize(
-    ("args", "message"),
-    [
-        (["--models", "no_such_model"], "unknown model 'no_such_model'"),
-        (["--models", "ronin_tcn", "--json", "{tmp}/missing/bench.json"], "no such folder"),
-    ],
-)
-def test_cli_bench_bad_input(args, message, tmp_path):
-    out = tmp_path / "bench.json"
-    args = [a.format(tmp=tmp_path) for a in args]
-    result = runner.invoke(app, ["bench", *TINY_ARGS, "--json", str(out), *args])
-    assert result.exit_code == 2
-    lines = result.output.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], result.output
-    assert not out.exists()

@@ -13,7 +13,6 @@ from ftin.models import create_model, list_models
 runner = CliRunner()
 
 
-
 def run(*args: str):
     return runner.invoke(app, ["models", *args])
 

@@ -3,42 +3,26 @@ near-miss messages."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
 from typer.testing import CliRunner
 
-from ftin.checkpoint import save_checkpoint
 from ftin.cli import app
 from ftin.data.readers.generic_csv import write_csv
 from ftin.data.trajectory_io import read_tum
-from ftin.models import create_model
 from ftin.sim import SimConfig, simulate
+from tests.data.test_phone_exports import sensor_logger, zip_bytes
 
 runner = CliRunner()
 
 
-def _phone_exports():
-    path = Path(__file__).resolve().parents[1] / "data" / "test_phone_exports.py"
-    spec = importlib.util.spec_from_file_location("_phone_exports_for_cli_tests", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
-def checkpoint(tmp_path_factory) -> Path:
-    torch.manual_seed(0)
-    stem = tmp_path_factory.mktemp("ckpt") / "tiny"
-    model = create_model("ronin_tcn", channels=(8, 8))
-    save_checkpoint(
-        stem, model, {"model_name": "ronin_tcn", "imu_rate_hz": 100.0, "window": 50, "stride": 10}
-    )
-    return stem
+def checkpoint(make_checkpoint) -> Path:
+    """A tiny TCN at 100 Hz (the 200 Hz walk is resampled for it), as its stem."""
+    return make_checkpoint("tiny", "ronin_tcn", rate_hz=100.0, window=50, stride=10).with_suffix("")
 
 
 @pytest.fixture(scope="module")
@@ -75,9 +59,8 @@ def test_evaluate_align_option(checkpoint, walk_csv, tmp_path):
 
 
 def test_predict_and_info_on_a_phone_zip(checkpoint, tmp_path):
-    phone = _phone_exports()
     zip_path = tmp_path / "2024-03-30_10-43-49.zip"
-    zip_path.write_bytes(phone.zip_bytes(phone.sensor_logger(duration_s=8.0)))
+    zip_path.write_bytes(zip_bytes(sensor_logger(duration_s=8.0)))
     info = runner.invoke(app, ["data", "info", str(zip_path), "--json"])
     assert info.exit_code == 0, info.output
     assert json.loads(info.stdout)["sequences"][0]["format"] == "sensorlogger"
@@ -87,7 +70,7 @@ def test_predict_and_info_on_a_phone_zip(checkpoint, tmp_path):
     )
     assert result.exit_code == 0, result.output
     bad = tmp_path / "no-gyro.zip"
-    bad.write_bytes(phone.zip_bytes(phone.sensor_logger(duration_s=5.0, gyroscope=False)))
+    bad.write_bytes(zip_bytes(sensor_logger(duration_s=5.0, gyroscope=False)))
     failed = runner.invoke(app, ["predict", "--checkpoint", str(checkpoint), str(bad), "--out", str(out)])
     assert failed.exit_code == 2 and "no gyroscope" in " ".join(failed.stderr.split())
 

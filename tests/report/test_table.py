@@ -8,17 +8,9 @@ import json
 
 import numpy as np
 import pytest
-import torch
-from typer.testing import CliRunner
 
-import ftin.cli.report  # noqa: F401  (registers `table` and `bench` until ftin.cli imports it)
-from ftin.checkpoint import save_checkpoint
-from ftin.cli import app
-from ftin.cli.report import parse_dataset_options
-from ftin.data.readers.generic_csv import write_csv
+from ftin.cli.table import parse_dataset_options
 from ftin.metrics import Convention, describe
-from ftin.models import create_model
-from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.report import (
     PAPER_COLUMNS,
     ReportError,
@@ -31,68 +23,16 @@ from ftin.report import (
 )
 from ftin.report.evaluation import representative_sequence
 from ftin.report.render import improvement_percent
-from ftin.sim import SimConfig, simulate
+from tests.utils.tables import TINY_MODELS, dataset_options
 
-RATE_HZ = 50.0
-WINDOW = 25
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-FTIN_TINY = {**TINY_FTIN_KWARGS, "window": WINDOW}
-# Four of the table's nine models; ronin_lstm, rnin, imunet, tlio and resnet_tdl stay missing.
-TINY_MODELS = {
-    "ronin_resnet": {"window": WINDOW, "blocks_per_group": (1, 1, 1, 1), "trans_channels": 8, "fc_dim": 16},
-    "ronin_tcn": {"channels": (8, 8)},
-    "ftin": FTIN_TINY,
-    "resnet_fdl": FTIN_TINY,
-}
 MISSING_LABELS = ["RoNIN LSTM", "RNIN", "IMUNet", "TLIO", "+TDL"]
 
 
 @pytest.fixture(scope="module")
-def checkpoint_dir(tmp_path_factory):
-    directory = tmp_path_factory.mktemp("checkpoints")
-    for i, (name, kwargs) in enumerate(TINY_MODELS.items()):
-        torch.manual_seed(i)
-        meta = {
-            "model_name": name,
-            "imu_rate_hz": RATE_HZ,
-            "window": WINDOW,
-            "stride": 5,
-            "training_data": {"paths": ["sim/train"]},
-        }
-        save_checkpoint(directory / f"{name}_sim", create_model(name, **kwargs), meta)
-    # Files of a training run folder that are no checkpoint pair must be skipped.
-    (directory / "config.json").write_text("{}")
-    (directory / "resume.safetensors").write_bytes(b"")
-    return directory
-
-
-@pytest.fixture(scope="module")
-def data_dir(tmp_path_factory):
-    """Two datasets: "walk" (two sequences in one folder) and "pocket" (two files given separately)."""
-    root = tmp_path_factory.mktemp("data")
-    (root / "walk").mkdir()
-    for seed in (1, 2):
-        write_csv(
-            simulate(SimConfig(duration_s=12.0, rate_hz=RATE_HZ, seed=seed)), root / "walk" / f"w{seed}.csv"
-        )
-    for seed in (3, 4):
-        seq = simulate(SimConfig(duration_s=12.0, rate_hz=RATE_HZ, carry="pocket", seed=seed))
-        write_csv(seq, root / f"pocket{seed}.csv")
-    return root
-
-
-def dataset_options(data_dir) -> list[str]:
-    return [
-        f"walk={data_dir / 'walk'}",
-        f"pocket={data_dir / 'pocket3.csv'}",
-        f"pocket={data_dir / 'pocket4.csv'}",
-    ]
-
-
-@pytest.fixture(scope="module")
-def results(checkpoint_dir, data_dir):
-    checkpoints = load_checkpoints(find_checkpoints(checkpoint_dir))
-    datasets = load_datasets(parse_dataset_options(dataset_options(data_dir)))
+def results(table_checkpoints, table_data):
+    checkpoints = load_checkpoints(find_checkpoints(table_checkpoints))
+    datasets = load_datasets(parse_dataset_options(dataset_options(table_data)))
     calls = []
     results = evaluate_checkpoints(checkpoints, datasets, on_evaluation=lambda *args: calls.append(args))
     results.calls = calls  # the progress callback's record, for the test below
@@ -119,7 +59,7 @@ def test_parse_dataset_options_merges_repeated_names(tmp_path):
         find_checkpoints(tmp_path)
 
 
-def test_every_pair_evaluated_once(results, data_dir):
+def test_every_pair_evaluated_once(results, table_data):
     assert sorted(c.model_name for c in results.checkpoints) == sorted(TINY_MODELS)
     assert results.sequence_names == {"walk": ["w1", "w2"], "pocket": ["pocket3", "pocket4"]}
     assert len(results.calls) == len(TINY_MODELS) * 4 == len(set(results.calls))
@@ -232,80 +172,15 @@ def test_improvement_percent():
     assert improvement_percent(None, 1.0) is None and improvement_percent(0.0, 1.0) is None
 
 
-@pytest.fixture
-def two_of_one_model(tmp_path):
-    """``tcn-oxiod`` and ``tcn-sim``: two checkpoints for the RoNIN TCN column."""
-    directory = tmp_path / "checkpoints"
-    for i, name in enumerate(("tcn-oxiod", "tcn-sim")):
-        torch.manual_seed(i)
-        meta = {"model_name": "ronin_tcn", "imu_rate_hz": RATE_HZ, "window": WINDOW, "stride": 5}
-        save_checkpoint(directory / name, create_model("ronin_tcn", channels=(8,)), meta)
-    return directory
-
-
-def test_duplicate_model_is_an_error_unless_a_pattern_selects(two_of_one_model, checkpoint_dir):
+def test_duplicate_model_is_an_error_unless_a_pattern_selects(two_of_one_model, table_checkpoints):
     with pytest.raises(ReportError, match="2 checkpoints of model 'ronin_tcn'.*--pattern"):
         load_checkpoints(find_checkpoints(two_of_one_model))
     assert [p.name for p in find_checkpoints(two_of_one_model, ["*-oxiod"])] == ["tcn-oxiod"]
     assert [m.name for m in load_checkpoints(find_checkpoints(two_of_one_model, ["*-sim"]))] == ["tcn-sim"]
     # several patterns: any may match; a pattern matching nothing names what is there
-    both = find_checkpoints(checkpoint_dir, ["ronin_*", "ftin_sim"])
+    both = find_checkpoints(table_checkpoints, ["ronin_*", "ftin_sim"])
     assert [p.name for p in both] == ["ftin_sim", "ronin_resnet_sim", "ronin_tcn_sim"]
     with pytest.raises(
         ReportError, match=r"--pattern '\*-OXIOD' matches no checkpoint.*there: tcn-oxiod, tcn-sim"
     ):
         find_checkpoints(two_of_one_model, ["*-OXIOD"])
-
-
-runner = CliRunner()
-
-
-def test_cli_table(checkpoint_dir, data_dir, tmp_path):
-    options = [arg for value in dataset_options(data_dir)[:2] for arg in ("--dataset", value)]
-    out = tmp_path / "report"
-    result = runner.invoke(
-        app,
-        ["table", "--checkpoints", str(checkpoint_dir), *options, "--out", str(out), "--convention", "se2"],
-    )
-    assert result.exit_code == 0, result.output
-    for name in ("table.md", "table.csv", "results.json", "pde.png", "trajectories.png"):
-        assert (out / name).stat().st_size > 0
-    assert describe(Convention.SE2) in (out / "table.md").read_text()
-    assert json.loads((out / "results.json").read_text())["convention"] == "se2"
-    assert "table.md" in result.output
-
-
-def test_cli_table_pattern(two_of_one_model, data_dir, tmp_path):
-    dataset = f"pocket={data_dir / 'pocket3.csv'}"
-    out = tmp_path / "report"
-    base = ["table", "--checkpoints", str(two_of_one_model), "--dataset", dataset, "--out", str(out)]
-    result = runner.invoke(app, base)
-    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
-    assert "2 checkpoints of model 'ronin_tcn'" in result.output and not out.exists()
-
-    result = runner.invoke(app, [*base, "--pattern", "*-oxiod"])
-    assert result.exit_code == 0, result.output
-    data = json.loads((out / "results.json").read_text())
-    assert [c["name"] for c in data["checkpoints"]] == ["tcn-oxiod"]
-    assert "`tcn-oxiod`" in (out / "table.md").read_text() and "tcn-sim" not in (out / "table.md").read_text()
-
-
-@pytest.mark.parametrize(
-    ("args", "message"),
-    [
-        (["--checkpoints", "{tmp}/missing", "--dataset", "x={data}"], "no such folder"),
-        (
-            ["--checkpoints", "{ckpt}", "--dataset", "x={data}", "--pattern", "*-euroc"],
-            "matches no checkpoint",
-        ),
-        (["--checkpoints", "{ckpt}", "--dataset", "no-equals-sign"], "expected NAME=PATH"),
-        (["--checkpoints", "{ckpt}", "--dataset", "x={tmp}/nothing.csv"], "no such file"),
-    ],
-)
-def test_cli_table_bad_input(args, message, checkpoint_dir, data_dir, tmp_path):
-    args = [a.format(tmp=tmp_path, data=data_dir / "walk", ckpt=checkpoint_dir) for a in args]
-    result = runner.invoke(app, ["table", *args, "--out", str(tmp_path / "out")])
-    assert result.exit_code == 2
-    lines = result.output.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], result.output
-    assert not (tmp_path / "out").exists()

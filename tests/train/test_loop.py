@@ -13,27 +13,14 @@ from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train import ConfigError, TrainConfig, load_model, train
 from ftin.train.distributed import stop_signals
 from ftin.train.losses import velocity_loss
+from tests.utils.checkpoints import tiny_train_config
 
 RATE_HZ = 50.0  # the sim_sequences fixture's rate
 WINDOW = 25
-TINY_TCN = {"channels": (8, 8), "kernel_size": 3}
 
 
 def _config(tmp_path, **changes) -> TrainConfig:
-    base = dict(
-        model="ronin_tcn",
-        model_kwargs=TINY_TCN,
-        data=("sim",),
-        out_dir=str(tmp_path / "run"),
-        window=WINDOW,
-        stride=5,
-        batch_size=64,
-        lr=1e-3,
-        max_epochs=2,
-        seed=7,
-    )
-    base.update(changes)
-    return TrainConfig(**base)
+    return tiny_train_config(tmp_path / "run", **changes)
 
 
 def _weights(run_dir, name="ronin_tcn"):

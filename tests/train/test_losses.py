@@ -19,6 +19,7 @@ from ftin.train.losses import (
     validation_blocks,
     velocity_loss,
 )
+from tests.utils.checkpoints import tiny_train_config
 
 RATE_HZ = 50.0  # the sim_sequences fixture's rate
 PRED = torch.tensor([[[1.0, -2.0], [0.5, 0.0], [3.0, 1.0]]])  # (B=1, K=3, D=2)
@@ -115,19 +116,7 @@ def test_tiny_sequence_models_learn_with_their_reference_loss(name, sim_sequence
 
 def _config(tmp_path, name: str, **changes) -> TrainConfig:
     kwargs, window = TINY_SEQUENCE_MODELS[name]
-    base = dict(
-        model=name,
-        model_kwargs=kwargs,
-        data=("sim",),
-        out_dir=str(tmp_path / "run"),
-        window=window,
-        stride=5,
-        batch_size=64,
-        lr=1e-3,
-        max_epochs=2,
-        seed=7,
-    )
-    return TrainConfig(**{**base, **changes})
+    return tiny_train_config(tmp_path / "run", model=name, model_kwargs=kwargs, window=window, **changes)
 
 
 def test_lstm_run_resumes_exactly(tmp_path, sim_sequences):

@@ -6,7 +6,6 @@ import torch
 from scipy.spatial.transform import Rotation
 
 from ftin.data.errors import DataFormatError
-from ftin.data.preprocess import world_frame_imu
 from ftin.data.types import Trajectory
 from ftin.data.windows import (
     InputNormalization,
@@ -17,6 +16,7 @@ from ftin.data.windows import (
     part_velocity_targets,
     rotate_yaw,
     window_starts,
+    world_imu,
 )
 
 
@@ -35,7 +35,7 @@ def test_make_windows_inputs_and_targets(sim_sequences):
     assert w.x.dtype == np.float32 and w.v.dtype == np.float32
     assert w.x.shape == (len(w.start), 6, 25) and w.v.shape == (len(w.start), 2)
     assert w.start[0] == 0 and np.all(np.diff(w.start) == 7) and w.start[-1] + 25 <= n - 1
-    gyro_w, acc_w = world_frame_imu(seq)
+    gyro_w, acc_w = np.split(world_imu(seq, np.float64), 2, axis=1)
     k = 40  # 5.6 s in: walking, not the initial stand
     s = int(w.start[k])
     np.testing.assert_allclose(w.x[k, 0:3], gyro_w[s : s + 25].T, rtol=1e-6, atol=1e-6)

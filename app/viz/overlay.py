@@ -1,0 +1,217 @@
+"""Drawing of runs in the 3D scene: overlay a run on its sequence (ground truth, grid and camera
+framed once per sequence, a repeat replacing its predecessor), clear everything, and keep the
+"Runs" folder and the plots' run menu in step with what is drawn."""
+
+from __future__ import annotations
+
+import threading
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import viser
+
+from app.services import Services
+from app.services.runs import Run
+from app.viz.drawing import GridNodes, PathNodes, draw_grid, draw_path, extent_of
+from app.viz.palette import TRUTH_COLOR, ColorBook
+from app.viz.panels import NO_RUN, ErrorPanel, SpectraPanel
+from app.viz.summary import legend_html, metrics_markdown
+from app.viz.views import RunView
+from ftin.data import ImuSequence
+
+TRUTH_PREFIX = "/truth"
+UPLOADED = " (uploaded)"
+
+
+def _sequence_key(run: Run) -> tuple[Any, ...]:
+    seq = run.sequence
+    return (run.sequence_id or seq.name, len(seq), float(seq.t_s[0]), float(seq.t_s[-1]))
+
+
+class SceneOverlay:
+    """Mixin of ``DashboardScene``: what is drawn (state lives on the scene)."""
+
+    server: viser.ViserServer
+    services: Services
+    _lock: threading.RLock
+    _colors: ColorBook
+    _views: dict[str, RunView]
+    _nodes: dict[str, PathNodes]
+    _truth: PathNodes | None
+    _grid: GridNodes | None
+    _frame_box: tuple[np.ndarray, float] | None
+    _sequence_key: tuple[Any, ...] | None
+    _uploaded: tuple[str, ImuSequence] | None
+    _marker_radius: float
+    _playing: bool
+    _syncing: bool
+    _sequence_ids: dict[str, str]
+    gui_dataset: viser.GuiDropdownHandle
+    gui_sequence: viser.GuiDropdownHandle
+    gui_play: viser.GuiButtonHandle
+    gui_time: viser.GuiSliderHandle
+    gui_legend: viser.GuiHtmlHandle
+    gui_metrics: viser.GuiMarkdownHandle
+    spectra: SpectraPanel
+    errors: ErrorPanel
+
+    if TYPE_CHECKING:  # provided by the other mixins of DashboardScene
+
+        def _sequence_options(self, dataset_label: str) -> list[str]: ...
+
+        def _update_time(self) -> None: ...
+
+    def show_run(self, run: Run) -> None:
+        """Overlay ``run`` (replacing runs of another sequence, and a repeat of the same model on
+        this sequence); idempotent."""
+        entry = self.services.models.entries.get(run.model_name)
+        loaded = entry.loaded if entry is not None else None
+        window_s = float(loaded.window) / float(loaded.imu_rate_hz) if loaded is not None else 1.0
+        view = RunView.from_run(run, self._colors.color(run.model_name), window_s, loaded)
+        with self._lock, self.server.atomic():
+            if run.run_id in self._views:
+                return
+            key = _sequence_key(run)
+            if key != self._sequence_key:
+                self._clear()
+                self._sequence_key = key
+                self._frame(run, view)
+                self._select_sequence(run)
+            # A repeat takes its predecessor's place (and its row in the legend and the table).
+            views = {}
+            for old_id, old in self._views.items():
+                if old.model_name == run.model_name:
+                    self._nodes.pop(old_id).remove()
+                    views[run.run_id] = view
+                else:
+                    views[old_id] = old
+            views.setdefault(run.run_id, view)
+            self._views = views
+            self._nodes[run.run_id] = draw_path(
+                self.server.scene,
+                f"/runs/{run.run_id}",
+                "pred",
+                view.trajectory,
+                view.color,
+                self._marker_radius,
+            )
+            self._reframe_if_outside(view)
+            self._refresh_panels(select=view)
+            self._update_time()
+
+    def _select_sequence(self, run: Run) -> None:
+        """Make the Data menus show the recording now on screen."""
+        entry = self.services.catalog.entries.get(run.sequence_id or "")
+        if entry is not None:
+            self._uploaded = None
+            label = entry.dataset_label or entry.dataset
+            if self.gui_dataset.value != label:
+                self._syncing = True
+                try:
+                    self.gui_dataset.value = label  # refreshes the Sequence options
+                finally:
+                    self._syncing = False
+            else:
+                self.gui_sequence.options = self._sequence_options(label)
+            name = next((k for k, v in self._sequence_ids.items() if v == entry.id), None)
+            if name is not None:
+                self.gui_sequence.value = name
+            return
+        self._uploaded = (f"{run.sequence.name}{UPLOADED}", run.sequence)
+        self.gui_sequence.options = self._sequence_options(self.gui_dataset.value)
+        self.gui_sequence.value = self._uploaded[0]
+
+    def _frame(self, run: Run, view: RunView) -> None:
+        """New sequence: grid, ground truth, timeline range and camera, sized to this recording."""
+        seq = run.sequence
+        shown = [view.trajectory] + ([seq.gt] if seq.gt is not None else [])
+        centre, size = extent_of(shown)
+        self._marker_radius = max(0.01 * size, 0.05)
+        self._place_grid_and_camera(centre, size)
+        if seq.gt is not None:
+            self._truth = draw_path(
+                self.server.scene, TRUTH_PREFIX, "path", seq.gt, TRUTH_COLOR, self._marker_radius
+            )
+        duration = max(float(seq.t_s[-1] - seq.t_s[0]), 0.05)
+        step = 0.05 if duration < 600 else 0.5
+        self.gui_time.max = round(duration, 2)
+        self.gui_time.step = step
+        self.gui_time.value = 0.0
+        self.gui_time.disabled = False
+        self.gui_play.disabled = False
+
+    def _place_grid_and_camera(self, centre: np.ndarray, size: float) -> None:
+        if self._grid is not None:
+            self._grid.remove()
+        self._grid = draw_grid(self.server.scene, centre, size)
+        self._frame_box = (centre, size)
+        eye = centre + np.array([0.0, -0.45 * size, 1.1 * size])  # from above, tilted towards +y
+        self.server.initial_camera.position = tuple(eye)
+        self.server.initial_camera.look_at = tuple(centre)
+        for client in self.server.get_clients().values():
+            client.camera.position = eye
+            client.camera.look_at = centre
+
+    def _reframe_if_outside(self, view: RunView) -> None:
+        """A path that leaves the framed square re-frames grid and camera around everything shown."""
+        if self._frame_box is None:
+            return
+        centre, size = self._frame_box
+        p = view.trajectory.p_world_m[:, :2]
+        half = 0.5 * size * 1.15
+        if np.all(np.abs(p - centre[:2]) <= half):
+            return
+        shown = [v.trajectory for v in self._views.values()]
+        if self._views:
+            first = next(iter(self._views.values()))
+            if first.sequence.gt is not None:
+                shown.append(first.sequence.gt)
+        self._place_grid_and_camera(*extent_of(shown))
+
+    def _clear(self) -> None:
+        self._playing = False
+        for nodes in self._nodes.values():
+            nodes.remove()
+        self._nodes.clear()
+        self._views.clear()
+        if self._truth is not None:
+            self._truth.remove()
+            self._truth = None
+        if self._grid is not None:
+            self._grid.remove()
+            self._grid = None
+        self._frame_box = None
+        self._sequence_key = None
+        if self._uploaded is not None:
+            self._uploaded = None
+            self.gui_sequence.options = self._sequence_options(self.gui_dataset.value)
+        self.gui_time.value = 0.0
+        self.gui_time.disabled = True
+        self.gui_play.disabled = True
+        self._refresh_panels(select=None)
+        self.spectra.clear()
+        self.errors.clear()
+
+    def _run_label(self, view: RunView) -> str:
+        return f"{view.model_name} on {view.sequence.name}"
+
+    def _plotted_view(self) -> RunView | None:
+        label = self.spectra.gui_run.value
+        for view in self._views.values():
+            if self._run_label(view) == label:
+                return view
+        return None
+
+    def _refresh_panels(self, select: RunView | None) -> None:
+        views = list(self._views.values())
+        labels = [self._run_label(v) for v in views] or [NO_RUN]
+        self.spectra.gui_run.options = labels
+        if select is not None:
+            # Prefer a run with FDL spectra for the plots; a later run of another model keeps it.
+            current = self._plotted_view()
+            if current is None or (select.has_spectra and not current.has_spectra):
+                self.spectra.gui_run.value = self._run_label(select)
+        self.gui_legend.content = legend_html(
+            views, self._truth is not None, self._grid.caption if self._grid is not None else None
+        )
+        self.gui_metrics.content = metrics_markdown(views)

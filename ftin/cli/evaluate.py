@@ -1,0 +1,99 @@
+"""``ftin evaluate``: a thin caller of ``ftin.evaluate``; one table per checkpoint, the convention
+and alignment in words, the stand-still row beside the numbers."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from ftin.checkpoint import atomic_write_text, load_model
+from ftin.cli.common import (
+    MODEL_ERRORS,
+    CheckpointOption,
+    ConventionOption,
+    RteWindowOption,
+    app,
+    progress_bar,
+    user_errors,
+)
+from ftin.data.loading import load_sequences
+from ftin.evaluate import evaluate_checkpoint
+from ftin.metrics import Alignment, Convention
+
+
+@app.command("evaluate")
+def evaluate_command(
+    checkpoint: CheckpointOption,
+    data: Annotated[list[Path], typer.Option("--data", help="Sequences with ground truth (repeatable).")],
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the report as JSON here.")
+    ] = None,
+    convention: ConventionOption = Convention.RONIN,
+    rte_window_s: RteWindowOption = 60.0,
+    align: Annotated[
+        Alignment | None,
+        typer.Option(
+            "--align",
+            help="none (RoNIN: raw), start (heading + start fitted on the first 10 s, like evo "
+            "--n_to_align), se2 or se3 (whole-trajectory Umeyama, like evo --align); sets the convention. "
+            "Default: start where the ground truth may be in another world frame, else none.",
+        ),
+    ] = None,
+) -> None:
+    """ATE / RTE / PDE of a checkpoint per sequence and their mean, under a stated convention."""
+    with user_errors(*MODEL_ERRORS):
+        loaded = load_model(checkpoint)
+        sequences = load_sequences(data, "--data")
+        with progress_bar() as bar:
+            task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
+
+            def advance(name: str) -> None:
+                bar.update(task, description=f"evaluating {escape(name)}", advance=1)
+
+            report = evaluate_checkpoint(
+                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance, alignment=align
+            )
+        if json_out is not None:
+            atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
+    table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
+    table.add_column("sequence", overflow="fold")
+    for header in ("duration", "ATE (m)", "RTE (m)", "PDE", "path ratio", "stand-still ATE"):
+        table.add_column(header, justify="right", no_wrap=True)
+
+    def cells(m: Any) -> list[str]:
+        ratio = "-" if m.path_length_ratio is None else f"{m.path_length_ratio:.2f}"
+        return [f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}", ratio]
+
+    for r in report.sequences:
+        still = "-" if r.stand_still is None else f"{r.stand_still.ate:.3f}"
+        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", *cells(r.metrics), still)
+    table.add_section()
+    still = "-" if report.stand_still is None else f"{report.stand_still.ate:.3f}"
+    table.add_row("mean", "", *cells(report.mean), still)
+    if report.stand_still is not None:
+        table.add_row("[dim]stand still (never moves)[/]", "", *cells(report.stand_still), "")
+    console = Console()
+    console.print(table)
+    console.print(report.describe(), highlight=False, soft_wrap=True)
+    aligned = [r for r in report.sequences if r.metrics.alignment is not None]
+    if aligned:
+        shown = "; ".join(
+            f"{r.name}: {r.metrics.alignment}"
+            + ("" if r.metrics.heading_deg is None else f" (heading {r.metrics.heading_deg:+.1f}°)")
+            for r in aligned
+        )
+        console.print(f"alignment: {escape(shown)}", highlight=False, soft_wrap=True)
+    console.print(
+        "path ratio = predicted / true horizontal path length (1 = the right distance); "
+        "stand still = a predictor that never moves, scored the same way: a useful model is well below it.",
+        highlight=False,
+        soft_wrap=True,
+    )
+    if json_out is not None:
+        typer.echo(f"wrote {json_out}")

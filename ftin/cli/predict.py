@@ -1,0 +1,116 @@
+"""``ftin predict``: a thin caller of ``ftin.infer``; writes one recording's trajectory as CSV or
+TUM (and its ground truth in the same frame)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.markup import escape
+
+from ftin.checkpoint import atomic_write_text, load_model
+from ftin.cli.common import MODEL_ERRORS, CheckpointOption, app, err_console, progress_bar, user_errors
+from ftin.data.errors import DataFormatError
+from ftin.data.readers import read_sequence
+from ftin.data.trajectory_io import at_times, tum_text
+from ftin.evaluate import score
+from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+from ftin.metrics import Alignment
+
+PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
+
+
+@app.command("predict")
+def predict_command(
+    checkpoint: CheckpointOption,
+    input_path: Annotated[
+        Path, typer.Argument(metavar="INPUT", help="One recording: a file, a folder or a phone app ZIP.")
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", help="Trajectory to write: CSV (t,x,y,z), or TUM when it ends in .tum.")
+    ],
+    stride: Annotated[
+        int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
+    ] = None,
+    timestamps: Annotated[
+        str,
+        typer.Option(
+            "--timestamps",
+            help="model: the samples the model ran on (the checkpoint's rate); input: the recording's own.",
+        ),
+    ] = "model",
+    align: Annotated[
+        Alignment | None,
+        typer.Option("--align", help="Alignment for the printed metrics (see ftin evaluate --align)."),
+    ] = None,
+    gt_out: Annotated[
+        Path | None,
+        typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),
+    ] = None,
+) -> None:
+    """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
+    CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
+    if timestamps not in ("model", "input"):
+        raise typer.BadParameter("must be 'model' or 'input'", param_hint="--timestamps")
+
+    with user_errors(*MODEL_ERRORS):
+        loaded = load_model(checkpoint)
+        seq = read_sequence(input_path)
+        with progress_bar() as bar:
+            task = None
+
+            def report(done: int, total: int) -> None:
+                nonlocal task
+                if task is None:
+                    task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
+                bar.update(task, completed=done)
+
+            prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
+        shown_gt = seq.gt
+        scored = score(prediction, align)
+        if scored is not None:
+            prediction.metrics = scored.metrics
+            prediction.warnings.extend(scored.warnings)
+            if scored.fit is not None and seq.gt is not None:
+                shown_gt = scored.fit.gt_in_estimate_frame(seq.gt)
+        trajectory = prediction.trajectory
+        if timestamps == "input":
+            trajectory = at_times(trajectory, seq.t_s)
+        if prediction.frame == FRAME_GROUND_TRUTH:
+            frame = "ground-truth world frame (the input has ground truth; the estimate starts at its start)"
+        else:
+            frame = "device world frame (gravity-aligned, z up, arbitrary heading; starts at the origin)"
+        header = [
+            f"ftin predict: checkpoint {loaded.name} ({loaded.model_name}), input {input_path}",
+            f"frame: {frame}",
+            f"orientation: {prediction.orientation_source}; units: t in s, x y z in m",
+        ]
+        if out.suffix.lower() == ".tum":
+            atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
+        else:
+            atomic_write_text(out, trajectory_csv(trajectory.t_s, trajectory.p_world_m, header))
+        if gt_out is not None:
+            if shown_gt is None:
+                raise DataFormatError(f"{input_path}: no ground truth to write to {gt_out}")
+            note = f"ground truth of {input_path}, in {out.name}'s frame"
+            atomic_write_text(gt_out, tum_text(shown_gt, note))
+    for warning in prediction.warnings:
+        err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
+    typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
+    if prediction.metrics is not None:
+        m = prediction.metrics
+        heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"
+        typer.echo(
+            f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
+            f"alignment {m.alignment}{heading})"
+        )
+
+
+def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:
+    """``# `` comment lines, then ``t,x,y,z`` rows (µs and µm resolution)."""
+    lines = [f"# {line}" for line in header] + ["t,x,y,z"]
+    rows = np.column_stack([t_s, p_world_m])
+    lines += [f"{t:.6f},{x:.6f},{y:.6f},{z:.6f}" for t, x, y, z in rows]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,118 @@
+"""``ftin table``: a thin caller of ``ftin.report`` (the paper's Table 1 from checkpoints, or the
+training campaign's collected results).
+
+Expected failures (bad options, unreadable checkpoints or data) print one ``error:`` line and exit
+with status 2; progress goes to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from ftin.checkpoint import atomic_write_text
+from ftin.cli.common import REPORT_ERRORS, ConventionOption, RteWindowOption, app, progress_bar, user_errors
+from ftin.metrics import Convention
+from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
+from ftin.report.campaign import ate_figure, load_results, render
+from ftin.report.figures import write_png
+from ftin.report.results import DatasetSpec, ReportError
+
+
+@app.command("table")
+def table_command(
+    out: Annotated[Path, typer.Option("--out", help="Folder for table.md/.csv, results.json, figures.")],
+    checkpoints: Annotated[
+        Path | None, typer.Option("--checkpoints", help="Folder of checkpoints (<name>.safetensors + .json).")
+    ] = None,
+    dataset: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--dataset",
+            help="NAME=PATH: a file or folder of sequences with ground truth; repeat a NAME to add paths.",
+        ),
+    ] = None,
+    campaign: Annotated[
+        Path | None,
+        typer.Option(
+            "--campaign",
+            help="Instead of evaluating checkpoints: the training campaign's collected results "
+            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row.",
+        ),
+    ] = None,
+    pattern: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--pattern",
+            help="Use only checkpoints whose name matches this glob, e.g. '*-oxiod' (repeatable: any "
+            "matches). Needed when the folder holds two checkpoints of one model.",
+        ),
+    ] = None,
+    convention: ConventionOption = Convention.RONIN,
+    rte_window_s: RteWindowOption = 60.0,
+    stride: Annotated[
+        int | None, typer.Option("--stride", min=1, help="Window step (default: each checkpoint's).")
+    ] = None,
+) -> None:
+    """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
+    trajectory figures, for every checkpoint in a folder on every dataset."""
+    if campaign is not None:
+        _campaign_table(campaign, out)
+        return
+    with user_errors(*REPORT_ERRORS):
+        if checkpoints is None or not dataset:
+            raise ValueError("--checkpoints and --dataset are required (or --campaign DIR)")
+        specs = parse_dataset_options(dataset)
+        loaded = load_checkpoints(find_checkpoints(checkpoints, pattern or ()))
+        datasets = load_datasets(specs)
+        total = len(loaded) * sum(len(d.sequences) for d in datasets)
+        with progress_bar() as bar:
+            task = bar.add_task("evaluating", total=total)
+
+            def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
+                bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)
+
+            results = evaluate_checkpoints(
+                loaded, datasets, convention, rte_window_s=rte_window_s, stride=stride, on_evaluation=advance
+            )
+        files = write_report(results, out)
+    console = Console()
+    console.print(files.table_md.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    for path in (files.table_md, files.table_csv, files.results_json, files.pde_png, files.trajectories_png):
+        typer.echo(f"wrote {path}")
+
+
+def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> list[DatasetSpec]:
+    """``NAME=PATH`` strings to specs; a repeated NAME adds paths to it (first-seen order kept)."""
+    paths: dict[str, list[Path]] = {}
+    for value in values:
+        name, sep, path = value.partition("=")
+        name, path = name.strip(), path.strip()
+        if not sep or not name or not path:
+            raise ReportError(f"{option} {value!r}: expected NAME=PATH, e.g. {option} OxIOD=data/oxiod")
+        paths.setdefault(name, []).append(Path(path).expanduser())
+    if not paths:
+        raise ReportError(f"{option}: give at least one NAME=PATH")
+    return [DatasetSpec(name, tuple(p)) for name, p in paths.items()]
+
+
+def _campaign_table(folder: Path, out: Path) -> None:
+    with user_errors(*REPORT_ERRORS):
+        results, manifest = load_results(folder)
+        table_md, table_csv, summary = render(results, manifest)
+        out.mkdir(parents=True, exist_ok=True)
+        names = ("table.md", "table.csv", "campaign_results.json", "campaign_ate.png")
+        written = [out / name for name in names]
+        atomic_write_text(written[0], table_md)
+        atomic_write_text(written[1], table_csv)
+        atomic_write_text(written[2], json.dumps(summary, indent=1) + "\n")
+        write_png(ate_figure(summary), written[3])
+    Console().print(table_md, markup=False, highlight=False, soft_wrap=True)
+    for path in written:
+        typer.echo(f"wrote {path}")

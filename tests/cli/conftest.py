@@ -1,0 +1,32 @@
+"""Fixtures of the command-line tests: simulated walks as CSV files and one tiny trained run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ftin.cli import app
+from ftin.data.readers.generic_csv import write_csv
+from tests.utils.cli import FAST, TINY, runner
+
+
+@pytest.fixture(scope="session")
+def data_dir(tmp_path_factory, sim_sequences) -> Path:
+    """The three simulated walks of ``sim_sequences`` as generic CSV files."""
+    folder = tmp_path_factory.mktemp("data")
+    for seq in sim_sequences:
+        write_csv(seq, folder / f"{seq.name}.csv")
+    return folder
+
+
+@pytest.fixture(scope="session")
+def trained(tmp_path_factory, data_dir) -> Path:
+    """A run folder after ``ftin train`` of a tiny TCN for one epoch."""
+    run = tmp_path_factory.mktemp("runs") / "tcn"
+    result = runner.invoke(
+        app, ["train", *TINY, *FAST, "--data", str(data_dir), "--out", str(run), "--epochs", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "max_epochs: 1 epoch(s)" in result.stdout and "checkpoint:" in result.stdout
+    return run
