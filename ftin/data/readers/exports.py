@@ -25,9 +25,10 @@ Decisions:
 from __future__ import annotations
 
 import io
+import os
 import zipfile
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -180,6 +181,54 @@ def open_export(path: Path) -> ExportFiles:
         except OSError as exc:
             raise DataFormatError(f"{path}: cannot read file ({exc.strerror or exc})") from None
     return read_folder(path.parent)
+
+
+def claims_export(
+    path: Path, is_member: Callable[[str], bool], looks_right: Callable[[str, bytes], bool]
+) -> bool:
+    """Whether ``path`` (a ZIP, a folder, or one member file of a folder) is an export of one app:
+    some member accepted by ``is_member(name)`` whose first bytes ``looks_right(name, head)``."""
+    path = Path(path)
+    if path.is_file() and path.suffix.lower() == ".zip":
+        return any(looks_right(name, head) for name, head in zip_heads(path).items())
+    folder = path.parent if path.is_file() and is_member(path.name) else path
+    if not folder.is_dir():
+        return False
+    try:
+        names = [n for n in os.listdir(folder) if is_member(n)]
+    except OSError:
+        return False
+    for name in names:
+        try:
+            with open(folder / name, "rb") as handle:
+                if looks_right(name, handle.read(4096)):
+                    return True
+        except OSError:
+            continue
+    return False
+
+
+def discover_exports(
+    root: Path,
+    claims: Callable[[Path], bool],
+    has_member: Callable[[list[str]], bool],
+    skip_folder: str | None = None,
+) -> list[Path]:
+    """Export folders (some file ``has_member`` and ``claims`` it) and ZIP files ``claims`` takes,
+    under ``root`` (itself included); folders named ``skip_folder`` (phyphox's ``meta``) are not."""
+    root = Path(root)
+    if root.is_file():
+        return [root] if claims(root) else []
+    found: list[Path] = []
+    for folder, _dirs, files in os.walk(root):
+        if skip_folder is not None and Path(folder).name.lower() == skip_folder:
+            continue
+        if has_member(files) and claims(Path(folder)):
+            found.append(Path(folder))
+        found.extend(
+            Path(folder) / f for f in files if f.lower().endswith(".zip") and claims(Path(folder) / f)
+        )
+    return sorted(found)
 
 
 def zip_heads(path: Path, size: int = 4096) -> dict[str, bytes]:

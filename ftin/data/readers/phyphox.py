@@ -24,7 +24,6 @@ Decisions:
 from __future__ import annotations
 
 import io
-import os
 import re
 from pathlib import Path
 from typing import Any
@@ -89,41 +88,16 @@ def is_phyphox_csv(data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    path = Path(path)
-    if path.is_file() and path.suffix.lower() == ".zip":
-        return any(is_phyphox_csv(head) for head in exports.zip_heads(path).values())
-    folder = path.parent if path.is_file() and path.suffix.lower() == ".csv" else path
-    if not folder.is_dir():
-        return False
-    try:
-        names = [n for n in os.listdir(folder) if n.lower().endswith(".csv")]
-    except OSError:
-        return False
-    for name in names:
-        try:
-            with open(folder / name, "rb") as handle:
-                if is_phyphox_csv(handle.read(4096)):
-                    return True
-        except OSError:
-            continue
-    return False
+    return exports.claims_export(
+        path, lambda name: name.lower().endswith(".csv"), lambda _n, head: is_phyphox_csv(head)
+    )
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    root = Path(root)
-    if root.is_file():
-        return [root] if claims(root) else []
-    found: list[Path] = []
-    for folder, _dirs, files in os.walk(root):
-        if Path(folder).name.lower() == "meta":
-            continue
-        if any(f.lower().endswith(".csv") for f in files) and claims(Path(folder)):
-            found.append(Path(folder))
-        found.extend(
-            Path(folder) / f for f in files if f.lower().endswith(".zip") and claims(Path(folder) / f)
-        )
-    return sorted(found)
+    return exports.discover_exports(
+        root, claims, lambda files: any(f.lower().endswith(".csv") for f in files), skip_folder="meta"
+    )
 
 
 def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, SensorSeries, float]]:

@@ -28,7 +28,6 @@ Decisions (each checked on the shared iPhone 12 mini and Xiaomi exports, see the
 from __future__ import annotations
 
 import io
-import os
 from pathlib import Path
 from typing import Any
 
@@ -78,40 +77,14 @@ def looks_like_sensor_file(name: str, data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    path = Path(path)
-    if path.is_file() and path.suffix.lower() == ".zip":
-        return any(looks_like_sensor_file(name, head) for name, head in exports.zip_heads(path).items())
-    folder = path.parent if path.is_file() and path.name.lower() in KNOWN_FILES else path
-    if not folder.is_dir():
-        return False
-    try:
-        names = [n for n in os.listdir(folder) if n.lower() in KNOWN_FILES]
-    except OSError:
-        return False
-    for name in names:
-        try:
-            with open(folder / name, "rb") as handle:
-                if looks_like_sensor_file(name, handle.read(4096)):
-                    return True
-        except OSError:
-            continue
-    return False
+    return exports.claims_export(path, lambda name: name.lower() in KNOWN_FILES, looks_like_sensor_file)
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    root = Path(root)
-    if root.is_file():
-        return [root] if claims(root) else []
-    found: list[Path] = []
-    for folder, _dirs, files in os.walk(root):
-        lowered = {f.lower() for f in files}
-        if lowered & KNOWN_FILES and claims(Path(folder)):
-            found.append(Path(folder))
-        found.extend(
-            Path(folder) / f for f in files if f.lower().endswith(".zip") and claims(Path(folder) / f)
-        )
-    return sorted(found)
+    return exports.discover_exports(
+        root, claims, lambda files: bool({f.lower() for f in files} & KNOWN_FILES)
+    )
 
 
 # --- parsing --------------------------------------------------------------------------------------
