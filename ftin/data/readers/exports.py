@@ -1,7 +1,8 @@
 """What phone sensor-logger apps share: a folder of per-sensor CSVs, or the same as a ZIP.
 
 Shared by the Sensor Logger and phyphox readers: opening an export (folder or ZIP) as an in-memory
-set of files, and merging sensors recorded on different clocks onto one uniform clock.
+set of files, recognising and discovering exports. Their sensors are merged onto one clock in
+``ftin.data.readers.sensor_clock``.
 
 Decisions:
 
@@ -13,13 +14,6 @@ Decisions:
 * An export is one folder of CSVs. A ZIP whose CSVs sit in one top-level folder (what "compress"
   in a file manager makes) is the same export. CSVs in ``meta/`` (phyphox) and ``__MACOSX/`` are
   not sensor files.
-* Merging (``common_clock``, ``on_clock``): the clock is uniform, at the rate of the slower of the two
-  required IMU sensors (the fastest rate both have), over the time span every required sensor
-  covers. A sensor sampled faster than the clock is first averaged over each clock interval (the
-  exact mean of its linear interpolant, from the running integral), so a 500 Hz gyroscope beside a
-  100 Hz accelerometer keeps the rotation it measured instead of aliasing; slower or equal sensors
-  are interpolated linearly. Gaps are bridged by interpolation and reported in the warnings; a gap
-  longer than ``MAX_BRIDGED_GAP_S`` is an error naming the sensor and the time.
 """
 
 from __future__ import annotations
@@ -31,19 +25,15 @@ import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
-from scipy.signal import butter, sosfiltfilt
 
-from ftin.data import frames, validate
 from ftin.data.errors import DataFormatError
 
 MAX_UNCOMPRESSED_BYTES = 2 * 1024**3  # 2 GiB of CSV text: several hours of every sensor at 200 Hz
 MAX_MEMBERS = 1000
 MAX_RATIO = 200.0  # CSV text compresses 3-10x; a bomb compresses 1000x
-MAX_BRIDGED_GAP_S = 5.0  # a phone app paused for a moment; longer is another recording
-MIN_OVERLAP_S = 1.0
 ZIP_MAGIC = b"PK\x03\x04"
 EMPTY_ZIP_MAGIC = b"PK\x05\x06"
 GZIP_MAGIC = b"\x1f\x8b"
@@ -231,6 +221,23 @@ def discover_exports(
     return sorted(found)
 
 
+def export_name(path: Path) -> str:
+    """An export's name: a ZIP's stem, a folder's name, or the folder of one of its member files."""
+    path = Path(path)
+    if path.is_file() and path.suffix.lower() == ".zip":
+        return path.stem
+    return (path if path.is_dir() else path.parent).name
+
+
+def without_overflow_warnings(
+    read_body: Callable[[ExportFiles, str], Any], files: ExportFiles, name: str
+) -> Any:
+    """``read_body(files, name)`` with numpy's overflow warnings off: corrupt values are refused by
+    name (``check_imu``, ``validate``), not warned about on the way."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return read_body(files, name)
+
+
 def zip_heads(path: Path, size: int = 4096) -> dict[str, bytes]:
     """The first ``size`` bytes of every sensor CSV of a ZIP file (cheap format detection), or {}."""
     try:
@@ -260,226 +267,3 @@ def first_line(data: bytes) -> str:
 
 
 # --- clocks ---------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SensorSeries:
-    """One sensor as recorded: its own timestamps (s, common origin) and values."""
-
-    name: str  # for messages: "Gyroscope.csv"
-    t_s: np.ndarray  # (N,)
-    values: np.ndarray  # (N, C)
-
-    @property
-    def rate_hz(self) -> float:
-        return float(1.0 / np.median(np.diff(self.t_s))) if len(self.t_s) > 1 else 0.0
-
-
-def clean_series(series: SensorSeries, source: str, warnings: list[str]) -> SensorSeries:
-    """Drop rows with non-finite values and repeated or backward timestamps (reported, not fatal)."""
-    t, v = series.t_s, series.values
-    ok = np.isfinite(t) & np.isfinite(v).all(axis=1)
-    if not ok.all():
-        warnings.append(f"{series.name}: dropped {int((~ok).sum())} rows with empty or non-numeric values")
-        t, v = t[ok], v[ok]
-    order = np.argsort(t, kind="stable")
-    if (np.diff(order) < 0).any():
-        warnings.append(f"{series.name}: rows were not in time order; sorted")
-        t, v = t[order], v[order]
-    keep = np.concatenate([[True], np.diff(t) > 0])
-    if not keep.all():
-        warnings.append(f"{series.name}: dropped {int((~keep).sum())} rows with a repeated timestamp")
-        t, v = t[keep], v[keep]
-    if len(t) < 2:
-        raise DataFormatError(f"{source}: {series.name} has {len(t)} usable rows; a recording needs more")
-    return SensorSeries(series.name, t, v)
-
-
-def _check_gaps(series: SensorSeries, source: str, warnings: list[str]) -> None:
-    dt = np.diff(series.t_s)
-    median = float(np.median(dt))
-    gaps = np.flatnonzero(dt > max(5.0 * median, 0.05))
-    if not gaps.size:
-        return
-    worst = int(gaps[np.argmax(dt[gaps])])
-    if dt[worst] > MAX_BRIDGED_GAP_S:
-        raise DataFormatError(
-            f"{source}: {series.name} has a gap of {dt[worst]:.2f} s at t = {series.t_s[worst]:.2f} s "
-            f"(more than {MAX_BRIDGED_GAP_S:g} s); the sensor stopped recording: split the recording there"
-        )
-    warnings.append(
-        f"{series.name}: {gaps.size} gap(s) up to {dt[worst] * 1000:.0f} ms bridged by interpolation"
-    )
-
-
-def _interval_means(series: SensorSeries, grid_s: np.ndarray, step_s: float) -> np.ndarray:
-    """Mean of the linear interpolant over ``[t - step/2, t + step/2]`` for each grid time."""
-    t, v = series.t_s, series.values
-    # Running integral of the piecewise-linear signal (trapezoids), then its interpolant is exact.
-    area = np.concatenate(
-        [np.zeros((1, v.shape[1])), np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t)[:, None], 0)]
-    )
-    lo = np.clip(grid_s - 0.5 * step_s, t[0], t[-1])
-    hi = np.clip(grid_s + 0.5 * step_s, t[0], t[-1])
-    out = np.empty((len(grid_s), v.shape[1]))
-    for c in range(v.shape[1]):
-        a_hi = _integral_at(t, v[:, c], area[:, c], hi)
-        a_lo = _integral_at(t, v[:, c], area[:, c], lo)
-        out[:, c] = (a_hi - a_lo) / np.maximum(hi - lo, 1e-12)
-    return out
-
-
-def _integral_at(t: np.ndarray, v: np.ndarray, area: np.ndarray, x: np.ndarray) -> np.ndarray:
-    k = np.clip(np.searchsorted(t, x, side="right") - 1, 0, len(t) - 2)
-    dx = x - t[k]
-    slope = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
-    return area[k] + v[k] * dx + 0.5 * slope * dx**2
-
-
-def common_clock(required: list[SensorSeries], source: str) -> np.ndarray:
-    """Uniform timestamps at the slowest required sensor's rate over the span all of them cover."""
-    start = max(float(s.t_s[0]) for s in required)
-    stop = min(float(s.t_s[-1]) for s in required)
-    rate_hz = min(s.rate_hz for s in required)
-    if not stop - start >= MIN_OVERLAP_S:
-        spans = ", ".join(f"{s.name} {s.t_s[0]:.2f}..{s.t_s[-1]:.2f} s" for s in required)
-        raise DataFormatError(
-            f"{source}: the sensors overlap in time for less than {MIN_OVERLAP_S:g} s ({spans}); a recording "
-            "needs seconds of every sensor"
-        )
-    n = int(np.floor((stop - start) * rate_hz + 1e-9)) + 1
-    return start + np.arange(n) / rate_hz
-
-
-def on_clock(series: SensorSeries, grid_s: np.ndarray, source: str, warnings: list[str]) -> np.ndarray:
-    """``series`` on the uniform ``grid_s`` (see the module docstring)."""
-    _check_gaps(series, source, warnings)
-    step_s = float(grid_s[1] - grid_s[0]) if len(grid_s) > 1 else 0.01
-    if series.rate_hz > 1.5 / step_s:
-        return _interval_means(series, grid_s, step_s)
-    t, v = series.t_s, series.values
-    return np.column_stack([np.interp(grid_s, t, v[:, c]) for c in range(v.shape[1])])
-
-
-# --- units and signs, derived from the data -------------------------------------------------------
-
-STANDARD_GRAVITY_M_S2 = validate.STANDARD_GRAVITY_M_S2
-_MIN_ROTATION_FOR_GYRO_CHECK_RAD_S = 0.15
-
-
-def check_imu(gyro_rad_s: np.ndarray, acc_m_s2: np.ndarray, source: str) -> None:
-    """The generic CSV's per-sample checks on the merged IMU (finite, within physical limits)."""
-    label = validate.sample_row_label
-    with np.errstate(all="ignore"):
-        for what, values, limit, unit in (
-            ("gyroscope", gyro_rad_s, validate.MAX_ABS_GYRO_RAD_S, "rad/s"),
-            ("specific force", acc_m_s2, validate.MAX_ABS_ACC_M_S2, "m/s^2"),
-        ):
-            columns = [f"{what} {a}" for a in "xyz"]
-            validate.check_finite(values, columns, source, label)
-            validate.check_physical_range(values, columns, limit, unit, source, label)
-
-
-def includes_gravity(series: SensorSeries) -> bool:
-    """Whether an acceleration includes gravity, from the data: averaged over 2 s, gravity stays (the
-    mean keeps most of the magnitude) while a carried phone's own acceleration (steps, sway) averages
-    out. Magnitudes alone cannot tell: 1 g of total acceleration and 1 m/s² of linear acceleration
-    look alike in numbers."""
-    v = series.values[np.isfinite(series.values).all(axis=1)]
-    if len(v) < 4:
-        return False
-    size = max(3, min(len(v), int(round(2.0 * series.rate_hz))))
-    mean_norm = float(np.median(np.linalg.norm(uniform_filter1d(v, size, axis=0), axis=1)))
-    return mean_norm > 0.7 * float(np.median(np.linalg.norm(v, axis=1)))
-
-
-def acceleration_scale(values: np.ndarray, what: str, source: str, warnings: list[str]) -> float:
-    """The factor to m/s² of an acceleration that includes gravity, from its magnitude (~1 g at rest)."""
-    norm = float(np.median(np.linalg.norm(values, axis=1)))
-    if 0.6 <= norm <= 1.6:
-        warnings.append(f"{what}: median magnitude {norm:.3g}: read in g and converted to m/s^2")
-        return STANDARD_GRAVITY_M_S2
-    if 6.0 <= norm <= 16.0:
-        return 1.0
-    raise DataFormatError(
-        f"{source}: {what} has a median magnitude of {norm:.3g}; gravity (9.81 m/s^2 or 1 g) should "
-        "dominate an accelerometer that includes it: this is not acceleration including gravity"
-    )
-
-
-def gyro_scale_from_gravity(
-    t_s: np.ndarray, gyro: np.ndarray, up_device: np.ndarray, source: str, warnings: list[str]
-) -> float:
-    """Check the gyroscope's unit and sign against how the gravity direction turns in the device.
-
-    A vector fixed in the world, seen from the device, turns as ``du/dt = -omega x u``; the factor
-    ``k`` of the least-squares fit ``du/dt = -k (gyro x u)`` is 1 for rad/s, pi/180 for deg/s and
-    negative for a gyroscope with the opposite sign convention. Returns the factor to apply
-    (1, pi/180, -1, ...), or 1 with a warning when the recording turns too little to tell.
-    """
-    u = up_device / np.linalg.norm(up_device, axis=1, keepdims=True)
-    du = np.gradient(u, t_s, axis=0)
-    model = -np.cross(gyro, u)
-    if float(np.sqrt(np.mean(np.sum(model**2, axis=1)))) < _MIN_ROTATION_FOR_GYRO_CHECK_RAD_S:
-        warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
-        return 1.0
-    k = float(np.sum(du * model) / np.sum(model * model))
-    for factor, meaning in (
-        (1.0, None),
-        (np.pi / 180.0, "deg/s, converted to rad/s"),
-        (-1.0, "left-handed sign"),
-    ):
-        if 0.5 <= k / factor <= 2.0:
-            if meaning is not None:
-                warnings.append(f"gyroscope read as {meaning} (its rates turn gravity by {k:.3g}x rad/s)")
-            return factor
-    raise DataFormatError(
-        f"{source}: the gyroscope does not agree with how gravity turns in the device (fit factor {k:.3g}; "
-        "1 for rad/s): its axes or units are not the accelerometer's"
-    )
-
-
-def gravity_sign(
-    q_wxyz: np.ndarray | None, total: np.ndarray, platform: str | None, source: str, warnings: list[str]
-) -> tuple[float, np.ndarray | None]:
-    """``(sign, q)``: the sign that makes ``sign * total`` specific force (+g up at rest), and the
-    orientation as world-from-device (``None`` when it is not gravity-aligned either way).
-
-    With an orientation, gravity's direction decides: world-from-device must put the specific force
-    on +z. Without one the platform does (iOS reports the opposite sign of Android); without either,
-    Android's convention is assumed, with a warning.
-    """
-    if q_wxyz is not None:
-        for q, note in ((q_wxyz, None), (q_wxyz * np.array([1.0, -1.0, -1.0, -1.0]), "inverted")):
-            f_world = frames.rotate_to_world(q, total).mean(axis=0)
-            cos_up = f_world[2] / max(float(np.linalg.norm(f_world)), 1e-9)
-            if abs(cos_up) >= np.cos(np.radians(20.0)):
-                if note:
-                    warnings.append("orientation quaternions were device-from-world; inverted")
-                sign = 1.0 if cos_up > 0 else -1.0
-                if sign < 0:
-                    warnings.append(
-                        "acceleration sign: gravity points down in the orientation's world frame "
-                        "(iOS convention): negated to specific force"
-                    )
-                return sign, q
-        warnings.append(
-            "orientation does not make gravity vertical either way round: ignored, estimated instead"
-        )
-    if platform in ("ios", "iphone", "ipad"):
-        warnings.append("acceleration sign from the platform (iOS: gravity reported downwards): negated")
-        return -1.0, None
-    if platform not in ("android",):
-        warnings.append(
-            "acceleration sign assumed as Android's (+9.81 up at rest): no orientation or platform "
-            "in the export to check it"
-        )
-    return 1.0, None
-
-
-def low_pass(acc: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
-    """Gravity's direction in the device frame: specific force low-passed at ``cutoff_hz``."""
-    rate = 1.0 / float(np.median(np.diff(t_s)))
-    if len(acc) < 30 or rate <= 2 * cutoff_hz:
-        return np.repeat(acc.mean(axis=0, keepdims=True), len(acc), axis=0)
-    return sosfiltfilt(butter(2, cutoff_hz, fs=rate, output="sos"), acc, axis=0)

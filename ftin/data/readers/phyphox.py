@@ -16,7 +16,7 @@ Decisions:
   the file name: "Acceleration with g" is specific force, "Linear Acceleration" is not usable.
 * phyphox reports every platform in Android's convention (+9.81 m/s² up at rest); with no
   orientation in the export that sign cannot be checked and a warning says so. The gyroscope's unit
-  and sign are checked against how gravity turns (``exports.gyro_scale_from_gravity``).
+  and sign are checked against how gravity turns (``sensor_clock.gyro_scale_from_gravity``).
 * Sensors are merged onto one clock as for Sensor Logger (``exports``); the magnetometer, when
   present, goes to ``meta["mag_uT"]`` for the orientation filter (9-D mode).
 """
@@ -32,8 +32,10 @@ import numpy as np
 import pandas as pd
 
 import ftin.data.readers.exports as exports
+import ftin.data.readers.sensor_clock as sensor_clock
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles, SensorSeries
+from ftin.data.readers.exports import ExportFiles
+from ftin.data.readers.sensor_clock import SensorSeries
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
@@ -48,7 +50,7 @@ _KIND = {
     "m/s^2": ("acc", 1.0),
     "m/s²": ("acc", 1.0),
     "m/s2": ("acc", 1.0),
-    "g": ("acc", exports.STANDARD_GRAVITY_M_S2),
+    "g": ("acc", sensor_clock.STANDARD_GRAVITY_M_S2),
     "µt": ("mag", 1.0),
     "μt": ("mag", 1.0),
     "ut": ("mag", 1.0),
@@ -135,8 +137,7 @@ def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, Sen
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One phyphox export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    with np.errstate(over="ignore", invalid="ignore"):  # corrupt values are refused by name, not warned
-        return _read_export(files, name)
+    return exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -170,26 +171,20 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         )
     gyro_label, gyro_series, gyro_scale = found["gyro"][0]
     acc_label, acc_series, acc_scale = found["acc"][0]
-    gyro_series = exports.clean_series(gyro_series, source, warnings)
-    acc_series = exports.clean_series(acc_series, source, warnings)
-    clock = exports.common_clock([gyro_series, acc_series], source)
-    gyro = exports.on_clock(gyro_series, clock, source, warnings) * gyro_scale
-    total = exports.on_clock(acc_series, clock, source, warnings) * acc_scale
-    total = total * exports.acceleration_scale(total, acc_label, source, warnings)
+    gyro_series = sensor_clock.clean_series(gyro_series, source, warnings)
+    acc_series = sensor_clock.clean_series(acc_series, source, warnings)
+    clock = sensor_clock.common_clock([gyro_series, acc_series], source)
+    gyro = sensor_clock.on_clock(gyro_series, clock, source, warnings) * gyro_scale
+    total = sensor_clock.on_clock(acc_series, clock, source, warnings) * acc_scale
+    total = total * sensor_clock.acceleration_scale(total, acc_label, source, warnings)
     warnings.append(
         "acceleration sign: phyphox's convention (Android's, +9.81 up at rest, on every platform); "
         "no orientation in the export to check it"
     )
     acc = total
-    exports.check_imu(gyro, acc, source)
-    up = exports.low_pass(acc, clock)
-    gyro = gyro * exports.gyro_scale_from_gravity(clock, gyro, up, source, warnings)
-    exports.check_imu(gyro, acc, source)
+    gyro = sensor_clock.checked_gyro(gyro, acc, sensor_clock.low_pass(acc, clock), clock, source, warnings)
     meta: dict[str, Any] = {
-        "dataset": FORMAT,
-        "source": source,
-        "rate_hz": float(1.0 / (clock[1] - clock[0])) if len(clock) > 1 else 0.0,
-        "carry": "unknown",
+        **sensor_clock.export_meta(FORMAT, source, clock),
         "sensor_rates_hz": {
             gyro_label: round(gyro_series.rate_hz, 2),
             acc_label: round(acc_series.rate_hz, 2),
@@ -199,8 +194,8 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     }
     if found.get("mag"):
         mag_label, mag_series, mag_scale = found["mag"][0]
-        mag_series = exports.clean_series(mag_series, source, warnings)
-        meta["mag_uT"] = exports.on_clock(mag_series, clock, source, warnings) * mag_scale
+        mag_series = sensor_clock.clean_series(mag_series, source, warnings)
+        meta["mag_uT"] = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta)
     return validate_read(seq)  # the checks every reader shares
@@ -209,9 +204,4 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    name = options.pop("name", None) or (
-        path.stem
-        if path.is_file() and path.suffix.lower() == ".zip"
-        else (path if path.is_dir() else path.parent).name
-    )
-    return read_export(exports.open_export(path), name)
+    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))

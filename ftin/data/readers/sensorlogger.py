@@ -10,7 +10,7 @@ ZIP) holding one of these files with that header, or a ``Metadata.csv`` with an 
 Decisions (each checked on the shared iPhone 12 mini and Xiaomi exports, see the tests):
 
 * Clock: every file has its own timestamps and rate (an Android gyroscope at ~500 Hz beside a
-  100 Hz accelerometer); all are merged onto one uniform clock (``exports.common_clock``: the slower of
+  100 Hz accelerometer); all are merged onto one uniform clock (``sensor_clock.common_clock``: the slower of
   gyroscope and accelerometer, over the span both cover); time 0 is its first instant.
 * Specific force: ``TotalAcceleration`` when present; else ``Accelerometer`` (acceleration
   **without** gravity) + ``Gravity``; else ``AccelerometerUncalibrated`` (raw, with gravity). The
@@ -35,9 +35,11 @@ import numpy as np
 import pandas as pd
 
 import ftin.data.readers.exports as exports
+import ftin.data.readers.sensor_clock as sensor_clock
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles, SensorSeries
+from ftin.data.readers.exports import ExportFiles
+from ftin.data.readers.sensor_clock import SensorSeries
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
@@ -172,8 +174,7 @@ def _platform(files: ExportFiles, source: str) -> tuple[str | None, dict[str, An
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One Sensor Logger export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    with np.errstate(over="ignore", invalid="ignore"):  # corrupt values are refused by name, not warned
-        return _read_export(files, name)
+    return exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -195,7 +196,9 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     series: dict[str, SensorSeries] = {}
     for key, (s, o) in loaded.items():
         shift = 0.0 if origin is None or o is None else (o - origin) * 1e-9
-        series[key] = exports.clean_series(SensorSeries(s.name, s.t_s + shift, s.values), source, warnings)
+        series[key] = sensor_clock.clean_series(
+            SensorSeries(s.name, s.t_s + shift, s.values), source, warnings
+        )
 
     gyro_key = next((k for k in ("Gyroscope", "GyroscopeUncalibrated") if k in series), None)
     if gyro_key is None:
@@ -210,16 +213,16 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         )
 
     acc_keys = _acceleration_keys(series, source, files)
-    clock = exports.common_clock([series[gyro_key], *(series[k] for k in acc_keys)], source)
-    on = {k: exports.on_clock(series[k], clock, source, warnings) for k in (gyro_key, *acc_keys)}
+    clock = sensor_clock.common_clock([series[gyro_key], *(series[k] for k in acc_keys)], source)
+    on = {k: sensor_clock.on_clock(series[k], clock, source, warnings) for k in (gyro_key, *acc_keys)}
 
     if len(acc_keys) == 2:  # Accelerometer (without gravity) + Gravity, same unit
-        scale = exports.acceleration_scale(on["Gravity"], "Gravity.csv", source, warnings)
+        scale = sensor_clock.acceleration_scale(on["Gravity"], "Gravity.csv", source, warnings)
         total = (on["Accelerometer"] + on["Gravity"]) * scale
         gravity = on["Gravity"] * scale
     else:
         what = f"{series[acc_keys[0]].name}"
-        total = on[acc_keys[0]] * exports.acceleration_scale(on[acc_keys[0]], what, source, warnings)
+        total = on[acc_keys[0]] * sensor_clock.acceleration_scale(on[acc_keys[0]], what, source, warnings)
         gravity = None
 
     q = None
@@ -228,18 +231,13 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         if q is None:
             warnings.append("Orientation.csv: not unit quaternions: ignored, orientation estimated instead")
     platform, device = _platform(files, source)
-    sign, q = exports.gravity_sign(q, total, platform, source, warnings)
+    sign, q = sensor_clock.gravity_sign(q, total, platform, source, warnings)
     acc = sign * total
-    up = sign * gravity if gravity is not None else exports.low_pass(acc, clock)
-    exports.check_imu(on[gyro_key], acc, source)
-    gyro = on[gyro_key] * exports.gyro_scale_from_gravity(clock, on[gyro_key], up, source, warnings)
-    exports.check_imu(gyro, acc, source)
+    up = sign * gravity if gravity is not None else sensor_clock.low_pass(acc, clock)
+    gyro = sensor_clock.checked_gyro(on[gyro_key], acc, up, clock, source, warnings)
 
     meta: dict[str, Any] = {
-        "dataset": FORMAT,
-        "source": source,
-        "rate_hz": float(1.0 / (clock[1] - clock[0])) if len(clock) > 1 else 0.0,
-        "carry": "unknown",
+        **sensor_clock.export_meta(FORMAT, source, clock),
         "device": device,
         "sensor_rates_hz": {s.name: round(s.rate_hz, 2) for s in series.values()},
         "specific_force_from": " + ".join(series[k].name for k in acc_keys),
@@ -249,7 +247,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         meta["orientation_source"] = "device"
     mag_key = next((k for k in ("Magnetometer", "MagnetometerUncalibrated") if k in series), None)
     if mag_key is not None:
-        meta["mag_uT"] = exports.on_clock(series[mag_key], clock, source, warnings)
+        meta["mag_uT"] = sensor_clock.on_clock(series[mag_key], clock, source, warnings)
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta)
     return validate_read(seq)  # the checks every reader shares
@@ -263,7 +261,7 @@ def _acceleration_keys(series: dict[str, SensorSeries], source: str, files: Expo
             acc_norm = float(np.median(np.linalg.norm(series["Accelerometer"].values, axis=1)))
             grav_norm = float(np.median(np.linalg.norm(series["Gravity"].values, axis=1)))
             return ["Accelerometer"] if acc_norm > 0.5 * grav_norm else ["Accelerometer", "Gravity"]
-        if exports.includes_gravity(series["Accelerometer"]):
+        if sensor_clock.includes_gravity(series["Accelerometer"]):
             return ["Accelerometer"]  # an accelerometer that already includes gravity
         if "AccelerometerUncalibrated" in series:
             return ["AccelerometerUncalibrated"]
@@ -294,9 +292,4 @@ def _orientation_on_clock(series: SensorSeries, clock: np.ndarray) -> np.ndarray
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    name = options.pop("name", None) or (
-        path.stem
-        if path.is_file() and path.suffix.lower() == ".zip"
-        else (path if path.is_dir() else path.parent).name
-    )
-    return read_export(exports.open_export(path), name)
+    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))
