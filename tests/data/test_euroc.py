@@ -30,11 +30,8 @@ T0_NS = 1403636579758555392
 
 
 @pytest.fixture(scope="module")
-def euroc_root(shared_data: Path) -> Path:
-    root = shared_data / "euroc"
-    if not root.is_dir():
-        pytest.skip(f"no EuRoC sequences at {root}")
-    return root
+def euroc_root(shared_dataset) -> Path:
+    return shared_dataset("euroc")
 
 
 @pytest.fixture(scope="module")

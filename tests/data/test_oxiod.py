@@ -43,11 +43,8 @@ def _velocity_change_ratio(seq, window_s: float = 1.0) -> float:
 
 
 @pytest.fixture(scope="module")
-def oxiod_root(shared_data: Path) -> Path:
-    root = shared_data / "oxiod"
-    if not root.is_dir():
-        pytest.skip(f"no OxIOD sequences at {root}")
-    return root
+def oxiod_root(shared_dataset) -> Path:
+    return shared_dataset("oxiod")
 
 
 @pytest.fixture(scope="module")

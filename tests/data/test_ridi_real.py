@@ -11,11 +11,8 @@ from ftin.data.windows import world_imu
 
 
 @pytest.fixture(scope="module")
-def ridi_folder(shared_data):
-    folder = shared_data / "ridi" / "dan_bag1"
-    if not folder.is_dir():
-        pytest.skip(f"{folder} not present")
-    return folder
+def ridi_folder(shared_dataset):
+    return shared_dataset("ridi/dan_bag1")
 
 
 @pytest.mark.parametrize("orientation", ["device", "ground_truth"])

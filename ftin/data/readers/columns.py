@@ -67,6 +67,25 @@ _GT_PREFIXES = ("gt", "gt_p", "gt_pos", "gt_position", "pos", "position", "p", "
 # our readers' output); any other name may be in its own world frame (see ``meta["gt_frame"]``).
 GT_DEVICE_WORLD_PREFIX = "gt_device_world"
 
+
+def _axis_columns(
+    group: str,
+    unit: str,
+    required: bool,
+    prefixes: Sequence[str],
+    meaning: str,
+    axes: str = "xyz",
+    short: Sequence[str] = (),
+) -> tuple[ColumnSpec, ...]:
+    """The columns ``{group}_{axis}`` of one group; ``meaning`` names the axis with ``{}``."""
+    return tuple(
+        ColumnSpec(
+            f"{group}_{a}", group, unit, meaning.format(a), required, _axis_aliases(prefixes, a, short)
+        )
+        for a in axes
+    )
+
+
 COLUMNS: tuple[ColumnSpec, ...] = (
     ColumnSpec(
         "t",
@@ -88,49 +107,31 @@ COLUMNS: tuple[ColumnSpec, ...] = (
             "elapsed",
         ),
     ),
-    *(
-        ColumnSpec(
-            f"gyro_{a}",
-            "gyro",
-            "rad/s",
-            f"angular rate about device {a}",
-            True,
-            _axis_aliases(_GYRO_PREFIXES, a, short=("g", "w_")),
-        )
-        for a in "xyz"
+    *_axis_columns(
+        "gyro", "rad/s", True, _GYRO_PREFIXES, short=("g", "w_"), meaning="angular rate about device {}"
     ),
-    *(
-        ColumnSpec(
-            f"acc_{a}",
-            "acc",
-            "m/s^2",
-            f"specific force along device {a}, gravity included",
-            True,
-            _axis_aliases(_ACC_PREFIXES, a, short=("a", "f_")),
-        )
-        for a in "xyz"
+    *_axis_columns(
+        "acc",
+        "m/s^2",
+        True,
+        _ACC_PREFIXES,
+        short=("a", "f_"),
+        meaning="specific force along device {}, gravity included",
     ),
-    *(
-        ColumnSpec(
-            f"q_{c}",
-            "q",
-            "-",
-            f"orientation world-from-device, quaternion {c} (scalar w)",
-            False,
-            _axis_aliases(_Q_PREFIXES, c),
-        )
-        for c in "wxyz"
+    *_axis_columns(
+        "q",
+        "-",
+        False,
+        _Q_PREFIXES,
+        axes="wxyz",
+        meaning="orientation world-from-device, quaternion {} (scalar w)",
     ),
-    *(
-        ColumnSpec(
-            f"gt_{a}",
-            "gt",
-            "m",
-            f"ground-truth position {a}; `gt_device_world_{a}` when in the orientation's world frame",
-            False,
-            _axis_aliases(_GT_PREFIXES, a),
-        )
-        for a in "xyz"
+    *_axis_columns(
+        "gt",
+        "m",
+        False,
+        _GT_PREFIXES,
+        meaning="ground-truth position {0}; `gt_device_world_{0}` when in the orientation's world frame",
     ),
 )
 

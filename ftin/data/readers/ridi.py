@@ -34,21 +34,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.errors import DataFormatError
+from ftin.data.readers.folders import numeric_columns, read_headed_csv, require_columns
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.data.validate import (
-    check_finite,
-    check_increasing,
-    check_quaternions,
-    check_rate,
-    csv_row_label,
-    validate_read,
-)
+from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
 FORMAT = "ridi"
 PROCESSED_CSV = Path("processed") / "data.csv"
@@ -169,21 +161,10 @@ def read_processed_csv(
     folder = sequence_dir(path)
     csv_path = folder / PROCESSED_CSV
     source = str(csv_path)
-    try:
-        table = pd.read_csv(csv_path, float_precision="round_trip")
-    except FileNotFoundError as exc:
-        raise DataFormatError(f"{folder}: no {PROCESSED_CSV} in this folder") from exc
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataFormatError(f"{csv_path}: cannot read as CSV ({exc})") from exc
-    table.columns = [str(c).strip() for c in table.columns]
-    missing = [c for c in REQUIRED_COLUMNS if c not in table.columns]
-    if missing:
-        raise DataFormatError(
-            f"{source}: missing column(s) {', '.join(missing)}; found columns: {', '.join(table.columns)}"
-        )
-    numeric = table[list(REQUIRED_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(np.float64)
+    table = read_headed_csv(csv_path, f"{folder}: no {PROCESSED_CSV} in this folder")
+    require_columns(table, REQUIRED_COLUMNS, source)
     row_label = csv_row_label(first_line=2)
-    check_finite(numeric, list(REQUIRED_COLUMNS), source, row_label)
+    numeric = numeric_columns(table, REQUIRED_COLUMNS, source, row_label)
     t_raw = numeric[:, 0]
     check_increasing(t_raw, source, row_label, column="time")
     warnings: list[str] = []

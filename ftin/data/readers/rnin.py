@@ -25,20 +25,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout
-from ftin.data.types import ImuSequence, Trajectory
-from ftin.data.validate import (
-    check_finite,
-    check_increasing,
-    check_quaternions,
-    check_rate,
-    csv_row_label,
-    validate_read,
+from ftin.data.readers.folders import (
+    MarkedFolderLayout,
+    numeric_columns,
+    read_headed_csv,
+    reference_pose_meta,
+    require_columns,
 )
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
 FORMAT = "rnin"
 DATA_FILE = "SenseINS.csv"
@@ -64,28 +62,16 @@ def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
     folder = LAYOUT.sequence_dir(path)
     csv_path = folder / DATA_FILE
     source = str(csv_path)
-    try:
-        table = pd.read_csv(csv_path, float_precision="round_trip")
-    except FileNotFoundError as exc:
-        raise DataFormatError(f"{folder}: not an RNIN-VIO sequence folder ({DATA_FILE} is missing)") from exc
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataFormatError(f"{csv_path}: cannot read as CSV ({exc})") from exc
-    table.columns = [str(c).strip() for c in table.columns]
+    table = read_headed_csv(csv_path, f"{folder}: not an RNIN-VIO sequence folder ({DATA_FILE} is missing)")
     time_column = "times" if "times" in table.columns else "time"
     required = (time_column, *IMU_COLUMNS, *GT_COLUMNS)
     if subtract_vio_bias:
         required += BIAS_COLUMNS
-    missing = [c for c in required if c not in table.columns]
-    if missing:
-        raise DataFormatError(
-            f"{source}: missing column(s) {', '.join(missing)}; found columns: {', '.join(table.columns)}"
-        )
+    require_columns(table, required, source)
     row_label = csv_row_label(first_line=2)
 
     def numeric(columns: tuple[str, ...]) -> np.ndarray:
-        values = table[list(columns)].apply(pd.to_numeric, errors="coerce").to_numpy(np.float64)
-        check_finite(values, list(columns), source, row_label)
-        return values
+        return numeric_columns(table, columns, source, row_label)
 
     warnings: list[str] = []
     t_s = numeric((time_column,))[:, 0]
@@ -110,14 +96,7 @@ def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
         pose = numeric(VIO_COLUMNS)
         warnings.append("gt_* is a placeholder: used the VIO pose (vio_p_*, vio_q_*) as ground truth")
     q = frames.make_continuous(check_quaternions(pose[:, 3:], source, row_label))
-    meta = {
-        "dataset": FORMAT,
-        "source": str(folder),
-        "rate_hz": rate_hz,
-        "carry": "unknown",
-        "orientation_source": "ground_truth",
-        "warnings": warnings,
-    }
+    meta = reference_pose_meta(FORMAT, folder, rate_hz, warnings)
     name = "/".join(folder.parts[-2:]) if folder.parent.name.startswith("data_") else folder.name
     seq = ImuSequence(name, t_s, gyro, acc, q, Trajectory(t_s, pose[:, :3], q), meta)
     return validate_read(seq)  # the checks every reader shares

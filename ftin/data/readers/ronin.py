@@ -34,7 +34,6 @@ Decisions (options of :func:`read`):
 
 from __future__ import annotations
 
-import json
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -44,7 +43,7 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout
+from ftin.data.readers.folders import MarkedFolderLayout, read_json
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     check_finite,
@@ -84,12 +83,7 @@ _ORIENTATION_SOURCE = {
 
 
 def _read_info(path: Path) -> dict[str, Any]:
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise DataFormatError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataFormatError(f"{path}: not valid JSON ({exc})") from exc
+    info = read_json(path)
     if not isinstance(info, dict):
         raise DataFormatError(f"{path}: expected a JSON object with the sequence's meta information")
     return info

@@ -28,7 +28,6 @@ Decisions (options of :func:`read`):
 
 from __future__ import annotations
 
-import json
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -37,7 +36,7 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout
+from ftin.data.readers.folders import MarkedFolderLayout, read_json, reference_pose_meta
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     check_finite,
@@ -81,15 +80,6 @@ class Calibration(str, Enum):
     SKIP = "skip"
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise DataFormatError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataFormatError(f"{path}: not valid JSON ({exc})") from exc
-
-
 def _column_layout(folder: Path, warnings: list[str]) -> tuple[bool, bool]:
     """``(imu_in_world, imu_compensated)`` from the description file (published meaning if absent)."""
     path = folder / DESCRIPTION_FILE
@@ -98,7 +88,7 @@ def _column_layout(folder: Path, warnings: list[str]) -> tuple[bool, bool]:
             f"no {DESCRIPTION_FILE}: assumed the published columns (IMU compensated and rotated into World)"
         )
         return True, True
-    description = _read_json(path)
+    description = read_json(path)
     columns = description.get("columns_name(width)") if isinstance(description, dict) else None
     if not isinstance(columns, list) or len(columns) != len(PUBLISHED_DESCRIPTION):
         raise DataFormatError(
@@ -135,7 +125,7 @@ def _matrix(value: Any, shape: tuple[int, ...], what: str, source: Path) -> np.n
 
 def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{"acc": (R_inv, bias), "gyro": (R_inv, bias)}`` from a TLIO/Aria ``calibration.json``."""
-    calibration = _read_json(path)
+    calibration = read_json(path)
     result = {}
     for key, sensor in (("acc", "Accelerometer"), ("gyro", "Gyroscope")):
         try:
@@ -202,13 +192,6 @@ def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSe
         warnings.append(f"IMU columns are already compensated: {CALIBRATION_FILE} not applied again")
 
     gt = Trajectory(t_s, data[:, 11:14], q_world_device)
-    meta = {
-        "dataset": FORMAT,
-        "source": str(folder),
-        "rate_hz": rate_hz,
-        "carry": "unknown",
-        "orientation_source": "ground_truth",
-        "warnings": warnings,
-    }
+    meta = reference_pose_meta(FORMAT, folder, rate_hz, warnings)
     seq = ImuSequence(folder.name, t_s, gyro, acc, q_world_device, gt, meta)
     return validate_read(seq)  # the checks every reader shares
