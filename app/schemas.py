@@ -66,6 +66,10 @@ class ModelInfo(BaseModel):
         )
 
 
+# What a sequence's summary tells (None where it cannot be read).
+_SUMMARY_FIELDS = ("duration_s", "rate_hz", "samples", "has_ground_truth")
+
+
 class SequenceInfo(BaseModel):
     id: str = Field(description="Use in POST /sequences/{id}/predict.")
     name: str
@@ -84,24 +88,17 @@ class SequenceInfo(BaseModel):
     def from_entry(
         cls, entry: SequenceEntry, summary: SequenceSummary | str, suggested_model: str | None = None
     ) -> SequenceInfo:
-        extra = {"dataset_label": entry.dataset_label or None, "suggested_model": suggested_model}
-        if isinstance(summary, str):
-            return cls(
-                **extra,
-                id=entry.id,
-                name=entry.name,
-                dataset=entry.dataset,
-                duration_s=None,
-                rate_hz=None,
-                samples=None,
-                has_ground_truth=None,
-                error=summary,
-            )
+        listed = {
+            "id": entry.id,
+            "name": entry.name,
+            "dataset": entry.dataset,
+            "dataset_label": entry.dataset_label or None,
+            "suggested_model": suggested_model,
+        }
+        if isinstance(summary, str):  # unreadable: the summary is why, and nothing was measured
+            return cls(**listed, **dict.fromkeys(_SUMMARY_FIELDS), error=summary)
         return cls(
-            **extra,
-            id=entry.id,
-            name=entry.name,
-            dataset=entry.dataset,
+            **listed,
             duration_s=round(summary.duration_s, 3),
             rate_hz=round(summary.rate_hz, 3),
             samples=summary.n_samples,

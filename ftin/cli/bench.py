@@ -16,7 +16,7 @@ from rich.table import Table
 
 from ftin.bench import MEMORY_METHOD, BenchConfig, bench_json, bench_models
 from ftin.checkpoint import atomic_write_text
-from ftin.cli.common import REPORT_ERRORS, app, progress_bar, user_errors
+from ftin.cli.common import REPORT_ERRORS, app, config_options, progress_bar, user_errors
 from ftin.models import list_models
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults
@@ -30,6 +30,7 @@ def _mib(value: float | None, increase: float | None) -> str:
 
 @app.command("bench")
 def bench_command(
+    ctx: typer.Context,
     models: Annotated[
         list[str] | None, typer.Option("--models", help="Model to measure (repeatable; default: all).")
     ] = None,
@@ -64,15 +65,8 @@ def bench_command(
         if json_out is not None and not json_out.expanduser().parent.is_dir():
             # checked first: the measurements take minutes
             raise OSError(f"--json {json_out}: no such folder {json_out.expanduser().parent}")
-        config = BenchConfig(
-            window=window,
-            batch=batch,
-            threads=threads,
-            repeats=repeats,
-            stride=stride,
-            rate_hz=rate_hz,
-            memory=memory,
-        )
+        # every option but --models and --json is the BenchConfig field of its name
+        config = BenchConfig(**config_options(BenchConfig, ctx.params))
         names = models or list_models()
         with progress_bar() as bar:
             task = bar.add_task("measuring", total=len(names))

@@ -1,12 +1,13 @@
 """Shared CLI plumbing: expected errors as one clear line and a non-zero exit; progress bars on stderr;
-the options several commands share (``--checkpoint``, ``--convention``, ``--rte-window-s``)."""
+the options several commands share (``--checkpoint``, ``--convention``, ``--align``, ``--stride``, ...)."""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+import dataclasses
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -22,7 +23,7 @@ from rich.progress import (
 
 from ftin.checkpoint import CheckpointError
 from ftin.data.errors import DataFormatError
-from ftin.metrics import Convention
+from ftin.metrics import Alignment, Convention
 from ftin.models import UnknownModelError
 from ftin.train.config import ConfigError
 
@@ -45,6 +46,28 @@ CheckpointOption = Annotated[
 ]
 ConventionOption = Annotated[Convention, typer.Option("--convention", help="How trajectories are compared.")]
 RteWindowOption = Annotated[float, typer.Option("--rte-window-s", min=0.0, help="RTE window.")]
+AlignOption = Annotated[
+    Alignment | None,
+    typer.Option(
+        "--align",
+        help="none (RoNIN: raw), start (heading + start fitted on the first 10 s, like evo "
+        "--n_to_align), se2 or se3 (whole-trajectory Umeyama, like evo --align); sets the convention. "
+        "Default: start where the ground truth may be in another world frame, else none.",
+    ),
+]
+StrideOption = Annotated[
+    int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
+]
+ThreadsOption = Annotated[
+    int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
+]
+
+
+def config_options(config_type: type, params: Mapping[str, Any]) -> dict[str, Any]:
+    """The command's parameters (click's ``ctx.params``) that are named after a field of the dataclass
+    ``config_type``: how a command hands its options to the library's config without listing them."""
+    fields = {field.name for field in dataclasses.fields(config_type)}
+    return {name: value for name, value in params.items() if name in fields}
 
 
 @contextlib.contextmanager

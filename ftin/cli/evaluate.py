@@ -15,6 +15,7 @@ from rich.table import Table
 from ftin.checkpoint import atomic_write_text, load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
+    AlignOption,
     CheckpointOption,
     ConventionOption,
     RteWindowOption,
@@ -24,7 +25,7 @@ from ftin.cli.common import (
 )
 from ftin.data.loading import load_sequences
 from ftin.evaluate import evaluate_checkpoint
-from ftin.metrics import Alignment, Convention
+from ftin.metrics import Convention
 
 
 @app.command("evaluate")
@@ -36,15 +37,7 @@ def evaluate_command(
     ] = None,
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
-    align: Annotated[
-        Alignment | None,
-        typer.Option(
-            "--align",
-            help="none (RoNIN: raw), start (heading + start fitted on the first 10 s, like evo "
-            "--n_to_align), se2 or se3 (whole-trajectory Umeyama, like evo --align); sets the convention. "
-            "Default: start where the ground truth may be in another world frame, else none.",
-        ),
-    ] = None,
+    align: AlignOption = None,
 ) -> None:
     """ATE / RTE / PDE of a checkpoint per sequence and their mean, under a stated convention."""
     with user_errors(*MODEL_ERRORS):

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ftin.bench.profile import DEFAULT_WINDOW, ModelProfile, profile_model, torch_threads
-from ftin.cli.common import app, err_console, user_errors
+from ftin.cli.common import ThreadsOption, app, err_console, user_errors
 from ftin.models import UnknownModelError, check_known_models, list_models
 
 CONVENTIONS = (
@@ -37,9 +37,7 @@ def models_command(
         ),
     ] = None,
     batch: Annotated[int, typer.Option(min=1, help="Windows per timed forward pass.")] = 512,
-    threads: Annotated[
-        int | None, typer.Option(min=1, help="torch threads while measuring (default: torch's setting).")
-    ] = None,
+    threads: ThreadsOption = None,
     repeats: Annotated[
         int, typer.Option(min=1, help="Timed passes per model (the fastest is reported).")
     ] = 3,

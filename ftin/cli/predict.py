@@ -11,13 +11,21 @@ import typer
 from rich.markup import escape
 
 from ftin.checkpoint import atomic_write_text, load_model
-from ftin.cli.common import MODEL_ERRORS, CheckpointOption, app, err_console, progress_bar, user_errors
+from ftin.cli.common import (
+    MODEL_ERRORS,
+    AlignOption,
+    CheckpointOption,
+    StrideOption,
+    app,
+    err_console,
+    progress_bar,
+    user_errors,
+)
 from ftin.data.errors import DataFormatError
 from ftin.data.readers import read_sequence
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
-from ftin.metrics import Alignment
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -31,9 +39,7 @@ def predict_command(
     out: Annotated[
         Path, typer.Option("--out", help="Trajectory to write: CSV (t,x,y,z), or TUM when it ends in .tum.")
     ],
-    stride: Annotated[
-        int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
-    ] = None,
+    stride: StrideOption = None,
     timestamps: Annotated[
         str,
         typer.Option(
@@ -41,10 +47,7 @@ def predict_command(
             help="model: the samples the model ran on (the checkpoint's rate); input: the recording's own.",
         ),
     ] = "model",
-    align: Annotated[
-        Alignment | None,
-        typer.Option("--align", help="Alignment for the printed metrics (see ftin evaluate --align)."),
-    ] = None,
+    align: AlignOption = None,
     gt_out: Annotated[
         Path | None,
         typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),

@@ -17,7 +17,15 @@ from rich.console import Console
 from rich.markup import escape
 
 from ftin.checkpoint import atomic_write_text
-from ftin.cli.common import REPORT_ERRORS, ConventionOption, RteWindowOption, app, progress_bar, user_errors
+from ftin.cli.common import (
+    REPORT_ERRORS,
+    ConventionOption,
+    RteWindowOption,
+    StrideOption,
+    app,
+    progress_bar,
+    user_errors,
+)
 from ftin.metrics import Convention
 from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
 from ftin.report.campaign import ate_figure, load_results, render
@@ -56,9 +64,7 @@ def table_command(
     ] = None,
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
-    stride: Annotated[
-        int | None, typer.Option("--stride", min=1, help="Window step (default: each checkpoint's).")
-    ] = None,
+    stride: StrideOption = None,
 ) -> None:
     """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
     trajectory figures, for every checkpoint in a folder on every dataset."""

@@ -16,7 +16,7 @@ from typing import Annotated, Any
 import torch
 import typer
 
-from ftin.cli.common import MODEL_ERRORS, app, user_errors
+from ftin.cli.common import MODEL_ERRORS, ThreadsOption, app, config_options, user_errors
 from ftin.train.config import ConfigError, TrainConfig
 from ftin.train.loop import run_training
 from ftin.train.state import CONFIG_FILE
@@ -26,8 +26,8 @@ def _is_main_process() -> bool:
     return os.environ.get("RANK", "0") == "0"
 
 
-def _given(**options: Any) -> dict[str, Any]:
-    return {key: value for key, value in options.items() if value is not None}
+def _paths(paths: list[Path] | None) -> tuple[str, ...] | None:
+    return tuple(str(p) for p in paths) if paths else None
 
 
 def _model_kwargs(text: str | None) -> dict[str, Any] | None:
@@ -77,6 +77,7 @@ def resolve_config(options: dict[str, Any], out: Path, resume: bool) -> TrainCon
 
 @app.command("train")
 def train_command(
+    ctx: typer.Context,
     out: Annotated[Path, typer.Option("--out", help="Run folder: config, checkpoints, resume state.")],
     model: Annotated[str | None, typer.Option("--model", help="Registered model name (ftin models).")] = None,
     data: Annotated[
@@ -88,7 +89,9 @@ def train_command(
             "--val", help="Validation data (repeatable); default: hold out 10% of --data sequences."
         ),
     ] = None,
-    epochs: Annotated[int | None, typer.Option("--epochs", min=1, help="Max epochs (default: 100).")] = None,
+    max_epochs: Annotated[
+        int | None, typer.Option("--epochs", min=1, help="Max epochs (default: 100).")
+    ] = None,
     max_minutes: Annotated[
         float | None, typer.Option("--max-minutes", min=0.0, help="Stop after this long (this invocation).")
     ] = None,
@@ -99,7 +102,7 @@ def train_command(
         int | None, typer.Option("--batch-size", min=1, help="Global batch (default: 512).")
     ] = None,
     lr: Annotated[float | None, typer.Option("--lr", help="Adam learning rate (default: 1e-4).")] = None,
-    rate_hz: Annotated[
+    imu_rate_hz: Annotated[
         float | None, typer.Option("--rate-hz", help="IMU rate to resample to (default: the data's).")
     ] = None,
     window: Annotated[
@@ -129,10 +132,8 @@ def train_command(
         bool, typer.Option("--resume", help="Continue the run in --out where it stopped.")
     ] = False,
     progress: Annotated[bool, typer.Option("--progress/--no-progress", help="Show a progress bar.")] = True,
-    threads: Annotated[
-        int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
-    ] = None,
-    early_stop: Annotated[
+    threads: ThreadsOption = None,
+    early_stop_patience: Annotated[
         int | None,
         typer.Option(
             "--early-stop", min=1, help="Stop after this many epochs without validation improvement."
@@ -153,28 +154,15 @@ def train_command(
     if threads is not None:  # on a busy machine one thread per process is often the fastest
         torch.set_num_threads(threads)
     with user_errors(*MODEL_ERRORS):
-        options = _given(
-            model=model,
-            data=tuple(str(p) for p in data) if data else None,
-            val=tuple(str(p) for p in val) if val else None,
-            max_epochs=epochs,
-            max_minutes=max_minutes,
-            max_steps=max_steps,
-            batch_size=batch_size,
-            lr=lr,
-            imu_rate_hz=rate_hz,
-            window=window,
-            stride=stride,
-            out_dim=out_dim,
-            model_kwargs=_model_kwargs(model_kwargs),
-            normalization=normalization,
-            name=name,
-            seed=seed,
-            weights_dtype="float16" if half else None,
-            device=device,
-            early_stop_patience=early_stop,
-            orientation=orientation,
-        )
+        # Parameters named after a TrainConfig field set it, the others are converted; None: not given.
+        options = {
+            **config_options(TrainConfig, ctx.params),
+            "data": _paths(data),
+            "val": _paths(val),
+            "model_kwargs": _model_kwargs(model_kwargs),
+            "weights_dtype": "float16" if half else None,
+        }
+        options = {key: value for key, value in options.items() if value is not None}
         if config_file is not None:
             options = {**_config_file_options(config_file), **options}
         config = resolve_config(options, out, resume)

@@ -78,12 +78,5 @@ def simulate(config: SimConfig) -> ImuSequence:
         meta["acc_bias_m_s2"] = errors.acc_bias_m_s2[0].tolist()
 
     gt = Trajectory(t_s, motion.position_m(t_s), q_world_device_wxyz.copy())
-    return ImuSequence(
-        name=config.sequence_name,
-        t_s=t_s,
-        gyro_rad_s=gyro_rad_s,
-        acc_m_s2=acc_m_s2,
-        q_world_device_wxyz=q_world_device_wxyz,
-        gt=gt,
-        meta=meta,
-    )
+    # positional, in ImuSequence's field order: the locals are named after its fields
+    return ImuSequence(config.sequence_name, t_s, gyro_rad_s, acc_m_s2, q_world_device_wxyz, gt, meta)
