@@ -25,11 +25,11 @@ import statistics
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from pathlib import Path
 
 import httpx
 import numpy as np
 import torch
+from load_test import add_walk_options  # this folder's sibling script (its options are the same)
 
 from app.main import create_app
 from app.serve import ServerStartError, serve_in_thread
@@ -101,10 +101,7 @@ def main() -> None:
     )
     parser.add_argument("--runs", type=int, default=20, help="timed requests per CSV (default 20)")
     parser.add_argument("--warmup", type=int, default=2, help="untimed requests first (default 2)")
-    parser.add_argument("--duration-s", type=float, default=60.0, help="length of the walk (default 60)")
-    parser.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate of the walk (default 100)")
-    parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--checkpoint-dir", type=Path, help="default: the app's (FTIN_CHECKPOINT_DIR)")
+    add_walk_options(parser, "--duration-s")
     parser.add_argument(
         "--threads",
         type=int,

@@ -100,6 +100,15 @@ def write_tiny_checkpoint(folder: Path) -> str:
     return TINY_MODEL
 
 
+def add_walk_options(parser: argparse.ArgumentParser, length_flag: str) -> None:
+    """The simulated walk that is uploaded (``length_flag`` sets its length in s) and the checkpoint
+    folder of the app under test; ``scripts/bench_predict.py`` takes the same options."""
+    parser.add_argument(length_flag, type=float, default=60.0, help="length of the uploaded walk (s, 60)")
+    parser.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate of the walk (100)")
+    parser.add_argument("--seed", type=int, default=7, help="seed of the simulated walk (7)")
+    parser.add_argument("--checkpoint-dir", type=Path, help="default: the app's (FTIN_CHECKPOINT_DIR)")
+
+
 def simulated_csv(duration_s: float, rate_hz: float, seed: int) -> bytes:
     from ftin.data.readers.generic_csv import write_csv
     from ftin.sim.config import CarryMode, SimConfig
@@ -269,10 +278,7 @@ def main() -> int:
     parser.add_argument("--request-timeout-s", type=float, default=300.0, help="client timeout (300)")
     parser.add_argument("--health-interval-s", type=float, default=0.2, help="/health poll period (0.2)")
     parser.add_argument("--max-health-p99-s", type=float, default=1.0, help="fail above this (1.0)")
-    parser.add_argument("--walk-s", type=float, default=60.0, help="length of the uploaded walk (60)")
-    parser.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate of the walk (100)")
-    parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--checkpoint-dir", type=Path, help="default: the app's (FTIN_CHECKPOINT_DIR)")
+    add_walk_options(parser, "--walk-s")
     parser.add_argument("--tiny", action="store_true", help="serve a tiny untrained FTIN checkpoint")
     parser.add_argument("--startup-timeout-s", type=float, default=180.0)
     parser.add_argument("--json-out", type=Path, help="also write the report here as JSON")

@@ -28,16 +28,7 @@ class Services:
         )
         catalog = SequenceCatalog.scan(settings.data_dirs, bundled_dir=BUNDLED_SAMPLES_DIR)
         runs = RunStore(settings.max_runs, settings.max_kept_samples)
-        predictor = PredictionService(
-            models,
-            catalog,
-            runs,
-            settings.max_upload_bytes,
-            max_samples=settings.max_samples,
-            timeout_s=settings.inference_timeout_s,
-            max_concurrent=settings.max_concurrent_inferences,
-            max_uncompressed_bytes=settings.max_uncompressed_bytes,
-        )
+        predictor = PredictionService(models, catalog, runs, settings)
         return cls(settings, models, catalog, runs, predictor)
 
     @property

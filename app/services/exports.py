@@ -1,5 +1,5 @@
-"""What a finished run exports beyond its CSV: TUM trajectories for evo, the metrics as JSON, and the
-trajectory at the input's own timestamps (``GET /runs/{run_id}/...``).
+"""What a finished run exports: its trajectory as CSV, TUM trajectories for evo, the metrics as JSON,
+and the trajectory at the input's own timestamps (``GET /runs/{run_id}/...``).
 
 Decisions:
 - Frames: the predicted trajectory is in the prediction's world frame; the ground truth exported
@@ -14,8 +14,11 @@ Decisions:
 
 from __future__ import annotations
 
+import io
 from enum import Enum
 from typing import Any
+
+import numpy as np
 
 from app.services.runs import Run
 from ftin.data.trajectory_io import at_times, tum_text
@@ -33,6 +36,15 @@ def trajectory_at(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> 
     if Timestamps(timestamps) is Timestamps.INPUT:
         return at_times(traj, run.sequence.t_s)
     return traj
+
+
+def trajectory_csv(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:
+    """``t_s,x_m,y_m,z_m`` in the prediction's world frame."""
+    traj = trajectory_at(run, timestamps)
+    buffer = io.StringIO()
+    table = np.column_stack([traj.t_s, traj.p_world_m])
+    np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header="t_s,x_m,y_m,z_m", comments="")
+    return buffer.getvalue()
 
 
 def trajectory_tum(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:

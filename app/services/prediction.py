@@ -36,6 +36,7 @@ from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
 from app.services.models import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
+from app.settings import Settings
 from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
 from ftin.data.readers import exports
@@ -105,35 +106,25 @@ def sequence_from_arrays(
 
 class PredictionService:
     def __init__(
-        self,
-        models: ModelStore,
-        catalog: SequenceCatalog,
-        runs: RunStore,
-        max_upload_bytes: int,
-        max_samples: int = 720_000,
-        timeout_s: float = 120.0,
-        max_concurrent: int = 1,
-        max_uncompressed_bytes: int = 1024 * 2**20,
+        self, models: ModelStore, catalog: SequenceCatalog, runs: RunStore, settings: Settings
     ) -> None:
         self.models = models
-        self.max_uncompressed_bytes = max_uncompressed_bytes  # what a ZIP or gzip upload may unpack to
         self.catalog = catalog
         self.runs = runs
-        self.max_upload_bytes = max_upload_bytes
-        self.max_samples = max_samples
-        self.timeout_s = timeout_s
-        self.slots = InferenceSlots(max_concurrent)
+        self.settings = settings  # the limits: FTIN_MAX_UPLOAD_MB, FTIN_MAX_SAMPLES, ...
+        self.slots = InferenceSlots(settings.max_concurrent_inferences)
 
     def new_deadline(self) -> Deadline:
         """The deadline of a prediction requested now (routes take it when the request arrives)."""
-        return Deadline.after(self.timeout_s)
+        return Deadline.after(self.settings.inference_timeout_s)
 
     def check_sample_count(self, n: int, what: str) -> None:
         """413 when ``what`` holds more samples than one prediction may read."""
-        if n > self.max_samples:
+        limit = self.settings.max_samples
+        if n > limit:
             raise PayloadTooLargeError(
-                f"{what} has {n} samples; one prediction reads at most {self.max_samples} "
-                f"(FTIN_MAX_SAMPLES, {self.max_samples / 200 / 60:.1f} min at 200 Hz); split the recording"
+                f"{what} has {n} samples; one prediction reads at most {limit} "
+                f"(FTIN_MAX_SAMPLES, {limit / 200 / 60:.1f} min at 200 Hz); split the recording"
             )
 
     def predict_csv(
@@ -156,10 +147,10 @@ class PredictionService:
         filename = PurePath((filename or "").replace("\\", "/")).name
         if filename in ("", ".", ".."):
             filename = "upload.csv"
-        if len(data) > self.max_upload_bytes:
+        if len(data) > self.settings.max_upload_bytes:
             raise PayloadTooLargeError(
                 f"{filename} is {len(data) / 2**20:.1f} MiB; the limit is "
-                f"{self.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
+                f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
         self.check_sample_count(len(seq), filename)
@@ -173,14 +164,14 @@ class PredictionService:
             )
         try:
             if data[:2] == exports.GZIP_MAGIC:
-                data = gunzip(data, filename, self.max_uncompressed_bytes)
+                data = gunzip(data, filename, self.settings.max_uncompressed_bytes)
             if not exports.is_zip(data):
                 # Lines bound the samples from above (one header, maybe comments): refuse before parsing.
                 lines = data.count(b"\n") + (not data.endswith(b"\n"))
-                if lines - 1 > self.max_samples:
+                if lines - 1 > self.settings.max_samples:
                     self.check_sample_count(lines - 1, filename)
                 decode_upload(data, filename)  # a binary file: say so in plain words
-            seq = read_bytes(data, filename, max_uncompressed_bytes=self.max_uncompressed_bytes)
+            seq = read_bytes(data, filename, max_uncompressed_bytes=self.settings.max_uncompressed_bytes)
         except DataFormatError as exc:
             raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
         return seq

@@ -4,24 +4,24 @@ from __future__ import annotations
 
 RGB = tuple[int, int, int]
 
+
+def rgb_from_hex(code: str) -> RGB:
+    """``"#1f77b4"`` -> ``(31, 119, 180)``."""
+    r, g, b = (int(code[i : i + 2], 16) for i in (1, 3, 5))
+    return (r, g, b)
+
+
 # Tableau-10 order (its grey left out: ground truth is grey; its olive replaced by magenta, which
 # was too close to the current window's yellow), then darker extras, so that all the shipped
 # checkpoints (ten) overlaid at once still get distinct colours; colours repeat only after 12.
 # No model colour is the yellow of the current window; the end cube of a path takes the path's
 # own colour (a red end cube read as a fourth model's path).
-MODEL_COLORS: tuple[RGB, ...] = (
-    (31, 119, 180),
-    (255, 127, 14),
-    (44, 160, 44),
-    (214, 39, 40),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-    (23, 190, 207),
-    (200, 0, 200),
-    (20, 40, 120),
-    (120, 0, 60),
-    (0, 100, 80),
+MODEL_COLORS: tuple[RGB, ...] = tuple(
+    rgb_from_hex(code)
+    for code in (
+        *("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf"),
+        *("#c800c8", "#142878", "#78003c", "#006450"),  # magenta, then the darker extras
+    )
 )
 TRUTH_COLOR: RGB = (60, 60, 60)
 WINDOW_COLOR: RGB = (255, 200, 0)  # the current window, on every trajectory

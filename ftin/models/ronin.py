@@ -39,7 +39,9 @@ ResNet, ``per_frame_velocity`` (B, L, D) for the LSTM and the TCN.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+from typing import Any, ClassVar
 
 import torch
 from torch import nn
@@ -75,14 +77,25 @@ class RoninResNetConfig:
         )
 
 
-class RoninResNet(VelocityModel):
-    """RoNIN ResNet-1D: ``(B, 6, window) -> velocity (B, out_dim)``."""
+class FixedWindowResNet(VelocityModel):
+    """RoNIN's ResNet-1D backbone on windows of one length, and ``ConvFlattenHead`` heads sized for that
+    length (RoNIN ResNet has one, TLIO a mean and a log-std head). Feature tap: ``backbone``.
 
-    def __init__(self, config: RoninResNetConfig) -> None:
+    ``config``: a config dataclass with ``window``, ``out_dim``, ``trans_channels``, ``fc_dim`` and
+    ``dropout`` (``RoninResNetConfig``, ``TLIOConfig``).
+    """
+
+    model_name: ClassVar[str]  # for the input checks' messages
+
+    def __init__(self, config: Any, blocks_per_group: Sequence[int] = (2, 2, 2, 2)) -> None:
         super().__init__(**asdict(config))
         self.window = config.window
-        self.backbone = ResNet1DBackbone(IN_CHANNELS, blocks_per_group=config.blocks_per_group)
-        self.head = ConvFlattenHead(
+        self.backbone = ResNet1DBackbone(IN_CHANNELS, blocks_per_group=blocks_per_group)
+
+    def _head(self, config: Any) -> ConvFlattenHead:
+        """A head for the backbone's output at ``window``: ``out_dim``, ``trans_channels``, two hidden
+        layers of ``fc_dim`` and ``dropout`` from the config."""
+        return ConvFlattenHead(
             self.backbone.out_channels,
             self.backbone.output_length(config.window),
             config.out_dim,
@@ -90,14 +103,28 @@ class RoninResNet(VelocityModel):
             hidden=(config.fc_dim, config.fc_dim),
             dropout=config.dropout,
         )
+
+    def _encode(self, x: torch.Tensor, features: dict | None) -> torch.Tensor:
+        """``(B, 6, window) -> (B, 512, L_res)``, the backbone's output."""
+        check_input(x, self.model_name, window=self.window)
+        h = self.backbone(x)
+        if features is not None:
+            features["backbone"] = h.detach()
+        return h
+
+
+class RoninResNet(FixedWindowResNet):
+    """RoNIN ResNet-1D: ``(B, 6, window) -> velocity (B, out_dim)``."""
+
+    model_name = "ronin_resnet"
+
+    def __init__(self, config: RoninResNetConfig) -> None:
+        super().__init__(config, config.blocks_per_group)
+        self.head = self._head(config)
         init_resnet_weights(self)
 
     def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        check_input(x, "ronin_resnet", window=self.window)
-        h = self.backbone(x)  # (B, 512, L_res)
-        if features is not None:
-            features["backbone"] = h.detach()
-        return VelocityOutput(self.head(h))  # (B, D)
+        return VelocityOutput(self.head(self._encode(x, features)))  # (B, D)
 
 
 @register_model("ronin_resnet", ModelCfg(RoninResNetConfig, window=200, rate_hz=200.0))

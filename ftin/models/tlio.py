@@ -20,17 +20,15 @@ Feature tap (detached, only when a ``features`` dict is passed): ``backbone`` (B
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import torch
 
-from ftin.models.base import VelocityModel, VelocityOutput
-from ftin.models.layers.checks import check_input, make_config, require
-from ftin.models.layers.conv_head import ConvFlattenHead
-from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
+from ftin.models.base import VelocityOutput
+from ftin.models.layers.checks import make_config, require
+from ftin.models.layers.resnet1d import init_resnet_weights
 from ftin.models.registry import ModelCfg, register_model
-
-IN_CHANNELS = 6  # gyro xyz, acc xyz
+from ftin.models.ronin import FixedWindowResNet
 
 
 @dataclass(frozen=True)
@@ -47,30 +45,20 @@ class TLIOConfig:
         require(0.0 <= self.dropout < 1.0, "tlio", f"dropout must be in [0, 1), got {self.dropout}")
 
 
-class TLIONet(VelocityModel):
+class TLIONet(FixedWindowResNet):
     """``(B, 6, window) -> VelocityOutput(velocity (B, D), log_std (B, D))``."""
 
     has_uncertainty = True
+    model_name = "tlio"
 
     def __init__(self, config: TLIOConfig) -> None:
-        super().__init__(**asdict(config))
-        self.window = config.window
-        self.backbone = ResNet1DBackbone(IN_CHANNELS)
-        length = self.backbone.output_length(config.window)
-        head_kwargs = dict(
-            trans_channels=config.trans_channels,
-            hidden=(config.fc_dim, config.fc_dim),
-            dropout=config.dropout,
-        )
-        self.mean_head = ConvFlattenHead(self.backbone.out_channels, length, config.out_dim, **head_kwargs)
-        self.log_std_head = ConvFlattenHead(self.backbone.out_channels, length, config.out_dim, **head_kwargs)
+        super().__init__(config)
+        self.mean_head = self._head(config)
+        self.log_std_head = self._head(config)
         init_resnet_weights(self)
 
     def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        check_input(x, "tlio", window=self.window)
-        h = self.backbone(x)  # (B, 512, L_res)
-        if features is not None:
-            features["backbone"] = h.detach()
+        h = self._encode(x, features)  # (B, 512, L_res)
         return VelocityOutput(self.mean_head(h), self.log_std_head(h))  # (B, D), (B, D)
 
 

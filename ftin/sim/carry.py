@@ -14,7 +14,7 @@ yaw), so that a set of simulated sequences is not one pose repeated.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -38,46 +38,43 @@ class CarryProfile:
     wander_rad: float  # slow wrist wobble of a hand-held phone (rotation only, 0.05-0.3 Hz)
 
 
+# Drawn per sequence (x 0.85-1.15): every amplitude, not the pivot height and the lever arm.
+JITTERED = (
+    "bounce_m",
+    "sway_m",
+    "surge_m",
+    "yaw_stride_rad",
+    "pitch_step_rad",
+    "pitch_stride_rad",
+    "roll_stride_rad",
+    "wander_rad",
+)
+
+
+def _profile(
+    pivot_height_m: float,
+    lever_arm_m: tuple[float, float, float],
+    gait_m: tuple[float, float, float],
+    gait_deg: tuple[float, float, float, float, float],
+) -> CarryProfile:
+    """``gait_m``: bounce, sway, surge; ``gait_deg``: yaw per stride, pitch per step, pitch per stride,
+    roll per stride and wander, in degrees (the ``CarryProfile`` fields in their order)."""
+    return CarryProfile(pivot_height_m, lever_arm_m, *gait_m, *(np.deg2rad(deg) for deg in gait_deg))
+
+
 PROFILES: dict[CarryMode, CarryProfile] = {
     # Hand ~30 cm in front of and ~30 cm below the shoulder: the torso's rocking moves it a little.
-    CarryMode.HANDHELD: CarryProfile(
-        pivot_height_m=1.40,
-        lever_arm_m=(0.30, -0.10, -0.30),
-        bounce_m=0.025,
-        sway_m=0.020,
-        surge_m=0.015,
-        yaw_stride_rad=np.deg2rad(3.0),
-        pitch_step_rad=np.deg2rad(2.0),
-        pitch_stride_rad=0.0,
-        roll_stride_rad=np.deg2rad(2.5),
-        wander_rad=np.deg2rad(3.0),
+    CarryMode.HANDHELD: _profile(
+        1.40, (0.30, -0.10, -0.30), gait_m=(0.025, 0.020, 0.015), gait_deg=(3.0, 2.0, 0.0, 2.5, 3.0)
     ),
     # Pivot at the hip joint, phone ~22 cm down the thigh: the thigh swings +-25 deg per stride, so
     # the phone swings fore and aft by ~9 cm and turns by ~2.5 rad/s at peak.
-    CarryMode.POCKET: CarryProfile(
-        pivot_height_m=0.90,
-        lever_arm_m=(0.0, 0.10, -0.22),
-        bounce_m=0.025,
-        sway_m=0.025,
-        surge_m=0.015,
-        yaw_stride_rad=np.deg2rad(5.0),
-        pitch_step_rad=0.0,
-        pitch_stride_rad=np.deg2rad(25.0),
-        roll_stride_rad=np.deg2rad(4.0),
-        wander_rad=0.0,
+    CarryMode.POCKET: _profile(
+        0.90, (0.0, 0.10, -0.22), gait_m=(0.025, 0.025, 0.015), gait_deg=(5.0, 0.0, 25.0, 4.0, 0.0)
     ),
     # A trolley rolls: millimetres of vibration, a little surge from the pushing, no sway.
-    CarryMode.TROLLEY: CarryProfile(
-        pivot_height_m=1.00,
-        lever_arm_m=(0.0, 0.0, 0.0),
-        bounce_m=0.001,
-        sway_m=0.001,
-        surge_m=0.003,
-        yaw_stride_rad=np.deg2rad(0.3),
-        pitch_step_rad=np.deg2rad(0.2),
-        pitch_stride_rad=0.0,
-        roll_stride_rad=np.deg2rad(0.2),
-        wander_rad=0.0,
+    CarryMode.TROLLEY: _profile(
+        1.00, (0.0, 0.0, 0.0), gait_m=(0.001, 0.001, 0.003), gait_deg=(0.3, 0.2, 0.0, 0.2, 0.0)
     ),
 }
 
@@ -115,19 +112,8 @@ def _mounting(carry: CarryMode, rng: np.random.Generator) -> Rotation:
 
 def draw_carry_pose(carry: CarryMode, rng: np.random.Generator) -> CarryPose:
     base = PROFILES[carry]
-    jitter = rng.uniform(0.85, 1.15, size=8)
-    profile = CarryProfile(
-        pivot_height_m=base.pivot_height_m,
-        lever_arm_m=base.lever_arm_m,
-        bounce_m=base.bounce_m * jitter[0],
-        sway_m=base.sway_m * jitter[1],
-        surge_m=base.surge_m * jitter[2],
-        yaw_stride_rad=base.yaw_stride_rad * jitter[3],
-        pitch_step_rad=base.pitch_step_rad * jitter[4],
-        pitch_stride_rad=base.pitch_stride_rad * jitter[5],
-        roll_stride_rad=base.roll_stride_rad * jitter[6],
-        wander_rad=base.wander_rad * jitter[7],
-    )
+    jitter = dict(zip(JITTERED, rng.uniform(0.85, 1.15, size=len(JITTERED)), strict=True))
+    profile = replace(base, **{name: getattr(base, name) * factor for name, factor in jitter.items()})
     mounting = _mounting(carry, rng)
     phases = tuple(float(p) for p in rng.uniform(-0.3, 0.3, size=4))
     return CarryPose(profile, mounting, phases)

@@ -23,6 +23,20 @@ def upload(client: TestClient, data: bytes, name: str = "walk.csv", **params: st
     return client.post("/predict", params=params, files={"file": (name, data, "text/csv")})
 
 
+ARRAY_COLUMNS = {  # POST /predict's JSON arrays -> the generic CSV's columns
+    "t_s": "t",
+    "gyro_rad_s": ["gyro_x", "gyro_y", "gyro_z"],
+    "acc_m_s2": ["acc_x", "acc_y", "acc_z"],
+    "q_world_device_wxyz": ["q_w", "q_x", "q_y", "q_z"],
+    "gt_p_world_m": [f"gt_device_world_{a}" for a in "xyz"],
+}
+
+
+def arrays_body(frame: pd.DataFrame, *fields: str, **extra: str) -> dict[str, object]:
+    """A JSON body for ``POST /predict`` with ``fields`` (keys of ``ARRAY_COLUMNS``) taken from ``frame``."""
+    return {**extra, **{f: frame[ARRAY_COLUMNS[f]].to_numpy().tolist() for f in fields}}
+
+
 def detail(response) -> str:
     body = response.json()
     assert set(body) == {"detail"}, body
@@ -164,14 +178,7 @@ def test_predict_raw_csv_body(client: TestClient, csv_with_gt: bytes) -> None:
 
 
 def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> None:
-    body = {
-        "name": "arrays",
-        "t_s": sample_frame["t"].tolist(),
-        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
-        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
-        "q_world_device_wxyz": sample_frame[["q_w", "q_x", "q_y", "q_z"]].to_numpy().tolist(),
-        "gt_p_world_m": sample_frame[[f"gt_device_world_{a}" for a in "xyz"]].to_numpy().tolist(),
-    }
+    body = arrays_body(sample_frame, *ARRAY_COLUMNS, name="arrays")
     response = client.post("/predict", json=body, params={"model": DEFAULT_MODEL})
     assert response.status_code == 200, response.text
     result = response.json()
@@ -214,14 +221,8 @@ def test_bad_csv_is_422_with_the_readers_message(client: TestClient, csv: bytes,
 
 def test_recording_shorter_than_a_window_is_422(client: TestClient, sample_frame: pd.DataFrame) -> None:
     # JSON arrays skip the CSV reader's own minimum, so this reaches the model's window check.
-    short = sample_frame.head(40)
-    body = {
-        "name": "short",
-        "t_s": short["t"].tolist(),
-        "gyro_rad_s": short[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
-        "acc_m_s2": short[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
-        "q_world_device_wxyz": short[["q_w", "q_x", "q_y", "q_z"]].to_numpy().tolist(),
-    }
+    fields = ("t_s", "gyro_rad_s", "acc_m_s2", "q_world_device_wxyz")
+    body = arrays_body(sample_frame.head(40), *fields, name="short")
     response = client.post("/predict", json=body)
     assert response.status_code == 422
     message = detail(response)
@@ -441,11 +442,7 @@ def test_a_plausible_path_has_no_path_warning_and_read_notes_are_not_warnings(
 
 
 def test_a_json_recording_is_not_named_request(client: TestClient, sample_frame: pd.DataFrame) -> None:
-    body = {
-        "t_s": sample_frame["t"].tolist(),
-        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].values.tolist(),
-        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].values.tolist(),
-    }
+    body = arrays_body(sample_frame, "t_s", "gyro_rad_s", "acc_m_s2")  # no name
     response = client.post("/predict", json=body)
     assert response.status_code == 200, response.text
     assert response.json()["sequence"] == "recording"

@@ -5,6 +5,7 @@ and ``metrics.json`` (the metrics, their convention and alignment in words)."""
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Annotated
 
 from fastapi import APIRouter, Path, Query
@@ -25,46 +26,43 @@ TimestampsQuery = Annotated[
         "the recording's own timestamps."
     ),
 ]
-_ERRORS = {404: {"model": ErrorResponse}, 410: {"model": ErrorResponse}}
+RUN_GONE = {404: {"model": ErrorResponse}, 410: {"model": ErrorResponse}}  # 410: finished, then dropped
 
 
-def _attachment(text: str, media_type: str, name: str) -> Response:
+def file_route(on: APIRouter, path: str, media_type: str) -> Callable[[Callable], Callable]:
+    """``GET path`` answering a file of ``media_type`` from a finished run (404 unknown, 410 expired)."""
+    return on.get(path, response_class=Response, responses={200: {"content": {media_type: {}}}, **RUN_GONE})
+
+
+def attachment(text: str, media_type: str, name: str) -> Response:
     filename = re.sub(r"[^A-Za-z0-9._-]+", "_", name)  # header values: plain ASCII only
     return Response(
         text, media_type=media_type, headers={"Content-Disposition": f'attachment; filename="{filename}"'}
     )
 
 
-@router.get(
-    "/runs/{run_id}/trajectory.tum",
-    response_class=Response,
-    responses={200: {"content": {"text/plain": {}}}, **_ERRORS},
-)
+@file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain")
 def trajectory_tum_route(
     run_id: RunIdPath, services: ServicesDep, timestamps: TimestampsQuery = Timestamps.MODEL
 ) -> Response:
     """The predicted trajectory in TUM format (seconds, metres, world-from-device quaternion)."""
     run = services.runs.get(run_id)
-    return _attachment(
+    return attachment(
         trajectory_tum(run, timestamps), "text/plain", f"{run.sequence.name}_{run.model_name}_trajectory.tum"
     )
 
 
-@router.get(
-    "/runs/{run_id}/ground_truth.tum",
-    response_class=Response,
-    responses={200: {"content": {"text/plain": {}}}, **_ERRORS},
-)
+@file_route(router, "/runs/{run_id}/ground_truth.tum", "text/plain")
 def ground_truth_tum_route(run_id: RunIdPath, services: ServicesDep) -> Response:
     """The ground truth in TUM format, in the prediction's frame (the fitted alignment applied)."""
     run = services.runs.get(run_id)
     text = ground_truth_tum(run)
     if text is None:
         raise NotFoundError(f"run {run_id!r} ({run.sequence.name}) has no ground truth")
-    return _attachment(text, "text/plain", f"{run.sequence.name}_ground_truth.tum")
+    return attachment(text, "text/plain", f"{run.sequence.name}_ground_truth.tum")
 
 
-@router.get("/runs/{run_id}/metrics.json", responses=_ERRORS)
+@router.get("/runs/{run_id}/metrics.json", responses=RUN_GONE)
 def metrics_json_route(run_id: RunIdPath, services: ServicesDep) -> JSONResponse:
     """The run's metrics (null without ground truth), convention and alignment, as JSON."""
     run = services.runs.get(run_id)

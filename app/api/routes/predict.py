@@ -11,7 +11,11 @@ when the request arrives (504 when it passes).
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
@@ -56,6 +60,32 @@ _OPENAPI_BODY = {
 }
 
 
+@dataclass(frozen=True)
+class PredictOptions:
+    """The query options every prediction route takes, and the deadline that started with the request."""
+
+    model: str | None
+    run_id: str | None
+    align: str | None
+    deadline: Deadline
+
+    async def run(self, predict: Callable[..., Run], *args: object) -> Run:
+        """``predict(*args, model=, run_id=, deadline=, align=)`` in the threadpool."""
+        return await run_in_threadpool(
+            predict, *args, model=self.model, run_id=self.run_id, deadline=self.deadline, align=self.align
+        )
+
+
+def _predict_options(
+    services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None, align: AlignQuery = None
+) -> PredictOptions:
+    how = None if align is None else align.value
+    return PredictOptions(model, run_id, how, services.predictor.new_deadline())
+
+
+PredictOptionsDep = Annotated[PredictOptions, Depends(_predict_options)]
+
+
 def _describe(exc: ValidationError) -> str:
     parts = []
     for error in exc.errors():
@@ -67,10 +97,11 @@ def _describe(exc: ValidationError) -> str:
 def _predict_json(
     predictor: PredictionService,
     raw: bytes,
+    *,
     model: str | None,
     run_id: str | None,
     deadline: Deadline,
-    align: str | None = None,
+    align: str | None,
 ) -> Run:
     try:
         body = ArraysPredictRequest.model_validate_json(raw)
@@ -97,17 +128,9 @@ def _predict_json(
         504: {"model": ErrorResponse},
     },
 )
-async def predict(
-    request: Request,
-    services: ServicesDep,
-    model: ModelQuery = None,
-    run_id: RunIdQuery = None,
-    align: AlignQuery = None,
-) -> PredictionResponse:
+async def predict(request: Request, services: ServicesDep, options: PredictOptionsDep) -> PredictionResponse:
     content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
     predictor = services.predictor
-    deadline = predictor.new_deadline()
-    how = None if align is None else align.value
     if content_type == "multipart/form-data":
         async with request.form(max_files=1, max_fields=8) as form:
             upload = form.get("file")
@@ -118,20 +141,15 @@ async def predict(
                 )
             data = await upload.read()
             filename = upload.filename or "upload.csv"
-        run = await run_in_threadpool(
-            predictor.predict_csv, data, filename, model, run_id, deadline=deadline, align=how
-        )
+        run = await options.run(predictor.predict_csv, data, filename)
     elif content_type in _RAW_BODY_TYPES:
         data = await request.body()
         name = {"application/zip": "request.zip", "application/x-zip-compressed": "request.zip"}.get(
             content_type, "request.csv"
         )
-        run = await run_in_threadpool(
-            predictor.predict_csv, data, name, model, run_id, deadline=deadline, align=how
-        )
+        run = await options.run(predictor.predict_csv, data, name)
     elif content_type == "application/json":
-        raw = await request.body()
-        run = await run_in_threadpool(_predict_json, predictor, raw, model, run_id, deadline, how)
+        run = await options.run(_predict_json, predictor, await request.body())
     else:
         raise UnsupportedMediaError(
             f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"

@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Path
-from starlette.concurrency import run_in_threadpool
 
-from app.api.deps import AlignQuery, ModelQuery, RunIdQuery, ServicesDep
+from app.api.deps import ServicesDep
+from app.api.routes.predict import PredictOptionsDep
 from app.schemas import ErrorResponse, PredictionResponse, SequenceInfo
 
 router = APIRouter(tags=["sequences"])
@@ -31,14 +31,7 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
     responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 504)},
 )
 async def predict_sequence(
-    sequence_id: SequenceIdPath,
-    services: ServicesDep,
-    model: ModelQuery = None,
-    run_id: RunIdQuery = None,
-    align: AlignQuery = None,
+    sequence_id: SequenceIdPath, services: ServicesDep, options: PredictOptionsDep
 ) -> PredictionResponse:
-    predictor = services.predictor
-    deadline = predictor.new_deadline()
-    how = None if align is None else align.value
-    run = await run_in_threadpool(predictor.predict_sequence, sequence_id, model, run_id, deadline, align=how)
+    run = await options.run(services.predictor.predict_sequence, sequence_id)
     return PredictionResponse.from_run(run, services.scene_url)
