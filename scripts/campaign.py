@@ -420,8 +420,9 @@ def collect(args: argparse.Namespace) -> None:
     results_dir.mkdir(parents=True, exist_ok=True)
     best: dict[str, tuple[float, Any, dict[str, Any]]] = {}
     seeds: dict[str, list[dict[str, Any]]] = {}
+    only = set(args.only.split(",")) if args.only else None
     for job in all_jobs(state):
-        if not is_done(runs, job):
+        if not is_done(runs, job) or (only is not None and job.checkpoint_stem not in only):
             continue
         folder = runs / job.name
         record = {
@@ -489,6 +490,11 @@ def main() -> None:
     p = sub.add_parser("collect", help="per-job results JSON and the shipped checkpoints")
     p.add_argument("--results", type=Path, default=REPO / "docs" / "results" / "campaign")
     p.add_argument("--checkpoints", type=Path, default=None)
+    p.add_argument(
+        "--only",
+        help="comma-separated checkpoint stems (e.g. ftin-pedestrian,ftin-sim): ship only these, "
+        "for groups whose jobs are all done while the rest of the campaign runs",
+    )
     for p in sub.choices.values():
         p.add_argument("--runs", type=Path, default=argparse.SUPPRESS)
     args = parser.parse_args()
