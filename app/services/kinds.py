@@ -8,8 +8,9 @@ Decisions (issue 11, items 8 and 10):
   reader format, its folder and its name: ``oxiod``, ``ronin``, ``ridi``, ``tlio``, ``rnin``,
   ``imunet``, ``euroc``, and ``simulated`` (the ``sim`` folder or ``sim_*`` names of ``ftin sim``,
   and the bundled samples). Anything else has no kind.
-- The scene ticks, for a sequence, the checkpoint trained on the same kind (an FTIN one first);
-  without one, the default model.
+- A checkpoint may be trained on several kinds (``ftin-pedestrian``: OxIOD and RIDI). The scene ticks,
+  for a sequence, a checkpoint trained on its kind (an FTIN one first, the default model before the
+  other FTIN ones); without one, the default model.
 """
 
 from __future__ import annotations
@@ -49,18 +50,31 @@ def kind_of(texts: Iterable[str]) -> str | None:
     return None
 
 
-def training_kind(training_data: object) -> str | None:
-    """The kind of a checkpoint's recorded ``training_data`` (a dict of paths/sequences, or words)."""
+def training_kinds(training_data: object) -> tuple[str, ...]:
+    """The kinds of a checkpoint's recorded ``training_data`` (a dict of paths/sequences, or words),
+    each once, in the order the paths name them: ``("oxiod", "ridi")`` for a model trained on both."""
     if isinstance(training_data, dict):
-        texts = [str(p) for p in training_data.get("paths", []) or []]
+        paths = [str(p) for p in training_data.get("paths", []) or []]
+        kinds = [kind for kind in (kind_of([path]) for path in paths) if kind is not None]
+        if kinds:
+            return tuple(dict.fromkeys(kinds))
         sequences = training_data.get("sequences")
-        if isinstance(sequences, list):
-            texts += [str(s) for s in sequences]
-        return kind_of(texts)
+        names = [str(s) for s in sequences] if isinstance(sequences, list) else []
+        kind = kind_of(paths + names)  # e.g. sim_* sequence names under a neutral folder
+        return () if kind is None else (kind,)
     if isinstance(training_data, str):
-        return kind_of([training_data])
-    return None
+        kind = kind_of([training_data])
+        return () if kind is None else (kind,)
+    return ()
 
 
 def label(kind: str | None) -> str | None:
     return None if kind is None else KIND_LABELS.get(kind, kind)
+
+
+def labels(kinds: Iterable[str]) -> str | None:
+    """``("oxiod", "ridi")`` -> "OxIOD and RIDI"; None for no kinds."""
+    words = [KIND_LABELS.get(kind, kind) for kind in kinds]
+    if not words:
+        return None
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]

@@ -24,7 +24,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from app.services.errors import NotFoundError, StartupError
-from app.services.kinds import label, training_kind
+from app.services.kinds import labels, training_kinds
 from ftin.checkpoint import LoadedModel, load_model
 
 log = logging.getLogger(__name__)
@@ -49,24 +49,25 @@ class ModelEntry:
         return dict(self.loaded.meta or {})
 
     @property
-    def data_kind(self) -> str | None:
-        """What kind of data the checkpoint was trained on (``app.services.kinds``), or None."""
-        return training_kind(self.meta.get("training_data"))
+    def data_kinds(self) -> tuple[str, ...]:
+        """What kinds of data the checkpoint was trained on (``app.services.kinds``); may be empty."""
+        return training_kinds(self.meta.get("training_data"))
 
     @property
     def trained_on(self) -> str | None:
         """``training_data`` of the checkpoint in words: what data and how many sequences.
 
         ``ftin train`` records ``{"paths": [...], "sequences": [...]}``. The paths are a developer's
-        (``../shared/data/oxiod/...``), so they are named by their kind (``OxIOD (9 sequences)``),
-        else by the last folder they share (``walks (2 sequences)``). A plain string is kept as is.
+        (``../shared/data/oxiod/...``), so they are named by their kinds (``OxIOD and RIDI (21
+        sequences)``), else by the last folder they share (``walks (2 sequences)``). A plain string is
+        kept as is.
         """
         data = self.meta.get("training_data")
         if data is None or isinstance(data, str):
             return data
         if isinstance(data, dict):
             paths = [str(p).replace("\\", "/").rstrip("/") for p in data.get("paths", []) if str(p).strip()]
-            where = label(self.data_kind)
+            where = labels(self.data_kinds)
             if where is None:
                 try:
                     common = os.path.commonpath(paths) if len(paths) > 1 else (paths or [""])[0]
@@ -151,7 +152,7 @@ class ModelStore:
     def for_kind(self, kind: str | None) -> str | None:
         """The model trained on ``kind`` of data (an FTIN checkpoint first), else the default."""
         if kind is not None:
-            same = [e for e in self.entries.values() if e.data_kind == kind]
+            same = [e for e in self.entries.values() if kind in e.data_kinds]
             same.sort(key=lambda e: (e.architecture != "ftin", e.name != self.default_name))
             if same:
                 return same[0].name

@@ -313,6 +313,7 @@ def test_run_store_is_thread_safe() -> None:
 
 def test_training_data_is_summarised_in_words_not_listed() -> None:
     """Issue 11: no developer paths in the UI; the kind of data, else the folder's name."""
+
     def trained_on(data: object) -> str | None:
         return ModelEntry(
             "m", Path("m.safetensors"), SimpleNamespace(meta={"training_data": data})
@@ -320,6 +321,8 @@ def test_training_data_is_summarised_in_words_not_listed() -> None:
 
     files = ["../data/oxiod/handheld/imu1.csv", "../data/oxiod/trolley/imu2.csv", "../data/oxiod/x/imu3.csv"]
     assert trained_on({"paths": files, "sequences": ["a", "b", "c"]}) == "OxIOD (3 sequences)"
+    both = {"paths": [*files, "../data/ridi/dan_bag1"], "sequences": ["a", "b", "c", "dan_bag1"]}
+    assert trained_on(both) == "OxIOD and RIDI (4 sequences)"
     assert trained_on({"paths": ["/data/sim/"], "sequences": ["a"]}) == "simulated walks (1 sequence)"
     assert trained_on({"paths": ["runs/x/train"], "sequences": ["sim_1000_handheld"]}) == (
         "simulated walks (1 sequence)"
@@ -328,3 +331,26 @@ def test_training_data_is_summarised_in_words_not_listed() -> None:
     assert trained_on({"paths": ["/abs/a.csv", "rel/b.csv"]}) == "unknown data"
     assert trained_on({"paths": []}) == "unknown data"
     assert trained_on("OxIOD handheld") == "OxIOD handheld" and trained_on(None) is None
+
+
+def test_a_checkpoint_trained_on_two_kinds_serves_both() -> None:
+    """ftin-pedestrian (OxIOD and RIDI) is ticked for either kind; the default before other FTIN ones."""
+
+    def entry(name: str, architecture: str, *folders: str) -> ModelEntry:
+        paths = [f"../data/{folder}/rec" for folder in folders]
+        meta = {"training_data": {"paths": paths, "sequences": ["rec"] * len(paths)}}
+        return ModelEntry(name, Path(name), SimpleNamespace(model_name=architecture, meta=meta))
+
+    entries = [
+        entry("resnet-ridi", "ronin_resnet", "ridi"),
+        entry("ftin-oxiod", "ftin", "oxiod"),
+        entry("ftin-pedestrian", "ftin", "oxiod", "ridi"),
+        entry("ftin-sim", "ftin", "sim"),
+    ]
+    store = ModelStore(Path("."), {e.name: e for e in entries}, "ftin-pedestrian", [])
+    assert store.entries["ftin-pedestrian"].data_kinds == ("oxiod", "ridi")
+    assert store.for_kind("ridi") == "ftin-pedestrian" and store.for_kind("oxiod") == "ftin-pedestrian"
+    assert store.for_kind("simulated") == "ftin-sim" and store.for_kind("euroc") == "ftin-pedestrian"
+    assert (
+        ModelStore(Path("."), {e.name: e for e in entries}, "ftin-sim", []).for_kind("oxiod") == "ftin-oxiod"
+    )
