@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import sys
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -24,6 +25,16 @@ from ftin.train.state import CONFIG_FILE
 
 def _is_main_process() -> bool:
     return os.environ.get("RANK", "0") == "0"
+
+
+def _leave_rank(code: int = 0) -> None:
+    """Under torchrun, end this rank now, without the interpreter's finalization: gloo's worker threads
+    may still hold tensors then, and freeing them there aborts the rank ("terminate called without an
+    active exception", SIGABRT) after its work is done and written (pytorch/pytorch PR 179291)."""
+    if int(os.environ.get("WORLD_SIZE", "1")) > 1:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
 
 
 def _paths(paths: list[Path] | None) -> tuple[str, ...] | None:
@@ -168,7 +179,7 @@ def train_command(
         config = resolve_config(options, out, resume)
         result = run_training(config, resume=resume, progress=progress)
     if not _is_main_process():
-        return
+        _leave_rank()
     best = "-" if result.best_val_loss is None else f"{result.best_val_loss:.4g}"
     typer.echo(
         f"{result.stop_reason}: {result.epochs_done} epoch(s), {result.steps} steps, "
@@ -177,3 +188,4 @@ def train_command(
     typer.echo(f"checkpoint: {result.checkpoint}")
     if not result.finished:
         typer.echo(f"continue with: ftin train --out {out} --resume")
+    _leave_rank()
