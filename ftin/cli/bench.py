@@ -10,13 +10,12 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
 from ftin.bench import MEMORY_METHOD, BenchConfig, bench_json, bench_models
 from ftin.checkpoint import atomic_write_text
-from ftin.cli.common import REPORT_ERRORS, app, config_options, progress_bar, user_errors
+from ftin.cli.common import REPORT_ERRORS, app, config_options, out_console, progress_bar, user_errors
 from ftin.models import list_models
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults
@@ -106,7 +105,7 @@ def bench_command(
             "-" if infer is None else _mib(infer.peak_rss_mib, infer.peak_increase_mib),
             "-" if train is None else _mib(train.peak_rss_mib, train.peak_increase_mib),
         )
-    console = Console()
+    console = out_console()
     console.print(table)
     for r in results:
         if r.error:

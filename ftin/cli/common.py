@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -35,6 +36,17 @@ app = typer.Typer(
 )
 
 err_console = Console(stderr=True)
+PIPED_WIDTH = 120  # columns of a table written to a file or a pipe
+
+
+def out_console() -> Console:
+    """The console for stdout: the terminal's width, or, written to a file or a pipe without ``COLUMNS``
+    set, 120 columns (rich's 80 fold a table's recording names into five-letter slices)."""
+    console = Console()
+    if console.is_terminal or "COLUMNS" in os.environ:
+        return console
+    return Console(width=PIPED_WIDTH)
+
 
 # What ``train``, ``evaluate`` and ``predict`` report as one ``error:`` line (exit status 2).
 MODEL_ERRORS = (DataFormatError, ConfigError, CheckpointError, UnknownModelError, FloatingPointError, OSError)

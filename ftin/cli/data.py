@@ -14,11 +14,10 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.cli.common import app, err_console, progress_bar, user_errors
+from ftin.cli.common import app, err_console, out_console, progress_bar, user_errors
 from ftin.data.errors import DataFormatError
 from ftin.data.readers import SequenceRef, list_sequences, read_sequence
 from ftin.data.readers.generic_csv import write_csv
@@ -153,7 +152,7 @@ def _print_table(report: dict[str, Any]) -> None:
     if totals["recorded_duration_s"] > totals["duration_s"] + 1e-6:
         recorded_min = totals["recorded_duration_min"]
         table.caption = f"durations after the reader's trimming; {recorded_min:.1f} min recorded"
-    Console().print(table)
+    out_console().print(table)
 
 
 @data_app.command("convert")

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
@@ -20,6 +19,7 @@ from ftin.cli.common import (
     ConventionOption,
     RteWindowOption,
     app,
+    out_console,
     progress_bar,
     user_errors,
 )
@@ -71,7 +71,7 @@ def evaluate_command(
     table.add_row("mean", "", *cells(report.mean), still)
     if report.stand_still is not None:
         table.add_row("[dim]stand still (never moves)[/]", "", *cells(report.stand_still), "")
-    console = Console()
+    console = out_console()
     console.print(table)
     console.print(report.describe(), highlight=False, soft_wrap=True)
     aligned = [r for r in report.sequences if r.metrics.alignment is not None]

@@ -7,11 +7,10 @@ import json
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from ftin.bench.profile import DEFAULT_WINDOW, ModelProfile, profile_model, torch_threads
-from ftin.cli.common import ThreadsOption, app, err_console, user_errors
+from ftin.cli.common import ThreadsOption, app, err_console, out_console, user_errors
 from ftin.models import UnknownModelError, check_known_models, list_models
 
 CONVENTIONS = (
@@ -56,7 +55,7 @@ def models_command(
     if json_output:
         typer.echo(json.dumps([p.to_dict() for p in profiles], indent=2))
     else:
-        Console().print(_table(profiles, window, batch, threads_used))
+        out_console().print(_table(profiles, window, batch, threads_used))
 
 
 def _table(profiles: list[ModelProfile], window: int, batch: int, threads: int) -> Table:

@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 
 from ftin.checkpoint import atomic_write_text
@@ -23,6 +22,7 @@ from ftin.cli.common import (
     RteWindowOption,
     StrideOption,
     app,
+    out_console,
     progress_bar,
     user_errors,
 )
@@ -88,7 +88,7 @@ def table_command(
                 loaded, datasets, convention, rte_window_s=rte_window_s, stride=stride, on_evaluation=advance
             )
         files = write_report(results, out)
-    console = Console()
+    console = out_console()
     console.print(files.table_md.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
     for path in (files.table_md, files.table_csv, files.results_json, files.pde_png, files.trajectories_png):
         typer.echo(f"wrote {path}")
@@ -119,6 +119,6 @@ def _campaign_table(folder: Path, out: Path) -> None:
         atomic_write_text(written[1], table_csv)
         atomic_write_text(written[2], json.dumps(summary, indent=1) + "\n")
         write_png(ate_figure(summary), written[3])
-    Console().print(table_md, markup=False, highlight=False, soft_wrap=True)
+    out_console().print(table_md, markup=False, highlight=False, soft_wrap=True)
     for path in written:
         typer.echo(f"wrote {path}")

@@ -157,3 +157,16 @@ def test_convert_oxiod_sequence_round_trips(shared_data, tmp_path):
     for field in ("t_s", "gyro_rad_s", "acc_m_s2", "q_world_device_wxyz"):
         np.testing.assert_allclose(getattr(back, field), getattr(original, field), atol=1e-6, rtol=0)
     np.testing.assert_allclose(back.gt.p_world_m, original.gt.p_world_m, atol=1e-6, rtol=0)
+
+
+def test_a_piped_table_keeps_long_recording_names_whole(tmp_path, monkeypatch):
+    """Written to a pipe (no terminal, no COLUMNS) tables are 120 columns wide, not rich's 80."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    name = "multi_users_user2_handheld_imu6"
+    write_csv(generic_sequence(), tmp_path / "in" / f"{name}.csv")
+    result = runner.invoke(app, ["data", "info", str(tmp_path / "in")])
+    assert result.exit_code == 0, result.output
+    assert name in result.stdout and max(map(len, result.stdout.splitlines())) <= 120
+    monkeypatch.setenv("COLUMNS", "60")  # the user's width is kept
+    narrow = runner.invoke(app, ["data", "info", str(tmp_path / "in")])
+    assert max(map(len, narrow.stdout.splitlines())) <= 60
