@@ -175,6 +175,7 @@ def test_predict_raw_csv_body(client: TestClient, csv_with_gt: bytes) -> None:
     response = client.post("/predict", content=csv_with_gt, headers={"content-type": "text/csv"})
     assert response.status_code == 200, response.text
     assert response.json()["metrics"] is not None
+    assert response.json()["sequence"] == "recording"  # a body without a file name, in a user's word
 
 
 def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> None:

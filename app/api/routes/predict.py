@@ -144,8 +144,8 @@ async def predict(request: Request, services: ServicesDep, options: PredictOptio
         run = await options.run(predictor.predict_csv, data, filename)
     elif content_type in _RAW_BODY_TYPES:
         data = await request.body()
-        name = {"application/zip": "request.zip", "application/x-zip-compressed": "request.zip"}.get(
-            content_type, "request.csv"
+        name = {"application/zip": "recording.zip", "application/x-zip-compressed": "recording.zip"}.get(
+            content_type, "recording.csv"
         )
         run = await options.run(predictor.predict_csv, data, name)
     elif content_type == "application/json":
