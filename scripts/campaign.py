@@ -411,9 +411,20 @@ def status(args: argparse.Namespace) -> None:
         print(line)
 
 
+def withdraw(checkpoints: Path, stem: str) -> None:
+    """Remove an earlier checkpoint of ``stem``: a model whose campaign run does not walk the right
+    distance on validation is not hosted, and neither is the older one it was to replace."""
+    for suffix in (".safetensors", ".json", ".md"):
+        old = checkpoints / (stem + suffix)
+        if old.exists():
+            old.unlink()
+            print(f"withdrawn: {old} (not shipped: validation path ratio outside 0.8-1.25)", file=sys.stderr)
+
+
 def collect(args: argparse.Namespace) -> None:
     """Per-job results (committable JSON) and the shipped checkpoints: per (model, dataset) the
-    seed with the best validation MSE, if its validation path-length ratio lies in 0.8-1.25."""
+    seed with the best validation MSE, if its validation path-length ratio lies in 0.8-1.25 (else
+    an earlier checkpoint of that name is withdrawn)."""
     runs: Path = args.runs
     state = load_state(runs)
     results_dir: Path = args.results
@@ -456,6 +467,8 @@ def collect(args: argparse.Namespace) -> None:
         ratio = sum(ratios) / len(ratios) if ratios else None
         if ratio is None or not 0.8 <= ratio <= 1.25:
             manifest["not_shipped"][stem] = {"job": job.name, "val_path_length_ratio": ratio}
+            if args.checkpoints is not None:
+                withdraw(args.checkpoints, stem)
             continue
         manifest["shipped"][stem] = {"job": job.name, "val_mse": val, "val_path_length_ratio": ratio}
         if args.checkpoints is not None:
