@@ -411,20 +411,47 @@ def status(args: argparse.Namespace) -> None:
         print(line)
 
 
+def validation_gate(record: dict[str, Any]) -> dict[str, Any]:
+    """Whether a run may be hosted, from its validation recordings (ground-truth orientation): it must
+    walk about the right distance (mean path ratio 0.8-1.25) and beat a predictor that never moves
+    (mean ATE below the stand-still ATE). ``refused`` names the rule it broke, else None."""
+    rows = [
+        row
+        for key, part in record["evaluation"]["parts"].items()
+        if key.split("/")[1] == "val" and key.endswith("ground_truth")
+        for row in part
+    ]
+    ratios = [row["path_length_ratio"] for row in rows if row["path_length_ratio"] is not None]
+    ratio = sum(ratios) / len(ratios) if ratios else None
+    ate = sum(row["ate"] for row in rows) / len(rows) if rows else None
+    still = sum(row["stand_still"]["ate"] for row in rows) / len(rows) if rows else None
+    refused = None
+    if ratio is None or not 0.8 <= ratio <= 1.25:
+        refused = "validation path ratio outside 0.8-1.25"
+    elif ate is None or still is None or ate >= still:
+        refused = "validation ATE not below standing still"
+    return {
+        "val_path_length_ratio": ratio,
+        "val_ate_m": ate,
+        "val_stand_still_ate_m": still,
+        "refused": refused,
+    }
+
+
 def withdraw(checkpoints: Path, stem: str) -> None:
-    """Remove an earlier checkpoint of ``stem``: a model whose campaign run does not walk the right
-    distance on validation is not hosted, and neither is the older one it was to replace."""
+    """Remove an earlier checkpoint of ``stem``: a model whose campaign run fails the validation gate
+    is not hosted, and neither is the older one it was to replace."""
     for suffix in (".safetensors", ".json", ".md"):
         old = checkpoints / (stem + suffix)
         if old.exists():
             old.unlink()
-            print(f"withdrawn: {old} (not shipped: validation path ratio outside 0.8-1.25)", file=sys.stderr)
+            print(f"withdrawn: {old} (its campaign run failed the validation gate)", file=sys.stderr)
 
 
 def collect(args: argparse.Namespace) -> None:
     """Per-job results (committable JSON) and the shipped checkpoints: per (model, dataset) the
-    seed with the best validation MSE, if its validation path-length ratio lies in 0.8-1.25 (else
-    an earlier checkpoint of that name is withdrawn)."""
+    seed with the best validation MSE, if it passes ``validation_gate`` (else an earlier checkpoint
+    of that name is withdrawn)."""
     runs: Path = args.runs
     state = load_state(runs)
     results_dir: Path = args.results
@@ -457,20 +484,13 @@ def collect(args: argparse.Namespace) -> None:
         "not_shipped": {},
     }
     for stem, (val, job, record) in sorted(best.items()):
-        ratios = [
-            row["path_length_ratio"]
-            for key, rows in record["evaluation"]["parts"].items()
-            if key.split("/")[1] == "val" and key.endswith("ground_truth")
-            for row in rows
-            if row["path_length_ratio"] is not None
-        ]
-        ratio = sum(ratios) / len(ratios) if ratios else None
-        if ratio is None or not 0.8 <= ratio <= 1.25:
-            manifest["not_shipped"][stem] = {"job": job.name, "val_path_length_ratio": ratio}
+        gate = validation_gate(record)
+        if gate["refused"]:
+            manifest["not_shipped"][stem] = {"job": job.name, **gate}
             if args.checkpoints is not None:
                 withdraw(args.checkpoints, stem)
             continue
-        manifest["shipped"][stem] = {"job": job.name, "val_mse": val, "val_path_length_ratio": ratio}
+        manifest["shipped"][stem] = {"job": job.name, "val_mse": val, **gate}
         if args.checkpoints is not None:
             from ftin.train.model_card import render_campaign_card
 
