@@ -5,6 +5,7 @@ two at a time, one thread each, resumable across sessions.
     python scripts/campaign.py run --resume [--parallel 2]     # (re)start the scheduler
     python scripts/campaign.py status                           # jobs done / running / left
     python scripts/campaign.py refresh-code [--release]         # new jobs run on git HEAD from now
+    python scripts/campaign.py pin JOB... [--restart]           # these jobs run on git HEAD (rerun)
     python scripts/campaign.py collect --checkpoints checkpoints --results docs/results/campaign
 
 ``start`` freezes the code: it copies ``ftin/`` and this script from git ``HEAD`` into
@@ -12,7 +13,9 @@ two at a time, one thread each, resumable across sessions.
 on the working tree never changes a running or resumed job. A job records the copy it started on
 (``code.txt``) and always resumes on it; ``refresh-code`` freezes a newer ``HEAD`` for jobs not yet
 started (only while the resume-state format is unchanged), and ``--hold`` keeps some models' jobs
-from starting until ``refresh-code --release`` (code they need has not landed yet).
+from starting until ``refresh-code --release`` (code they need has not landed yet). ``pin`` moves
+named jobs alone onto ``HEAD`` (a fix to one model's training), rerunning them with ``--restart``
+and keeping the superseded run beside them.
 
 A job's folder holds the run (``ftin train``'s config, resume state, history, best checkpoint),
 ``log.txt``, ``eval.json`` (its best checkpoint on the validation and test parts, ground-truth
@@ -118,6 +121,36 @@ def refresh_code(args: argparse.Namespace) -> None:
         state["hold"] = []
     save_state(runs, state)
     print(f"jobs not yet started will run on {code.name}; held models: {state.get('hold') or 'none'}")
+
+
+def pin(args: argparse.Namespace) -> None:
+    """Run the named jobs on git HEAD's code from now on (a fix that concerns those models only),
+    leaving every other job's code as it is. A job that has already started is moved aside to
+    ``<job>.superseded-<time>`` (``--restart``) and runs again from the start."""
+    runs: Path = args.runs
+    state = load_state(runs)
+    known = {job.name for job in all_jobs(state)}
+    unknown = [name for name in args.jobs if name not in known]
+    if unknown:
+        sys.exit(f"error: no such job(s): {', '.join(unknown)} (see `status`)")
+    started = [name for name in args.jobs if any((runs / name).glob("*.safetensors"))]
+    if started and not args.restart:
+        sys.exit(f"error: {', '.join(started)} already ran; pass --restart to move them aside and rerun")
+    commit, code = freeze_code(runs)
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    for name in args.jobs:
+        folder = runs / name
+        fresh = folder.with_name(f".{folder.name}.pinned")  # code.txt in place before the scheduler looks
+        shutil.rmtree(fresh, ignore_errors=True)
+        fresh.mkdir(parents=True)
+        (fresh / "code.txt").write_text(code.name + "\n")
+        if folder.exists():
+            folder.rename(folder.with_name(f"{folder.name}.superseded-{stamp}"))
+        fresh.rename(folder)
+        pinned = {"job": name, "code": code.name, "commit": commit, "since": stamp}
+        state.setdefault("pinned", []).append(pinned)
+        print(f"{name}: runs on {code.name} from now on")
+    save_state(runs, state)
 
 
 def job_code(runs: Path, state: dict[str, Any], name: str) -> Path:
@@ -518,6 +551,9 @@ def main() -> None:
     p.add_argument("--resume", action="store_true", help="required: continue the campaign in --runs")
     p.add_argument("--parallel", type=int, default=2)
     sub.add_parser("status", help="jobs done, running, left")
+    p = sub.add_parser("pin", help="run the named jobs on git HEAD (a fix for those models only)")
+    p.add_argument("jobs", nargs="+", help="job names as `status` lists them, e.g. oxiod/tlio-s0")
+    p.add_argument("--restart", action="store_true", help="move jobs that already ran aside; rerun them")
     p = sub.add_parser("job", help="(internal) train and evaluate one job on the frozen code")
     p.add_argument("name")
     p = sub.add_parser("collect", help="per-job results JSON and the shipped checkpoints")
@@ -539,6 +575,7 @@ def main() -> None:
         "job": run_job,
         "collect": collect,
         "refresh-code": refresh_code,
+        "pin": pin,
     }
     commands[args.command](args)
 

@@ -15,7 +15,9 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
 - Normalisation: none by default, as RoNIN (see ``ftin.data.windows.Normalization``).
 - Early stopping (``early_stop_patience``, off by default): training ends once that many epochs in a
   row have not improved the monitored validation loss. It needs no extra resume state: the epochs
-  since ``best_epoch`` tell it, so a stopped run resumed stays stopped.
+  since ``best_epoch`` tell it, so a stopped run resumed stays stopped. With an NLL loss, the count
+  (and the learning-rate plateau's) starts again when the MSE warm-up ends: the switch first raises
+  the validation MSE, and the NLL phase deserves the same patience.
 - ``orientation``: the orientation source asked of readers that offer one (OxIOD, RIDI):
   ``ground_truth`` (motion capture / Tango: the network alone) or ``device`` (the phone's attitude);
   ``None`` keeps each reader's default.

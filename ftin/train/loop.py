@@ -180,6 +180,7 @@ def _setup(
         started,
         elapsed_before=progress.elapsed_s,
         show_progress=show_progress and ddp.main,
+        loss_switch=config.nll_warmup_epochs if use_nll and config.nll_warmup_epochs > 0 else None,
     )
 
 
@@ -199,6 +200,7 @@ class _Run:
     started: float  # time.monotonic() at the start of this invocation
     elapsed_before: float  # wall time of the earlier invocations
     show_progress: bool
+    loss_switch: int | None = None  # epochs of MSE before the NLL (TLIO); None: one loss throughout
 
     @property
     def device(self) -> torch.device:
@@ -288,9 +290,7 @@ class _Run:
         return float(loss.detach())
 
     def _stalled(self) -> bool:
-        """``early_stop_patience`` epochs in a row without a new best (derived, not stored)."""
-        patience, best = self.config.early_stop_patience, self.progress.best_epoch
-        return patience is not None and best is not None and self.progress.epoch - best >= patience
+        return self.progress.stalled(self.config.early_stop_patience, self.loss_switch)
 
     def _budget_stop(self, flag: dict[str, bool]) -> str | None:
         cfg, reason = self.config, None
@@ -335,6 +335,8 @@ class _Run:
         )
         p.epoch += 1
         p.step_in_epoch, p.epoch_loss_sum, p.epoch_count = 0, 0.0, 0
+        if p.epoch == self.loss_switch:  # MSE ends here: the NLL phase starts its own plateau count
+            self.scheduler.best, self.scheduler.num_bad_epochs = self.scheduler.mode_worse, 0
         if improved:
             p.best_val_loss, p.best_epoch = monitored, p.epoch
         if lr < cfg.min_lr:

@@ -46,6 +46,11 @@ STATE_VERSION = 1
 _META_KEY = "ftin_resume_state"
 
 
+def _monitored(record: dict[str, Any]) -> float:
+    """An epoch record's monitored loss: the validation MSE, else the training loss."""
+    return record["val_mse"] if record["val_mse"] is not None else record["train_loss"]
+
+
 @dataclass
 class TrainProgress:
     """Where a run stands; the resume file's ``progress`` entry (field names and order are the format)."""
@@ -60,6 +65,19 @@ class TrainProgress:
     elapsed_s: float = 0.0  # wall time over every invocation, up to the last save
     history: list[dict[str, Any]] = field(default_factory=list)  # one record per finished epoch
     stop_reason: str | None = None  # None while running; see ftin.train.loop.TrainResult
+
+    def stalled(self, patience: int | None, loss_switch: int | None = None) -> bool:
+        """``patience`` finished epochs in a row without a new best (derived from the history, not
+        stored). After a loss switch (``loss_switch`` epochs of MSE, then TLIO's NLL) the count starts
+        from the best epoch of the new phase: the switch first raises the validation MSE, and the NLL
+        phase gets the same patience as the MSE one (TLIO's reference has no early stop at all)."""
+        if patience is None or self.best_epoch is None:
+            return False
+        best = self.best_epoch
+        phase = [h for h in self.history if loss_switch is not None and h["epoch"] > loss_switch]
+        if phase:
+            best = min(phase, key=_monitored)["epoch"]
+        return self.epoch - best >= patience
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -210,6 +210,21 @@ def test_early_stopping_after_patience_epochs_without_a_new_best(tmp_path, sim_s
     assert again.stop_reason == "early_stop" and again.epochs_done == 4
 
 
+def test_after_the_switch_to_nll_patience_and_plateau_start_again(tmp_path, sim_sequences, monkeypatch):
+    """TLIO: the NLL phase first raises the validation MSE; it gets its own patience and plateau."""
+    from ftin.train import loop
+
+    scores = iter([1.0, 0.5, 2.0, 1.8, 1.6, 1.7, 1.9, 1.5])  # MSE: epochs 1-2; NLL: best at 5 until 8
+    monkeypatch.setattr(loop._Run, "validation_mse", lambda self: next(scores))
+    tlio = {"model": "tlio", "model_kwargs": {"window": 20}, "window": 20, "stride": 20, "max_epochs": 8}
+    config = _config(tmp_path, **tlio, nll_warmup_epochs=2, early_stop_patience=2, plateau_patience=3)
+    result = train(config, sim_sequences[:2], sim_sequences[2:], progress=False)
+    # Counted from the overall best (epoch 2) it would stop after epoch 4; from the phase's, after 7.
+    assert result.stop_reason == "early_stop" and result.epochs_done == 7
+    assert result.best_val_loss == 0.5  # the checkpoint is still the best validation MSE overall
+    assert [h["lr"] for h in result.history] == [1e-3] * 7  # 5 epochs above 0.5: no decay after a reset
+
+
 def test_early_stop_patience_must_be_positive(tmp_path):
     with pytest.raises(ConfigError, match="early_stop_patience"):
         _config(tmp_path, early_stop_patience=0)
