@@ -30,7 +30,10 @@ from ftin.metrics import Convention
 from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
 from ftin.report.campaign import ate_figure, load_results, render
 from ftin.report.figures import write_png
-from ftin.report.results import DatasetSpec, ReportError
+from ftin.report.render import TRANSFER_TITLE, transfer_section
+from ftin.report.results import DatasetSpec, ReportError, ReportResults
+
+TRANSFER_FOLDER = "transfer"  # under --out: the transfer section's full report
 
 
 @app.command("table")
@@ -51,7 +54,9 @@ def table_command(
         typer.Option(
             "--campaign",
             help="Instead of evaluating checkpoints: the training campaign's collected results "
-            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row.",
+            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row; "
+            "with --checkpoints and --dataset also a zero-shot transfer section (full report in "
+            "OUT/transfer).",
         ),
     ] = None,
     pattern: Annotated[
@@ -67,31 +72,47 @@ def table_command(
     stride: StrideOption = None,
 ) -> None:
     """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
-    trajectory figures, for every checkpoint in a folder on every dataset."""
-    if campaign is not None:
-        _campaign_table(campaign, out)
-        return
+    trajectory figures, for every checkpoint in a folder on every dataset. With --campaign: the
+    campaign's Table 1, and --checkpoints/--dataset add a zero-shot transfer section (its full report
+    in OUT/transfer)."""
     with user_errors(*REPORT_ERRORS):
-        if checkpoints is None or not dataset:
+        if campaign is None and (checkpoints is None or not dataset):
             raise ValueError("--checkpoints and --dataset are required (or --campaign DIR)")
-        specs = parse_dataset_options(dataset)
-        loaded = load_checkpoints(find_checkpoints(checkpoints, pattern or ()))
-        datasets = load_datasets(specs)
-        total = len(loaded) * sum(len(d.sequences) for d in datasets)
-        with progress_bar() as bar:
-            task = bar.add_task("evaluating", total=total)
-
-            def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
-                bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)
-
-            results = evaluate_checkpoints(
-                loaded, datasets, convention, rte_window_s=rte_window_s, stride=stride, on_evaluation=advance
-            )
-        files = write_report(results, out)
-    console = out_console()
-    console.print(files.table_md.read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
-    for path in (files.table_md, files.table_csv, files.results_json, files.pde_png, files.trajectories_png):
+        if campaign is not None and (checkpoints is None) != (not dataset):
+            raise ValueError("a transfer section needs both --checkpoints and --dataset")
+        evaluated = None
+        if checkpoints is not None:
+            evaluated = _evaluate(checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride)
+        if campaign is not None:
+            written = _campaign_table(campaign, out, transfer=evaluated)
+        else:
+            written = write_report(evaluated, out).paths()
+    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    for path in written:
         typer.echo(f"wrote {path}")
+
+
+def _evaluate(
+    checkpoints: Path,
+    dataset: Sequence[str],
+    pattern: Sequence[str],
+    convention: Convention,
+    rte_window_s: float,
+    stride: int | None,
+) -> ReportResults:
+    specs = parse_dataset_options(dataset)
+    loaded = load_checkpoints(find_checkpoints(checkpoints, pattern))
+    datasets = load_datasets(specs)
+    total = len(loaded) * sum(len(d.sequences) for d in datasets)
+    with progress_bar() as bar:
+        task = bar.add_task("evaluating", total=total)
+
+        def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
+            bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)
+
+        return evaluate_checkpoints(
+            loaded, datasets, convention, rte_window_s=rte_window_s, stride=stride, on_evaluation=advance
+        )
 
 
 def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> list[DatasetSpec]:
@@ -108,17 +129,19 @@ def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> l
     return [DatasetSpec(name, tuple(p)) for name, p in paths.items()]
 
 
-def _campaign_table(folder: Path, out: Path) -> None:
-    with user_errors(*REPORT_ERRORS):
-        results, manifest = load_results(folder)
-        table_md, table_csv, summary = render(results, manifest)
-        out.mkdir(parents=True, exist_ok=True)
-        names = ("table.md", "table.csv", "campaign_results.json", "campaign_ate.png")
-        written = [out / name for name in names]
-        atomic_write_text(written[0], table_md)
-        atomic_write_text(written[1], table_csv)
-        atomic_write_text(written[2], json.dumps(summary, indent=1) + "\n")
-        write_png(ate_figure(summary), written[3])
-    out_console().print(table_md, markup=False, highlight=False, soft_wrap=True)
-    for path in written:
-        typer.echo(f"wrote {path}")
+def _campaign_table(folder: Path, out: Path, transfer: ReportResults | None = None) -> list[Path]:
+    """The campaign's files (table.md first), then the transfer report's."""
+    results, manifest = load_results(folder)
+    table_md, table_csv, summary = render(results, manifest)
+    transfer_files: list[Path] = []
+    if transfer is not None:
+        transfer_files = write_report(transfer, out / TRANSFER_FOLDER, title=TRANSFER_TITLE).paths()
+        table_md += transfer_section(transfer, f"{TRANSFER_FOLDER}/table.md")
+    out.mkdir(parents=True, exist_ok=True)
+    names = ("table.md", "table.csv", "campaign_results.json", "campaign_ate.png")
+    written = [out / name for name in names]
+    atomic_write_text(written[0], table_md)
+    atomic_write_text(written[1], table_csv)
+    atomic_write_text(written[2], json.dumps(summary, indent=1) + "\n")
+    write_png(ate_figure(summary), written[3])
+    return written + transfer_files

@@ -223,8 +223,9 @@ def _vqf(seq: ImuSequence, use_magnetometer: bool, options: dict[str, float]) ->
     gyr = np.ascontiguousarray(seq.gyro_rad_s, dtype=np.float64)
     acc = np.ascontiguousarray(seq.acc_m_s2, dtype=np.float64)
     sample_time_s = float(np.median(np.diff(seq.t_s)))
-    out = offlineVQF(gyr, acc, None if mag is None else np.ascontiguousarray(mag), sample_time_s,
-                     dict(options) or None)
+    out = offlineVQF(
+        gyr, acc, None if mag is None else np.ascontiguousarray(mag), sample_time_s, dict(options) or None
+    )
     if mag is not None:
         return np.asarray(out["quat9D"], dtype=np.float64), "9d"
     return np.asarray(out["quat6D"], dtype=np.float64), "6d"

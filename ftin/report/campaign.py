@@ -33,6 +33,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
+from ftin.report.render import improvement_percent
+from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
 LABELS = {
     "stand_still": "Stand still (never moves)",
@@ -150,13 +152,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
     md = io.StringIO()
     rows_csv: list[list[Any]] = []
     summary: dict[str, Any] = {"ftin_variant": manifest.get("ftin_variant"), "datasets": {}}
-    md.write("# Table 1 on our data (per the protocol in docs/results/protocol.md)\n\n")
-    md.write(
-        f"FTIN's TDL variant, chosen on validation: **{manifest.get('ftin_variant')}**. Each cell: mean ± sd "
-        "over seeds (n = seeds) of the mean over the part's recordings. RoNIN convention (no alignment, "
-        "horizontal; RTE over 60 s or scaled drift); PDE in % of the path; path ratio = predicted / true "
-        "horizontal path. Stand still = the predictor that never moves.\n\n"
-    )
+    md.write("## Per dataset, part and orientation source\n\n")
     for dataset in (OXIOD, RIDI):
         summary["datasets"][dataset] = {}
         for part in ("test", "val"):
@@ -167,7 +163,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
                 title = (
                     f"{dataset.upper() if dataset == OXIOD else 'RIDI'}, {part}, {ORIENTATIONS[orientation]}"
                 )
-                md.write(f"## {title.replace('OXIOD', 'OxIOD')}\n\n")
+                md.write(f"### {title.replace('OXIOD', 'OxIOD')}\n\n")
                 md.write("| model | n | " + " | ".join(METRIC_LABELS[m] for m in METRICS) + " |\n")
                 md.write("|---|---|" + "---|" * len(METRICS) + "\n")
                 key = f"{part}/{orientation}"
@@ -213,7 +209,87 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
         ]
     )
     writer.writerows(rows_csv)
-    return md.getvalue(), out.getvalue(), summary
+    head = (
+        "# Table 1 on our data (per the protocol in docs/results/protocol.md)\n\n"
+        f"FTIN's TDL variant, chosen on validation: **{manifest.get('ftin_variant')}**. Each cell: mean ± sd "
+        "over seeds (n = seeds) of the mean over the part's recordings. RoNIN convention (no alignment, "
+        "horizontal; RTE over 60 s or scaled drift); PDE in % of the path; path ratio = predicted / true "
+        "horizontal path. Stand still = the predictor that never moves.\n\n"
+    )
+    refused = set(manifest.get("not_shipped", {}))
+    return head + paper_layout_markdown(summary, refused) + md.getvalue(), out.getvalue(), summary
+
+
+LAYOUT_METRICS = {"ATE": "ate", "RTE": "rte", "Path ratio": "path_length_ratio"}
+
+
+def paper_layout_markdown(summary: dict[str, Any], refused: set[str] = frozenset()) -> str:
+    """The test results in the paper's layout: datasets × metrics as rows, models and ablations as
+    columns (``PAPER_COLUMNS``), each cell mean ± sd over seeds; bold = lowest mean ATE / RTE among
+    the compared models and, separately, among the ablation columns; † = the shipping gate refused
+    that model's checkpoint (``refused``: checkpoint names, ``<model>-<dataset>``)."""
+    header = ["Dataset", "Orientation", "Metric", *(c.label for c in PAPER_COLUMNS)]
+    lines = [
+        "## Test recordings, in the layout of the paper's Table 1\n",
+        "| " + " | ".join(header) + " |",
+        "|" + "|".join([":--"] * 3 + ["--:"] * len(PAPER_COLUMNS)) + "|",
+    ]
+    for dataset in (OXIOD, RIDI):
+        for orientation in ORIENTATIONS:
+            cells = summary["datasets"].get(dataset, {}).get(f"test/{orientation}")
+            if not cells:
+                continue
+            for i, (label, metric) in enumerate(LAYOUT_METRICS.items()):
+                stats = [_column_stats(cells, column, metric) for column in PAPER_COLUMNS]
+                bold = _lowest_mean_flags(stats) if metric != "path_length_ratio" else [False] * len(stats)
+                texts = []
+                for column, column_stats, is_bold in zip(PAPER_COLUMNS, stats, bold, strict=True):
+                    if column.group is ColumnGroup.IMPROVEMENT:
+                        texts.append(_improvement_text(cells, metric))
+                    else:
+                        text = _cell(column_stats, metric)
+                        text = f"**{text}**" if is_bold else text
+                        gated = i == 0 and f"{column.model_name}-{dataset}" in refused
+                        texts.append(text + " †" if gated else text)
+                name = ("OxIOD" if dataset == OXIOD else "RIDI") if i == 0 else ""
+                source = ("ground truth" if orientation == "ground_truth" else "device") if i == 0 else ""
+                lines.append("| " + " | ".join([name, source, label, *texts]) + " |")
+    if refused:
+        lines += [
+            "",
+            "† not shipped: on validation its ATE was not below standing still or its path ratio was "
+            "outside 0.8–1.25 (the shipping gate; `manifest.json` says which).",
+        ]
+    return "\n".join(lines) + "\n\n"
+
+
+def _column_stats(cells: dict[str, Any], column: Column, metric: str) -> dict[str, Any] | None:
+    model = "stand_still" if column.group is ColumnGroup.BASELINE else column.model_name
+    return (cells.get(model) or {}).get(metric) if model else None
+
+
+def _lowest_mean_flags(stats: Sequence[dict[str, Any] | None]) -> list[bool]:
+    flags = [False] * len(stats)
+    for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION):
+        shown = {
+            i: round(s["mean"], 3)
+            for i, (c, s) in enumerate(zip(PAPER_COLUMNS, stats, strict=True))
+            if c.group is group and s is not None
+        }
+        if shown:
+            best = min(shown.values())
+            for i, value in shown.items():
+                flags[i] = value == best
+    return flags
+
+
+def _improvement_text(cells: dict[str, Any], metric: str) -> str:
+    """(ResNet − FTIN) / ResNet of the seed means; none for the path ratio (closer to 1 is not lower)."""
+    if metric == "path_length_ratio":
+        return MISSING
+    resnet, ftin = ((cells.get(model) or {}).get(metric) for model in ("ronin_resnet", "ftin"))
+    percent = improvement_percent(resnet and resnet["mean"], ftin and ftin["mean"])
+    return MISSING if percent is None else f"{percent:.1f}%"
 
 
 def _mean_rows(rows: Sequence[dict[str, Any]]) -> dict[str, float]:

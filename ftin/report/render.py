@@ -165,10 +165,14 @@ def _model_and_input(meta: dict[str, Any], model_name: str) -> str:
     return f"{model_name}, {window}-sample windows at {float(rate_hz):g} Hz"
 
 
-def report_markdown(results: ReportResults, table: PaperTable) -> str:
+TABLE_TITLE = "Trajectory accuracy in the layout of the FTIN paper's Table 1"
+TRANSFER_TITLE = "Transfer (zero-shot): checkpoints on data they were never trained on"
+
+
+def report_markdown(results: ReportResults, table: PaperTable, title: str = TABLE_TITLE) -> str:
     """``table.md``: title, convention sentence, checkpoints and data used, the table, notes."""
     lines = [
-        "# Trajectory accuracy in the layout of the FTIN paper's Table 1",
+        f"# {title}",
         "",
         f"{results.describe()} All ATE / RTE values in metres, mean over each dataset's sequences; "
         f"best values in **bold** (among the compared models and, separately, among the ablation columns); "
@@ -256,8 +260,11 @@ class ReportFiles:
     pde_png: Path
     trajectories_png: Path
 
+    def paths(self) -> list[Path]:
+        return [self.table_md, self.table_csv, self.results_json, self.pde_png, self.trajectories_png]
 
-def write_report(results: ReportResults, out_dir: str | Path) -> ReportFiles:
+
+def write_report(results: ReportResults, out_dir: str | Path, title: str = TABLE_TITLE) -> ReportFiles:
     """Write the table, the JSON and both figures into ``out_dir`` (created when missing)."""
     out_dir = Path(out_dir).expanduser()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -270,10 +277,22 @@ def write_report(results: ReportResults, out_dir: str | Path) -> ReportFiles:
         out_dir / "pde.png",
         out_dir / "trajectories.png",
     )
-    atomic_write_text(files.table_md, report_markdown(results, table))
+    atomic_write_text(files.table_md, report_markdown(results, table, title))
     atomic_write_text(files.table_csv, table_csv(table))
     data = results_json(results, table, representative)
     atomic_write_text(files.results_json, json.dumps(data, indent=2, allow_nan=False) + "\n")
     write_png(pde_figure(results), files.pde_png)
     write_png(trajectory_figure(results, representative), files.trajectories_png)
     return files
+
+
+def transfer_section(results: ReportResults, details: str) -> str:
+    """A Markdown section for the end of the campaign's Table 1: the checkpoints' zero-shot numbers on
+    other data (EuRoC, simulated walks), titled so nobody reads them as Table 1; ``details`` links
+    the full report."""
+    return (
+        f"## {TRANSFER_TITLE}\n\n"
+        "Not part of Table 1: no model was trained or selected on these datasets. "
+        f"{results.describe()} Full report (checkpoints, data, figures): [{details}]({details}).\n\n"
+        + table_markdown(paper_table(results))
+    )

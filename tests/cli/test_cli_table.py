@@ -75,6 +75,29 @@ def test_table_command_with_campaign(tmp_path):
     }
 
 
+def test_table_command_with_campaign_and_a_transfer_section(table_checkpoints, table_data, tmp_path):
+    folder = write_campaign_results(tmp_path / "campaign")
+    out = tmp_path / "out"
+    transfer = ["--checkpoints", str(table_checkpoints), "--dataset", dataset_options(table_data)[0]]
+    result = runner.invoke(app, ["table", "--campaign", str(folder), *transfer, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    table = (out / "table.md").read_text()
+    assert table.startswith("# Table 1 on our data")
+    section = table.split("## Transfer (zero-shot)")[1]
+    assert "never trained on" in section and "| walk | ATE |" in section and "(transfer/table.md)" in section
+    assert (out / "transfer" / "table.md").read_text().startswith("# Transfer (zero-shot)")
+    assert (out / "transfer" / "results.json").stat().st_size > 0
+
+
+def test_table_command_transfer_needs_checkpoints_and_dataset(tmp_path):
+    folder = write_campaign_results(tmp_path / "campaign")
+    result = runner.invoke(
+        app,
+        ["table", "--campaign", str(folder), "--checkpoints", str(tmp_path), "--out", str(tmp_path / "o")],
+    )
+    assert result.exit_code == 2 and "needs both --checkpoints and --dataset" in result.stderr
+
+
 def test_table_command_needs_checkpoints_or_campaign(tmp_path):
     result = runner.invoke(app, ["table", "--out", str(tmp_path)])
     assert result.exit_code == 2 and "--campaign" in result.stderr

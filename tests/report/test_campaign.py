@@ -39,3 +39,19 @@ def test_render_shows_mean_sd_seeds_and_stand_still(folder):
     cell = summary["datasets"]["oxiod"]["test/ground_truth"]["ronin_lstm"]
     assert cell["ate"] == {"mean": 3.0, "sd": None, "n": 1}
     assert csv_text.splitlines()[0].startswith("dataset,part,orientation,model,seeds,ate_mean")
+
+
+def test_render_opens_with_the_paper_layout_of_the_test_results(folder):
+    results, manifest = load_results(folder)
+    md, _, _ = render(results, manifest)
+    layout = md.split("## Test recordings, in the layout of the paper's Table 1")[1].split("\n## ")[0]
+    ate_row = next(line for line in layout.splitlines() if "| ATE |" in line)
+    cells = [c.strip() for c in ate_row.strip("|").split("|")]
+    header = next(line for line in layout.splitlines() if line.startswith("| Dataset"))
+    column = {name.strip(): i for i, name in enumerate(header.strip("|").split("|"))}
+    assert cells[column["Stand still"]] == "2.000"
+    assert cells[column["FTIN"]] == "**1.150 ± 0.071**"  # best compared model (lowest mean)
+    assert cells[column["RoNIN ResNet"]] == "1.600 ± 0.071"
+    assert cells[column["FTIN vs RoNIN ResNet"]] == "28.1%"  # (1.60 - 1.15) / 1.60
+    assert cells[column["RoNIN LSTM"]] == "3.000 †" and "† not shipped" in layout
+    assert cells[column["RoNIN TCN"]] == "—"

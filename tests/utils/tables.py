@@ -90,7 +90,8 @@ def _record(model, dataset, seed, ates, variant=None):
 
 def write_campaign_results(folder: Path) -> Path:
     """What ``scripts/campaign.py collect`` writes, for a small campaign: FTIN in two variants (the
-    manifest names the one validation chose), RoNIN ResNet over two seeds, RoNIN LSTM once."""
+    manifest names the one validation chose), RoNIN ResNet over two seeds, RoNIN LSTM once (refused by
+    the shipping gate)."""
     folder.mkdir(parents=True, exist_ok=True)
     records = [
         _record("ftin", "oxiod", 0, (1.0, 1.2), "ordered"),
@@ -102,5 +103,11 @@ def write_campaign_results(folder: Path) -> Path:
     ]
     for i, record in enumerate(records):
         (folder / f"oxiod__{i}.json").write_text(json.dumps(record))
-    (folder / "manifest.json").write_text(json.dumps({"ftin_variant": "ordered"}))
+    refused = {
+        "ronin_lstm-oxiod": {
+            "job": "oxiod/ronin_lstm-s0",
+            "refused": "validation ATE not below standing still",
+        }
+    }
+    (folder / "manifest.json").write_text(json.dumps({"ftin_variant": "ordered", "not_shipped": refused}))
     return folder

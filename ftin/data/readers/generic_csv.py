@@ -190,9 +190,7 @@ def _time_unit(t_raw: np.ndarray, match: HeaderMatch, source: str, warnings: lis
     )
 
 
-def _scaled(
-    group: str, values: np.ndarray, matches: Sequence[HeaderMatch], source: str, warnings: list[str]
-):
+def _scaled(group: str, values: np.ndarray, matches: Sequence[HeaderMatch], source: str, warnings: list[str]):
     units = {m.unit for m in matches} - {None}  # a unit written on one axis applies to its group
     if not units:
         return values
