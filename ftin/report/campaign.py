@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
-from ftin.report.render import improvement_percent
+from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
 LABELS = {
@@ -241,7 +241,12 @@ def paper_layout_markdown(summary: dict[str, Any], refused: set[str] = frozenset
                 continue
             for i, (label, metric) in enumerate(LAYOUT_METRICS.items()):
                 stats = [_column_stats(cells, column, metric) for column in PAPER_COLUMNS]
-                bold = _lowest_mean_flags(stats) if metric != "path_length_ratio" else [False] * len(stats)
+                means = [None if stat is None else stat["mean"] for stat in stats]
+                bold = (
+                    best_flags(PAPER_COLUMNS, means)
+                    if metric != "path_length_ratio"
+                    else [False] * len(stats)
+                )
                 texts = []
                 for column, column_stats, is_bold in zip(PAPER_COLUMNS, stats, bold, strict=True):
                     if column.group is ColumnGroup.IMPROVEMENT:
@@ -266,21 +271,6 @@ def paper_layout_markdown(summary: dict[str, Any], refused: set[str] = frozenset
 def _column_stats(cells: dict[str, Any], column: Column, metric: str) -> dict[str, Any] | None:
     model = "stand_still" if column.group is ColumnGroup.BASELINE else column.model_name
     return (cells.get(model) or {}).get(metric) if model else None
-
-
-def _lowest_mean_flags(stats: Sequence[dict[str, Any] | None]) -> list[bool]:
-    flags = [False] * len(stats)
-    for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION):
-        shown = {
-            i: round(s["mean"], 3)
-            for i, (c, s) in enumerate(zip(PAPER_COLUMNS, stats, strict=True))
-            if c.group is group and s is not None
-        }
-        if shown:
-            best = min(shown.values())
-            for i, value in shown.items():
-                flags[i] = value == best
-    return flags
 
 
 def _improvement_text(cells: dict[str, Any], metric: str) -> str:

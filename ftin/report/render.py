@@ -103,7 +103,7 @@ def _format_percent(value: float | None) -> str:
     return MISSING if value is None else f"{value:.1f}%"
 
 
-def _bold_flags(columns: Sequence[Column], cells: Sequence[float | None]) -> list[bool]:
+def best_flags(columns: Sequence[Column], cells: Sequence[float | None]) -> list[bool]:
     """Best (lowest) displayed value per group of compared / ablation columns, ties included."""
     flags = [False] * len(cells)
     for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION):
@@ -126,7 +126,7 @@ def table_markdown(table: PaperTable) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
     for row in table.rows:
         # lowest is best for errors; for the path ratio, 1 is (no bold)
-        bold = _bold_flags(table.columns, row.cells) if row.metric != PATH_RATIO else [False] * len(row.cells)
+        bold = best_flags(table.columns, row.cells) if row.metric != PATH_RATIO else [False] * len(row.cells)
         texts = []
         for column, value, is_bold in zip(table.columns, row.cells, bold, strict=True):
             text = _format_percent(value) if column.group is ColumnGroup.IMPROVEMENT else _format_value(value)
