@@ -557,8 +557,19 @@ def main() -> None:
     p = sub.add_parser("job", help="(internal) train and evaluate one job on the frozen code")
     p.add_argument("name")
     p = sub.add_parser("collect", help="per-job results JSON and the shipped checkpoints")
-    p.add_argument("--results", type=Path, default=REPO / "docs" / "results" / "campaign")
-    p.add_argument("--checkpoints", type=Path, default=None)
+    p.add_argument(
+        "--results",
+        type=Path,
+        default=REPO / "docs" / "results" / "campaign",
+        help="folder for the per-job records and manifest.json (default: docs/results/campaign)",
+    )
+    p.add_argument(
+        "--checkpoints",
+        type=Path,
+        default=None,
+        help="also ship: copy each gate-passing best-validation seed here with its model card, and "
+        "withdraw the refused names (default: ship nothing)",
+    )
     p.add_argument(
         "--only",
         help="comma-separated checkpoint stems (e.g. ftin-pedestrian,ftin-sim): ship only these, "
