@@ -489,6 +489,8 @@ def collect(args: argparse.Namespace) -> None:
     state = load_state(runs)
     results_dir: Path = args.results
     results_dir.mkdir(parents=True, exist_ok=True)
+    if args.checkpoints is not None:
+        args.checkpoints.mkdir(parents=True, exist_ok=True)
     best: dict[str, tuple[float, Any, dict[str, Any]]] = {}
     seeds: dict[str, list[dict[str, Any]]] = {}
     only = set(args.only.split(",")) if args.only else None
