@@ -4,7 +4,8 @@
 const TRUTH_COLOR = "#3c3c3c";
 // The 3D scene's model colours (app/viz/palette.py), in the order of the model list.
 const MODEL_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-  "#17becf", "#c800c8", "#142878", "#78003c", "#006450"];
+  "#17becf", "#c800c8", "#142878", "#78003c", "#006450", "#aec7e8", "#ffbb78", "#98df8a", "#ff9896",
+  "#c5b0d5", "#c49c94", "#f7b6d2", "#9edae5"];
 const $ = (id) => document.getElementById(id);
 
 const state = {

@@ -12,15 +12,17 @@ def rgb_from_hex(code: str) -> RGB:
 
 
 # Tableau-10 order (its grey left out: ground truth is grey; its olive replaced by magenta, which
-# was too close to the current window's yellow), then darker extras, so that all the shipped
-# checkpoints (ten) overlaid at once still get distinct colours; colours repeat only after 12.
+# was too close to the current window's yellow), then darker extras, then Tableau-20's light tones
+# (its light yellow and grey left out), so that all the shipped checkpoints (about twenty: nine
+# models per dataset) overlaid at once still get distinct colours; colours repeat only after 20.
 # No model colour is the yellow of the current window; the end cube of a path takes the path's
-# own colour (a red end cube read as a fourth model's path).
+# own colour (a red end cube read as a fourth model's path). static/app.js holds the same list.
 MODEL_COLORS: tuple[RGB, ...] = tuple(
     rgb_from_hex(code)
     for code in (
         *("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf"),
         *("#c800c8", "#142878", "#78003c", "#006450"),  # magenta, then the darker extras
+        *("#aec7e8", "#ffbb78", "#98df8a", "#ff9896", "#c5b0d5", "#c49c94", "#f7b6d2", "#9edae5"),
     )
 )
 TRUTH_COLOR: RGB = (60, 60, 60)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pandas as pd
 import pytest
 
 from app.services.features import CHANNEL_SPECTRUM, TEMPORAL_SPECTRUM, ModelInput, window_taps
-from app.viz.palette import TRUTH_COLOR, WINDOW_COLOR, ColorBook, hex_color
+from app.viz.palette import MODEL_COLORS, TRUTH_COLOR, WINDOW_COLOR, ColorBook, hex_color
 from app.viz.spectra import (
     amplitude_spectrum,
     decimate_indices,
@@ -23,6 +24,8 @@ from ftin.checkpoint import load_model
 from ftin.data import Trajectory
 from ftin.data.readers.generic_csv import read_csv
 from ftin.infer import predict_trajectory
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_amplitude_spectrum_finds_a_sine_and_ignores_the_mean() -> None:
@@ -96,9 +99,11 @@ def test_window_taps_equal_those_of_the_full_inference_pass(
 
 def test_every_shipped_model_gets_its_own_colour() -> None:
     book = ColorBook()
-    names = [f"model-{k}" for k in range(12)]
+    shipped = len(list((REPO_ROOT / "checkpoints").glob("*.safetensors")))
+    count = max(20, shipped)  # a palette shorter than the shipped checkpoints fails here
+    names = [f"model-{k}" for k in range(count)]
     colors = [book.color(name) for name in names]
-    assert len(set(colors)) == 12 and TRUTH_COLOR not in colors and WINDOW_COLOR not in colors
+    assert len(set(colors)) == count and TRUTH_COLOR not in colors and WINDOW_COLOR not in colors
     assert book.color("model-3") == colors[3]  # stable for the life of the scene
     assert hex_color((31, 119, 180)) == "#1f77b4"
 
@@ -125,3 +130,10 @@ def test_heading_error_of_a_rotated_walk_is_the_rotation_and_holds_while_standin
     error = heading_error_per_window(t[::10], Trajectory(t, rotated), truth)
     assert np.allclose(error[:15], 30.0, atol=1e-6)
     assert np.allclose(error[-5:], 30.0, atol=1e-6)  # standing: the last defined error is held
+
+
+def test_the_upload_page_colours_models_like_the_scene() -> None:
+    script = (REPO_ROOT / "static" / "app.js").read_text()
+    listed = re.search(r"const MODEL_COLORS = \[(.*?)\];", script, re.S)
+    assert listed is not None
+    assert re.findall(r'"(#[0-9a-f]{6})"', listed.group(1)) == [hex_color(c) for c in MODEL_COLORS]
