@@ -83,21 +83,6 @@ def test_configs_without_the_key_build_the_mixed_structure() -> None:
     old.load_state_dict(model.state_dict())  # strict: same keys and shapes
 
 
-@pytest.mark.parametrize("stem", ["ftin-oxiod", "resnet_fdl-oxiod"])
-def test_shipped_checkpoints_still_load_strictly(stem: str) -> None:
-    safetensors = pytest.importorskip("safetensors.torch")
-    json_path, weights_path = CHECKPOINTS / f"{stem}.json", CHECKPOINTS / f"{stem}.safetensors"
-    if not (json_path.exists() and weights_path.exists()):
-        pytest.skip(f"{stem} is not in {CHECKPOINTS}")
-    meta = json.loads(json_path.read_text())
-    assert "fdl_output" not in meta["model_kwargs"]  # saved before the option existed
-    model = create_model(meta["model_name"], **meta["model_kwargs"])
-    assert model.fdl.output is FDLOutput.MIXED
-    state = model.state_dict()
-    tensors = safetensors.load_file(str(weights_path))
-    model.load_state_dict({k: t.to(state[k].dtype) for k, t in tensors.items()}, strict=True)
-
-
 def test_ordered_slstm_scans_the_encoder_steps_in_time_order() -> None:
     """The sLSTM's input is the ``fdl`` tap, step t = encoder step t: with FDL's temporal learner set
     to identity (``fdl_activation="identity"``: its rfft -> irfft is exact), a change of encoder

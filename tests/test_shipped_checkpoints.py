@@ -1,0 +1,58 @@
+"""The shipped checkpoints have learned to walk. Run as a user runs them (``ftin evaluate``'s path,
+with the recording's own phone orientation), each covers 0.7-1.3 of the walked distance on a
+held-out test recording of every dataset it was trained on and, where the phone's heading holds
+(RIDI, the simulator), ends up far closer to the truth than a predictor that never moves.
+
+The recordings are the protocol's test recordings (docs/results/protocol.md: no choice ever looked
+at them), one handheld recording per dataset to keep CI short; ``ftin-sim`` is checked on the app's
+bundled samples, its test set. OxIOD gets no ATE bar here: over its 4-minute test walk the phone's
+own heading drifts ~30 degrees against Vicon, which no network sees (the model cards show it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ftin.checkpoint import load_model
+from ftin.data.readers import read_sequence
+from ftin.evaluate import evaluate_checkpoint
+from ftin.protocol import OXIOD, RIDI, SPLITS
+from ftin.sim.samples import SAMPLES, load_sample
+
+CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
+HELD_OUT = {OXIOD: "multi users/user2/syn/imu6.csv", RIDI: "shali_handheld1"}
+TRAINED_ON = {"oxiod": (OXIOD,), "ridi": (RIDI,), "pedestrian": (OXIOD, RIDI), "sim": ()}
+PATH_RATIO_RANGE = (0.7, 1.3)
+
+
+def _shipped() -> list[str]:
+    return sorted(p.stem for p in CHECKPOINTS.glob("*.safetensors"))
+
+
+def test_held_out_recordings_are_in_the_protocol_test_split() -> None:
+    for dataset, recording in HELD_OUT.items():
+        assert recording in SPLITS[dataset]["test"]
+
+
+def test_every_shipped_checkpoint_names_what_it_was_trained_on() -> None:
+    assert _shipped(), f"no checkpoints in {CHECKPOINTS}"
+    for stem in _shipped():
+        assert stem.rsplit("-", 1)[-1] in TRAINED_ON, f"{stem}: no dataset suffix (-oxiod, -ridi, ...)"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("stem", _shipped())
+def test_a_shipped_checkpoint_walks_on_recordings_it_never_saw(stem: str, shared_data: Path) -> None:
+    datasets = TRAINED_ON[stem.rsplit("-", 1)[-1]]
+    sequences = [read_sequence(shared_data / d / HELD_OUT[d]) for d in datasets]
+    if not datasets:
+        sequences = [load_sample(name) for name in SAMPLES]
+    report = evaluate_checkpoint(load_model(CHECKPOINTS / stem), sequences)
+    for result, seq in zip(report.sequences, sequences, strict=True):
+        ratio, ate, still = result.metrics.path_length_ratio, result.metrics.ate, result.stand_still.ate
+        where = f"{stem} on {result.name}: path ratio {ratio:.2f}, ATE {ate:.2f} m (still: {still:.2f} m)"
+        assert PATH_RATIO_RANGE[0] <= ratio <= PATH_RATIO_RANGE[1], where
+        if seq.meta.get("dataset") != OXIOD:
+            assert ate < 0.5 * still, where
