@@ -24,7 +24,7 @@ import csv
 import io
 import json
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -223,7 +223,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
 LAYOUT_METRICS = {"ATE": "ate", "RTE": "rte", "Path ratio": "path_length_ratio"}
 
 
-def paper_layout_markdown(summary: dict[str, Any], refused: set[str] = frozenset()) -> str:
+def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()) -> str:
     """The test results in the paper's layout: datasets × metrics as rows, models and ablations as
     columns (``PAPER_COLUMNS``), each cell mean ± sd over seeds; bold = lowest mean ATE / RTE among
     the compared models and, separately, among the ablation columns; † = the shipping gate refused
