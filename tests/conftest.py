@@ -12,9 +12,9 @@ import torch
 
 from ftin.sim import SimConfig, simulate
 from tests.utils.checkpoints import RATE_HZ, write_checkpoint
+from tests.utils.paths import REPO_ROOT
 from tests.utils.tables import write_table_checkpoints, write_table_datasets, write_two_of_one_model
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
 
 

@@ -29,7 +29,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10: pytest depends on tomli there
     import tomli as tomllib
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+from tests.utils.paths import REPO_ROOT
+
 SCANNED_FOLDERS = ("ftin", "app", "scripts", "tests")
 THIS_FILE = Path(__file__).resolve()
 

@@ -21,8 +21,7 @@ import uvicorn
 import ftin.infer
 from app.main import create_app
 from app.settings import Settings
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
+from tests.utils.paths import REPO_ROOT
 
 
 def test_viser_page_and_a_prediction_reaching_the_scene(live_server, csv_with_gt: bytes) -> None:

@@ -24,8 +24,7 @@ from ftin.checkpoint import load_model
 from ftin.data import Trajectory
 from ftin.data.readers.generic_csv import read_csv
 from ftin.infer import predict_trajectory
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
+from tests.utils.paths import CHECKPOINTS, REPO_ROOT
 
 
 def test_amplitude_spectrum_finds_a_sine_and_ignores_the_mean() -> None:
@@ -99,7 +98,7 @@ def test_window_taps_equal_those_of_the_full_inference_pass(
 
 def test_every_shipped_model_gets_its_own_colour() -> None:
     book = ColorBook()
-    shipped = len(list((REPO_ROOT / "checkpoints").glob("*.safetensors")))
+    shipped = len(list(CHECKPOINTS.glob("*.safetensors")))
     count = max(20, shipped)  # a palette shorter than the shipped checkpoints fails here
     names = [f"model-{k}" for k in range(count)]
     colors = [book.color(name) for name in names]

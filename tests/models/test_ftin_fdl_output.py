@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 import torch
@@ -13,7 +12,6 @@ from ftin.models.ftin_net import TINY_FTIN_KWARGS, FTINConfig
 from ftin.models.layers.fdl import FDLOutput
 
 MODES = ["mixed", "ordered"]
-CHECKPOINTS = Path(__file__).resolve().parents[2] / "checkpoints"
 
 
 def _tiny(mode: str, window: int, **extra) -> dict:
