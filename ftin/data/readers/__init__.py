@@ -38,6 +38,7 @@ from ftin.data.readers import (
     euroc,
     generic_csv,
     imunet,
+    inria_attitude,
     oxiod,
     phyphox,
     ridi,
@@ -54,7 +55,9 @@ log = logging.getLogger(__name__)
 
 READERS: dict[str, ModuleType] = {
     module.FORMAT: module
-    for module in (oxiod, euroc, ronin, ridi, imunet, tlio, rnin, phyphox, sensorlogger, generic_csv)
+    for module in (
+        oxiod, euroc, ronin, ridi, imunet, tlio, rnin, inria_attitude, phyphox, sensorlogger, generic_csv
+    )
 }
 
 
