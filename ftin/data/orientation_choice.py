@@ -1,0 +1,139 @@
+"""Which orientation source a recording should use, from what a phone alone gives at run time.
+
+Sources: ``device`` (the phone's own attitude: Android rotation vector, CoreMotion attitude, a game
+rotation vector), ``vqf`` (VQF 9-D: heading from the magnetometer, with VQF's own rejection of
+magnetic disturbances), ``vqf6d`` (VQF without magnetometer: heading from the gyroscope alone).
+:func:`orientation_evidence` measures, without ground truth, whether the magnetometer can be
+trusted; :func:`choose_orientation` turns that into a source and a sentence saying why.
+
+Signals (:class:`OrientationEvidence`, from one offline VQF run):
+
+* ``mag_disturbed_fraction``: share of samples VQF's magnetic disturbance detection flags
+  (``magDistDetected``: the field's norm or dip left the reference VQF learnt).
+* ``heading_split_deg``: RMS of how far VQF's 9-D heading moves from its 6-D heading (after the first
+  seconds): near 0 when VQF rejected the magnetometer throughout and held the gyroscope's heading.
+* ``device_north_deg``: the phone attitude's mean heading offset from VQF's magnetic north. Near 0
+  when the phone's attitude is itself referenced to the magnetometer (Android's rotation vector), so
+  that a disturbance misleads it as well; arbitrary for a game rotation vector or CoreMotion's frames.
+
+The rule (:func:`choose_orientation`), decided on validation recordings only (OxIOD and RIDI
+validation parts; Inria Nexus 5 and iPhone 5 walks, whose Dist / NoDist labels are what it must
+detect; evidence in ``docs/orientation.md``, ``scripts/orientation_quality.py``):
+
+1. no magnetometer: ``device``, else ``vqf6d``;
+2. VQF flags less than ``DISTURBED_FRACTION`` of the recording: ``vqf``;
+3. the 9-D heading stayed within ``HELD_SPLIT_DEG`` of the 6-D one (VQF ignored the magnetometer):
+   ``vqf``;
+4. the phone's attitude exists and does not follow the same magnetic north (offset above
+   ``SAME_NORTH_DEG``): ``device``;
+5. else ``vqf``: a disturbed magnetometer misleads the phone's attitude more than VQF, which rejects
+   what it detects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from ftin.data import frames
+from ftin.data.types import ImuSequence
+
+DISTURBED_FRACTION = 0.5
+HELD_SPLIT_DEG = 2.0
+SAME_NORTH_DEG = 20.0
+START_S = 5.0  # the heading split is measured from its mean over the first seconds
+
+
+class OrientationSource(str, Enum):
+    DEVICE = "device"
+    VQF = "vqf"
+    VQF6D = "vqf6d"
+
+
+@dataclass(frozen=True)
+class OrientationEvidence:
+    """What the recording itself says about its magnetometer (module docstring)."""
+
+    has_device: bool
+    has_magnetometer: bool
+    mag_disturbed_fraction: float | None = None
+    heading_split_deg: float | None = None
+    device_north_deg: float | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(self).items()}
+
+
+def heading_drift_deg(
+    t_s: np.ndarray, q_a_wxyz: np.ndarray, q_b_wxyz: np.ndarray, start_s: float = START_S
+) -> np.ndarray:
+    """How the heading of ``a`` moves against ``b`` (deg): the yaw of ``R_a R_b^-1``, unwrapped, minus
+    its mean over the first ``start_s`` seconds (two worlds differ by a constant yaw)."""
+    offset = frames.rotation_from_wxyz(q_a_wxyz) * frames.rotation_from_wxyz(q_b_wxyz).inv()
+    yaw = np.unwrap(np.asarray(frames.yaw_rad(frames.wxyz_from_rotation(offset)), dtype=np.float64))
+    first = t_s <= t_s[0] + start_s
+    return np.degrees(yaw - yaw[first].mean())
+
+
+def orientation_evidence(seq: ImuSequence) -> OrientationEvidence:
+    """The signals of the module docstring, from the IMU, magnetometer and phone attitude alone."""
+    has_device = seq.q_world_device_wxyz is not None
+    if seq.mag_uT is None or not np.isfinite(seq.mag_uT).all() or len(seq) < 2:
+        return OrientationEvidence(has_device, False)
+    from vqf import offlineVQF  # deferred: the compiled extension only where it runs
+
+    out = offlineVQF(
+        np.ascontiguousarray(seq.gyro_rad_s, dtype=np.float64),
+        np.ascontiguousarray(seq.acc_m_s2, dtype=np.float64),
+        np.ascontiguousarray(seq.mag_uT, dtype=np.float64),
+        float(np.median(np.diff(seq.t_s))),
+        None,
+    )
+    split = heading_drift_deg(seq.t_s, out["quat9D"], out["quat6D"])
+    device_north = None
+    if has_device:
+        offset = (
+            frames.rotation_from_wxyz(seq.q_world_device_wxyz)
+            * frames.rotation_from_wxyz(out["quat9D"]).inv()
+        )
+        yaw = np.asarray(frames.yaw_rad(frames.wxyz_from_rotation(offset)), dtype=np.float64)
+        device_north = float(abs(np.degrees(np.angle(np.mean(np.exp(1j * yaw))))))  # circular mean
+    return OrientationEvidence(
+        has_device=has_device,
+        has_magnetometer=True,
+        mag_disturbed_fraction=float(np.mean(out["magDistDetected"])),
+        heading_split_deg=float(np.sqrt(np.mean(split**2))),
+        device_north_deg=device_north,
+    )
+
+
+def choose_orientation(seq: ImuSequence, evidence: OrientationEvidence | None = None) -> tuple[str, str]:
+    """``(source, reason)``: the orientation source for ``seq`` by the rule of the module docstring."""
+    e = evidence or orientation_evidence(seq)
+    if not e.has_magnetometer:
+        if e.has_device:
+            return OrientationSource.DEVICE.value, "no magnetometer: the phone's own attitude"
+        return OrientationSource.VQF6D.value, "no magnetometer and no phone attitude: VQF 6-D"
+    disturbed = f"VQF flags the magnetometer as disturbed in {e.mag_disturbed_fraction:.0%} of the recording"
+    if e.mag_disturbed_fraction < DISTURBED_FRACTION:
+        return OrientationSource.VQF.value, f"magnetometer steady ({disturbed}): VQF 9-D"
+    if e.heading_split_deg < HELD_SPLIT_DEG:
+        return OrientationSource.VQF.value, (
+            f"{disturbed}, but VQF 9-D held the gyroscope's heading (within {e.heading_split_deg:.1f} deg "
+            "RMS of VQF 6-D): VQF 9-D"
+        )
+    if e.has_device and e.device_north_deg > SAME_NORTH_DEG:
+        return OrientationSource.DEVICE.value, (
+            f"{disturbed} and its heading pulled {e.heading_split_deg:.0f} deg RMS from the gyroscope's; the "
+            f"phone's attitude does not follow the same magnetic north ({e.device_north_deg:.0f} deg "
+            "apart): the phone's own attitude"
+        )
+    why = (
+        "the phone's attitude follows the same magnetic north"
+        if e.has_device
+        else "no phone attitude to fall back on"
+    )
+    return OrientationSource.VQF.value, f"{disturbed}; {why}: VQF 9-D, which rejects what it detects"
