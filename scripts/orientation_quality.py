@@ -32,7 +32,12 @@ import torch
 from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data import frames
-from ftin.data.orientation_choice import choose_orientation, heading_drift_deg, orientation_evidence
+from ftin.data.orientation_choice import (
+    OrientationEvidence,
+    choose_orientation,
+    heading_drift_deg,
+    orientation_evidence,
+)
 from ftin.data.preprocess import estimate_orientation
 from ftin.data.readers import inria_attitude, read_sequence
 from ftin.data.types import ImuSequence
@@ -41,7 +46,7 @@ from ftin.infer import predict_trajectory
 
 ALIGN_S = 5.0
 HEADINGS = 4
-SOURCES = ("device", "vqf", "vqf6d", "auto")
+SOURCES = ("device", "vqf", "vqf6d", "auto")  # auto: whichever of the others the rule picks
 VALIDATION_PHONES = ("nexus5", "iphone5")  # Inria: the iPhone 4S walks are the test part
 
 
@@ -105,17 +110,14 @@ def study_row(dataset: str, path: Path, model: LoadedModel | None) -> dict:
     t = seq.t_s[tracked]
     sources = with_sources(seq)
     estimates = {label: s.q_world_device_wxyz for label, s in sources.items()}
-    source, reason = choose_orientation(seq)
-    estimates["auto"] = estimates[source]
+    evidence = orientation_evidence(seq)
     row = {
         "dataset": dataset,
         "name": seq.name,
         "kind": kind_of(dataset, seq),
         "platform": seq.meta.get("platform", "ios" if dataset == "oxiod" else "android"),
         "minutes": round(seq.duration_s / 60.0, 2),
-        "evidence": orientation_evidence(seq).to_json(),
-        "auto_source": source,
-        "auto_reason": reason,
+        "evidence": evidence.to_json(),
     }
     if dataset == "inria":
         row["magnetic_disturbance"] = bool(seq.meta["magnetic_disturbance"])
@@ -128,31 +130,67 @@ def study_row(dataset: str, path: Path, model: LoadedModel | None) -> dict:
             "heading_end": float(abs(heading[-1])),
         }
         if model is not None:
-            row[label]["ate"] = row[source]["ate"] if label == "auto" else ate_m(model, sources[label])
+            row[label]["ate"] = ate_m(model, sources[label])
     return row
 
 
-def group_table(rows: list[dict]) -> list[str]:
-    lines = [
-        "| dataset | kind | n | "
-        + " | ".join(f"{s} tilt / heading RMS / end" for s in SOURCES)
-        + " | auto chose |",
-        "|:--|:--|--:|" + "--:|" * len(SOURCES) + ":--|",
-    ]
+def apply_rule(row: dict) -> None:
+    """(Re)decide ``auto`` from the row's stored evidence, so a changed rule needs no re-run."""
+    fields = {f: row["evidence"].get(f) for f in OrientationEvidence.__dataclass_fields__}
+    source, reason = choose_orientation(None, OrientationEvidence(**fields))
+    row["auto_source"], row["auto_reason"], row["auto"] = source, reason, row[source]
+
+
+def _groups(rows: list[dict]) -> list[tuple[str, str, list[dict]]]:
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
         groups.setdefault((r["dataset"], r["kind"]), []).append(r)
-    for (dataset, kind), members in sorted(groups.items()):
-        cells = []
-        for s in SOURCES:
-            m = {k: np.mean([r[s][k] for r in members]) for k in ("tilt_rms", "heading_rms", "heading_end")}
-            cells.append(f"{m['tilt_rms']:.1f} / {m['heading_rms']:.1f} / {m['heading_end']:.1f}")
-        chosen = {}
+    return [(dataset, kind, members) for (dataset, kind), members in sorted(groups.items())]
+
+
+def _mean(members: list[dict], source: str, key: str) -> float:
+    return float(np.mean([r[source][key] for r in members]))
+
+
+def error_table(rows: list[dict]) -> list[str]:
+    """Tilt RMS, heading RMS and heading at the end (deg) per source, mean over each kind's recordings."""
+    lines = [
+        "| dataset | kind | n | " + " | ".join(SOURCES) + " | auto chose |",
+        "|:--|:--|--:|" + "--:|" * len(SOURCES) + ":--|",
+    ]
+    for dataset, kind, members in _groups(rows):
+        cells = [
+            " / ".join(f"{_mean(members, s, k):.1f}" for k in ("tilt_rms", "heading_rms", "heading_end"))
+            for s in SOURCES
+        ]
+        chosen: dict[str, int] = {}
         for r in members:
             chosen[r["auto_source"]] = chosen.get(r["auto_source"], 0) + 1
         picks = ", ".join(f"{k} {v}" for k, v in sorted(chosen.items()))
         lines.append(f"| {dataset} | {kind} | {len(members)} | " + " | ".join(cells) + f" | {picks} |")
     return lines
+
+
+def ate_table(rows: list[dict]) -> list[str]:
+    """Mean ATE (m) per source and kind, and auto against the better of device and vqf."""
+    lines = [
+        "| dataset | kind | n | " + " | ".join(SOURCES) + " | auto / min(device, vqf) |",
+        "|:--|:--|--:|" + "--:|" * (len(SOURCES) + 1),
+    ]
+    for dataset, kind, members in _groups(rows):
+        ates = {s: _mean(members, s, "ate") for s in SOURCES}
+        ratio = ates["auto"] / min(ates["device"], ates["vqf"])
+        cells = " | ".join(f"{ates[s]:.2f}" for s in SOURCES)
+        lines.append(f"| {dataset} | {kind} | {len(members)} | {cells} | {ratio:.2f} |")
+    return lines
+
+
+def replace_between(path: Path, marker: str, table: str) -> None:
+    """Replace what lies between ``<!-- marker:start -->`` and ``<!-- marker:end -->``; keep the prose."""
+    text = path.read_text()
+    head, rest = text.split(f"<!-- {marker}:start -->", 1)
+    tail = rest.split(f"<!-- {marker}:end -->", 1)[1]
+    path.write_text(f"{head}<!-- {marker}:start -->\n{table}\n<!-- {marker}:end -->{tail}")
 
 
 def main() -> None:
@@ -161,30 +199,29 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="markdown file with table markers")
     parser.add_argument("--json", type=Path, default=None, help="every row, with its evidence")
     parser.add_argument("--checkpoint", type=Path, default=None, help="also ATE of this model per source")
+    parser.add_argument("--rows", type=Path, default=None, help="re-render the rows of an earlier --json")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    model = None if args.checkpoint is None else load_model(args.checkpoint)
-    rows = []
-    for dataset, path in validation_recordings(args.data_root):
-        rows.append(study_row(dataset, path, model))
-        r = rows[-1]
-        print(
-            f"{r['name']:40s} {r['kind']:18s} "
-            + " ".join(f"{s}={r[s]['heading_rms']:6.1f}" for s in SOURCES)
-            + f"  auto={r['auto_source']:6s} {json.dumps(r['evidence'])}",
-            flush=True,
-        )
+    if args.rows is not None:
+        rows = json.loads(args.rows.read_text())
+    else:
+        model = None if args.checkpoint is None else load_model(args.checkpoint)
+        rows = []
+        for dataset, path in validation_recordings(args.data_root):
+            rows.append(study_row(dataset, path, model))
+            print(f"{rows[-1]['name']}: {json.dumps(rows[-1]['evidence'])}", flush=True)
+    for row in rows:
+        apply_rule(row)
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(rows, indent=1))
-    table = "\n".join(group_table(rows))
-    print(table)
+    errors = "\n".join(error_table(rows))
+    ates = "\n".join(ate_table(rows)) if all("ate" in r["device"] for r in rows) else None
+    print(errors, ates or "", sep="\n\n")
     if args.out is not None:
-        # Replace what lies between the markers; keep the prose around them.
-        text = args.out.read_text()
-        head, rest = text.split("<!-- table:start -->", 1)
-        tail = rest.split("<!-- table:end -->", 1)[1]
-        args.out.write_text(f"{head}<!-- table:start -->\n{table}\n<!-- table:end -->{tail}")
+        replace_between(args.out, "sources", errors)
+        if ates is not None:
+            replace_between(args.out, "ate", ates)
 
 
 if __name__ == "__main__":

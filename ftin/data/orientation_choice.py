@@ -110,8 +110,13 @@ def orientation_evidence(seq: ImuSequence) -> OrientationEvidence:
     )
 
 
-def choose_orientation(seq: ImuSequence, evidence: OrientationEvidence | None = None) -> tuple[str, str]:
-    """``(source, reason)``: the orientation source for ``seq`` by the rule of the module docstring."""
+def choose_orientation(
+    seq: ImuSequence | None, evidence: OrientationEvidence | None = None
+) -> tuple[str, str]:
+    """``(source, reason)``: the orientation source for ``seq`` by the rule of the module docstring
+    (from ``evidence`` when given, e.g. measured once for several decisions)."""
+    if evidence is None and seq is None:
+        raise ValueError("choose_orientation needs a sequence or its evidence")
     e = evidence or orientation_evidence(seq)
     if not e.has_magnetometer:
         if e.has_device:
