@@ -200,10 +200,22 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None, help="every row, with its evidence")
     parser.add_argument("--checkpoint", type=Path, default=None, help="also ATE of this model per source")
     parser.add_argument("--rows", type=Path, default=None, help="re-render the rows of an earlier --json")
+    parser.add_argument(
+        "--refresh-evidence", action="store_true", help="with --rows: measure the evidence again"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     if args.rows is not None:
         rows = json.loads(args.rows.read_text())
+        if args.refresh_evidence:  # a new signal: measure it again, keep the (slow) ATE
+            paths = {
+                read_sequence(p, orientation="device").name: p
+                for _, p in validation_recordings(args.data_root)
+            }
+            for row in rows:
+                row["evidence"] = orientation_evidence(
+                    read_sequence(paths[row["name"]], orientation="device")
+                ).to_json()
     else:
         model = None if args.checkpoint is None else load_model(args.checkpoint)
         rows = []

@@ -15,6 +15,10 @@ Signals (:class:`OrientationEvidence`, from one offline VQF run):
 * ``device_north_deg``: the phone attitude's mean heading offset from VQF's magnetic north. Near 0
   when the phone's attitude is itself referenced to the magnetometer (Android's rotation vector), so
   that a disturbance misleads it as well; arbitrary for a game rotation vector or CoreMotion's frames.
+* ``device_tilt_gap_deg``: RMS angle between the phone attitude's gravity direction and VQF's, in the
+  device frame. VQF levels from the accelerometer with a bias-corrected gyroscope; a phone attitude
+  several degrees away is mis-levelled (CoreMotion in a pocket: 5-7 deg), and every 3 deg of tilt
+  leaks 0.5 m/s² of gravity into the horizontal acceleration the network reads.
 
 The rule (:func:`choose_orientation`), decided on validation recordings only (OxIOD and RIDI
 validation parts; Inria Nexus 5 and iPhone 5 walks, whose Dist / NoDist labels are what it must
@@ -24,10 +28,10 @@ detect; evidence in ``docs/orientation.md``, ``scripts/orientation_quality.py``)
 2. VQF flags less than ``DISTURBED_FRACTION`` of the recording: ``vqf``;
 3. the 9-D heading stayed within ``HELD_SPLIT_DEG`` of the 6-D one (VQF ignored the magnetometer):
    ``vqf``;
-4. the phone's attitude exists and does not follow the same magnetic north (offset above
-   ``SAME_NORTH_DEG``): ``device``;
-5. else ``vqf``: a disturbed magnetometer misleads the phone's attitude more than VQF, which rejects
-   what it detects.
+4. the phone's attitude exists, does not follow the same magnetic north (offset above
+   ``SAME_NORTH_DEG``) and is level (tilt gap below ``LEVEL_GAP_DEG``): ``device``;
+5. else ``vqf``: a disturbed magnetometer misleads a magnetometer-referenced phone attitude more than
+   VQF, which rejects what it detects, and a mis-levelled one costs more than VQF's heading.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from ftin.data.types import ImuSequence
 DISTURBED_FRACTION = 0.5
 HELD_SPLIT_DEG = 2.0
 SAME_NORTH_DEG = 20.0
+LEVEL_GAP_DEG = 3.5
 START_S = 5.0  # the heading split is measured from its mean over the first seconds
 
 
@@ -62,6 +67,7 @@ class OrientationEvidence:
     mag_disturbed_fraction: float | None = None
     heading_split_deg: float | None = None
     device_north_deg: float | None = None
+    device_tilt_gap_deg: float | None = None
 
     def to_json(self) -> dict[str, Any]:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(self).items()}
@@ -93,20 +99,23 @@ def orientation_evidence(seq: ImuSequence) -> OrientationEvidence:
         None,
     )
     split = heading_drift_deg(seq.t_s, out["quat9D"], out["quat6D"])
-    device_north = None
+    device_north = tilt_gap = None
     if has_device:
-        offset = (
-            frames.rotation_from_wxyz(seq.q_world_device_wxyz)
-            * frames.rotation_from_wxyz(out["quat9D"]).inv()
-        )
+        R_device = frames.rotation_from_wxyz(seq.q_world_device_wxyz)
+        offset = R_device * frames.rotation_from_wxyz(out["quat9D"]).inv()
         yaw = np.asarray(frames.yaw_rad(frames.wxyz_from_rotation(offset)), dtype=np.float64)
         device_north = float(abs(np.degrees(np.angle(np.mean(np.exp(1j * yaw))))))  # circular mean
+        up = np.array([0.0, 0.0, 1.0])
+        up_vqf = frames.rotation_from_wxyz(out["quat6D"]).inv().apply(up)
+        cos_gap = np.sum(R_device.inv().apply(up) * up_vqf, axis=1)
+        tilt_gap = float(np.sqrt(np.mean(np.degrees(np.arccos(np.clip(cos_gap, -1.0, 1.0))) ** 2)))
     return OrientationEvidence(
         has_device=has_device,
         has_magnetometer=True,
         mag_disturbed_fraction=float(np.mean(out["magDistDetected"])),
         heading_split_deg=float(np.sqrt(np.mean(split**2))),
         device_north_deg=device_north,
+        device_tilt_gap_deg=tilt_gap,
     )
 
 
@@ -130,15 +139,17 @@ def choose_orientation(
             f"{disturbed}, but VQF 9-D held the gyroscope's heading (within {e.heading_split_deg:.1f} deg "
             "RMS of VQF 6-D): VQF 9-D"
         )
-    if e.has_device and e.device_north_deg > SAME_NORTH_DEG:
+    pulled = f"{disturbed} and its heading pulled {e.heading_split_deg:.0f} deg RMS from the gyroscope's"
+    if not e.has_device:
+        why = "no phone attitude to fall back on"
+    elif e.device_north_deg <= SAME_NORTH_DEG:
+        why = f"the phone's attitude follows the same magnetic north ({e.device_north_deg:.0f} deg apart)"
+    elif e.device_tilt_gap_deg >= LEVEL_GAP_DEG:
+        why = f"the phone's attitude is {e.device_tilt_gap_deg:.1f} deg RMS off VQF's level"
+    else:
         return OrientationSource.DEVICE.value, (
-            f"{disturbed} and its heading pulled {e.heading_split_deg:.0f} deg RMS from the gyroscope's; the "
-            f"phone's attitude does not follow the same magnetic north ({e.device_north_deg:.0f} deg "
-            "apart): the phone's own attitude"
+            f"{pulled}; the phone's attitude does not follow the same magnetic north "
+            f"({e.device_north_deg:.0f} deg apart) and is level (within {e.device_tilt_gap_deg:.1f} deg RMS "
+            "of VQF): the phone's own attitude"
         )
-    why = (
-        "the phone's attitude follows the same magnetic north"
-        if e.has_device
-        else "no phone attitude to fall back on"
-    )
-    return OrientationSource.VQF.value, f"{disturbed}; {why}: VQF 9-D, which rejects what it detects"
+    return OrientationSource.VQF.value, f"{pulled}; {why}: VQF 9-D, which rejects what it detects"

@@ -87,3 +87,14 @@ def test_without_a_magnetometer():
     assert orientation_evidence(seq).has_magnetometer is False
     assert choose_orientation(seq)[0] == "device"
     assert choose_orientation(seq.with_(q_world_device_wxyz=None))[0] == "vqf6d"
+
+
+def test_a_disturbed_field_keeps_vqf_when_the_phones_attitude_is_not_level():
+    seq = walk(disturbed_period_s=20.0)
+    tilted = frames.rotation_from_wxyz(seq.q_world_device_wxyz) * Rotation.from_rotvec([0.1, 0.0, 0.0])
+    seq = seq.with_(q_world_device_wxyz=frames.wxyz_from_rotation(tilted))  # 5.7 deg off level
+    evidence = orientation_evidence(seq)
+    assert evidence.device_tilt_gap_deg == pytest.approx(5.7, abs=1.0)
+    source, reason = choose_orientation(seq, evidence)
+    assert source == "vqf" and "off VQF's level" in reason
+    assert orientation_evidence(walk(disturbed_period_s=20.0)).device_tilt_gap_deg < 1.0
