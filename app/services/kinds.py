@@ -6,8 +6,8 @@ Decisions (issue 11, items 8 and 10):
 - The kind is recognised from the words in the paths and sequence names a checkpoint records
   (``ftin train`` writes ``{"paths": [...], "sequences": [...]}``) and, for a sequence, from its
   reader format, its folder and its name: ``oxiod``, ``ronin``, ``ridi``, ``tlio``, ``rnin``,
-  ``imunet``, ``euroc``, and ``simulated`` (the ``sim`` folder or ``sim_*`` names of ``ftin sim``,
-  and the bundled samples). Anything else has no kind.
+  ``imunet``, ``euroc``, ``inria`` (the ``inria_attitude`` reader and folder), and ``simulated``
+  (the ``sim`` folder or ``sim_*`` names of ``ftin sim``, and the bundled samples). Anything else has no kind.
 - A checkpoint may be trained on several kinds (``ftin-pedestrian``: OxIOD and RIDI). The scene ticks,
   for a sequence, a checkpoint trained on its kind (an FTIN one first, the default model before the
   other FTIN ones); without one, the default model.
@@ -29,6 +29,7 @@ KIND_LABELS = {
     "rnin": "RNIN",
     "imunet": "IMUNet",
     "euroc": "EuRoC",
+    "inria": "Inria attitude benchmark",
 }
 
 _WORD = re.compile(r"[a-z0-9]+")
