@@ -14,10 +14,13 @@ Errors: tilt = angle between the estimated and the true gravity direction in the
 heading involved); heading = drift of the yaw of ``R_true(t) R_est(t)^-1`` from its mean over the
 first 5 s (heading offsets between worlds are arbitrary), wrapped to +-180 deg, as RMS over the
 recording and at its end.
-Only samples the mocap tracked count (``gt.tracked``).
+Only samples the mocap tracked count (``gt.tracked``). With ``--checkpoint``, each source's ATE too,
+averaged over the world turned to ``HEADINGS`` headings (``ate_m``). ``--rows`` re-renders an earlier
+``--json`` (the rule re-applied to its stored evidence; ``--refresh-evidence`` measures it again)
+without the slow predictions.
 
-    .venv/bin/python scripts/orientation_quality.py ../shared/data --out docs/orientation.md \
-        --json runs/orientation_study.json
+    PYTHONPATH=. .venv/bin/python scripts/orientation_quality.py ../shared/data \
+        --checkpoint checkpoints/ftin-pedestrian --json runs/orientation_study.json --out docs/orientation.md
 """
 
 from __future__ import annotations
