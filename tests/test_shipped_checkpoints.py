@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from ftin.checkpoint import load_model
-from ftin.data.readers import read_sequence
+from ftin.data.discovery import read_sequence
 from ftin.evaluate import evaluate_checkpoint
 from ftin.protocol import OXIOD, RIDI, SPLITS
 from ftin.sim.samples import SAMPLES, load_sample

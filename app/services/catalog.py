@@ -23,7 +23,7 @@ from typing import Any
 from app.services.errors import InvalidInputError, NotFoundError
 from app.services.kinds import SIMULATED, kind_of, label
 from ftin.data import DataFormatError, ImuSequence
-from ftin.data.readers import list_sequences, read_sequence
+from ftin.data.discovery import list_sequences, read_sequence
 
 log = logging.getLogger(__name__)
 

@@ -5,12 +5,11 @@ Decisions:
 - At most ``max_concurrent_inferences`` predictions run at once (``InferenceSlots``), and each must
   finish before its ``Deadline`` (``limits``): checked while waiting for a slot and between batches
   of windows. Callers run this off the event loop.
-- The sample limit (``FTIN_MAX_SAMPLES``) is checked on the input as read, and for a CSV upload
-  already from its line count, before parsing. The upload size limit is checked on the file.
-- Uploads are detected from their bytes (``ftin.data.readers.uploads``): a gzip body is unpacked
-  (at most ``max_uncompressed_bytes``) and looked at again, a ZIP is a phone app's export (Sensor
-  Logger, phyphox) or holds one CSV, anything else is a CSV: decoded as UTF-8 (a BOM is accepted)
-  first, so that a binary file gets a plain "not a UTF-8 text file" message instead of a parser error.
+- Uploads are read by ``ftin.data.from_bytes.read_bytes`` (detection by content, gzip, ZIP exports,
+  the uncompressed-size and sample limits, a CSV's line count checked before parsing); this service
+  adds what is HTTP's: the client's file name as a label only, the upload size limit on the body,
+  and the status codes (413 for too large, 422 for a bad format). The sample limit
+  (``FTIN_MAX_SAMPLES``) holds for every door.
 - Alignment (``ftin.metrics.align``): with ground truth, the metrics follow the request's ``align``
   or the reader's default, and the run keeps the ground truth in the prediction's frame, so that
   the page, the scene and the TUM export draw what was scored.
@@ -39,8 +38,8 @@ from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
-from ftin.data.readers import exports
-from ftin.data.readers.uploads import gunzip, read_bytes
+from ftin.data.errors import TooManySamplesError
+from ftin.data.from_bytes import read_bytes
 from ftin.data.validate import validate
 from ftin.evaluate import score
 from ftin.infer import Prediction
@@ -50,17 +49,6 @@ log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
 GT_AS_GIVEN = "gt_as_given"  # meta key: the ground truth before a run aligned it for drawing
-
-
-def decode_upload(data: bytes, filename: str) -> str:
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InvalidInputError(
-            f"{filename}: not a UTF-8 text file (byte {exc.start} is 0x{data[exc.start]:02x}); "
-            "upload a CSV in the generic schema, a gzip-compressed CSV, or a phone app's ZIP export "
-            "(Sensor Logger, phyphox)"
-        ) from None
 
 
 def _rows(field_name: str, value: Sequence[Any], width: int | None, n: int | None) -> np.ndarray:
@@ -120,12 +108,15 @@ class PredictionService:
 
     def check_sample_count(self, n: int, what: str) -> None:
         """413 when ``what`` holds more samples than one prediction may read."""
+        if n > self.settings.max_samples:
+            raise self._too_many_samples(n, what)
+
+    def _too_many_samples(self, n: int, what: str) -> PayloadTooLargeError:
         limit = self.settings.max_samples
-        if n > limit:
-            raise PayloadTooLargeError(
-                f"{what} has {n} samples; one prediction reads at most {limit} "
-                f"(FTIN_MAX_SAMPLES, {limit / 200 / 60:.1f} min at 200 Hz); split the recording"
-            )
+        return PayloadTooLargeError(
+            f"{what} has {n} samples; one prediction reads at most {limit} "
+            f"(FTIN_MAX_SAMPLES, {limit / 200 / 60:.1f} min at 200 Hz); split the recording"
+        )
 
     def predict_csv(
         self,
@@ -139,7 +130,7 @@ class PredictionService:
         align: str | None = None,
     ) -> Run:
         """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
-        Sensor Logger / phyphox export as a ZIP (``ftin.data.readers.uploads``, detected by content)."""
+        Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content)."""
         entry = self.models.get(model)
         run_id = self.runs.new_id(run_id)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
@@ -153,28 +144,21 @@ class PredictionService:
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
-        self.check_sample_count(len(seq), filename)
         return self.run(seq, entry, run_id, source, deadline=deadline, align=align)
 
     def read_upload(self, data: bytes, filename: str) -> ImuSequence:
         """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
-        if not data.strip():
-            raise InvalidInputError(
-                f"{filename} is empty; upload a CSV in the generic schema or a phone app's ZIP export"
-            )
         try:
-            if data[:2] == exports.GZIP_MAGIC:
-                data = gunzip(data, filename, self.settings.max_uncompressed_bytes)
-            if not exports.is_zip(data):
-                # Lines bound the samples from above (one header, maybe comments): refuse before parsing.
-                lines = data.count(b"\n") + (not data.endswith(b"\n"))
-                if lines - 1 > self.settings.max_samples:
-                    self.check_sample_count(lines - 1, filename)
-                decode_upload(data, filename)  # a binary file: say so in plain words
-            seq = read_bytes(data, filename, max_uncompressed_bytes=self.settings.max_uncompressed_bytes)
+            return read_bytes(
+                data,
+                filename,
+                max_uncompressed_bytes=self.settings.max_uncompressed_bytes,
+                max_samples=self.settings.max_samples,
+            )
+        except TooManySamplesError as exc:
+            raise self._too_many_samples(exc.samples, filename) from None
         except DataFormatError as exc:
             raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
-        return seq
 
     def predict_sequence(
         self,

@@ -18,8 +18,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ftin.cli.common import app, err_console, out_console, progress_bar, user_errors
+from ftin.data.discovery import SequenceRef, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import SequenceRef, list_sequences, read_sequence
 from ftin.data.readers.generic_csv import write_csv
 from ftin.data.types import ImuSequence
 

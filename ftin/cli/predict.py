@@ -21,8 +21,8 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
+from ftin.data.discovery import read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import read_sequence
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory

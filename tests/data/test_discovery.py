@@ -13,8 +13,9 @@ import pandas as pd
 import pytest
 
 from ftin.data import readers
+from ftin.data.discovery import SequenceRef, detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import SequenceRef, detect_format, generic_csv, list_sequences, read_sequence
+from ftin.data.readers import generic_csv
 from ftin.data.types import ImuSequence, Trajectory
 
 G = 9.81
@@ -251,7 +252,7 @@ def test_failing_discovery_and_unreadable_folders_do_not_crash(mixed, monkeypatc
         raise PermissionError(13, "Permission denied", str(root))
 
     monkeypatch.setattr(readers.tlio, "discover", refuse)
-    with caplog.at_level(logging.WARNING, logger="ftin.data.readers"):
+    with caplog.at_level(logging.WARNING, logger="ftin.data.discovery"):
         refs = list_sequences(mixed)
     assert {ref.format for ref in refs} == {"ronin", "ridi", "imunet", "rnin", "csv", "oxiod", "euroc"}
     assert "tlio discovery" in caplog.text and "Permission denied" in caplog.text

@@ -18,10 +18,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
+from ftin.data.discovery import detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import detect_format, list_sequences, phyphox, read_sequence, sensorlogger
-from ftin.data.readers.exports import MAX_RATIO
-from ftin.data.readers.uploads import read_bytes
+from ftin.data.from_bytes import read_bytes
+from ftin.data.io.phone_exports import MAX_RATIO
+from ftin.data.readers import phyphox, sensorlogger
 
 G = 9.80665
 T0_NS = 1_711_795_430_105_320_700

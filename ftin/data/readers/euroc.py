@@ -27,6 +27,7 @@ from scipy.spatial.transform import Slerp
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
 
@@ -113,6 +114,7 @@ def _read_asl_csv(path: Path, min_columns: int, what: str) -> tuple[np.ndarray, 
     return t_ns, values
 
 
+@register_reader(priority=90)
 def read(path: Path, max_gt_gap_s: float = 0.05) -> ImuSequence:
     """Read one EuRoC sequence folder (the one holding ``mav0``)."""
     seq_dir = _sequence_dir(path)

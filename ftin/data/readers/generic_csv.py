@@ -13,7 +13,7 @@ One header row, then one row per IMU sample; column order is free. Canonical col
   start (``meta["gt_frame"]``, ``ftin.metrics.align``).
 
 This module reads and writes; the column table, aliases and header matching are in
-``ftin.data.readers.columns``, the checks in ``ftin.data.validate``. Decisions:
+``ftin.data.io.csv_columns``, the checks in ``ftin.data.validate``. Decisions:
 
 * Units written in the header are trusted and converted, with a warning. Units are never guessed
   silently from the values: the time unit is the one (s, ms, us or ns) whose median interval means
@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.columns import (
+from ftin.data.io.csv_columns import (
     COLUMNS,
     GROUPS,
     GT_DEVICE_WORLD_PREFIX,
@@ -56,6 +56,7 @@ from ftin.data.readers.columns import (
     shown,
     sniff_delimiter,
 )
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     MAX_ABS_ACC_M_S2,
@@ -294,6 +295,7 @@ def read_csv(
     return validate(seq, source=source, row_label=row_label, columns=names, min_samples=min_samples)
 
 
+@register_reader(priority=0)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: ``read_csv`` on a file."""
     return read_csv(path, **options)

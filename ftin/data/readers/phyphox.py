@@ -17,7 +17,7 @@ Decisions:
 * phyphox reports every platform in Android's convention (+9.81 m/s² up at rest); with no
   orientation in the export that sign cannot be checked and a warning says so. The gyroscope's unit
   and sign are checked against how gravity turns (``sensor_clock.gyro_scale_from_gravity``).
-* Sensors are merged onto one clock as for Sensor Logger (``exports``); the magnetometer, when
+* Sensors are merged onto one clock as for Sensor Logger (``sensor_clock``); the magnetometer, when
   present, goes to ``meta["mag_uT"]`` for the orientation filter (9-D mode).
 """
 
@@ -31,11 +31,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-import ftin.data.readers.exports as exports
-import ftin.data.readers.sensor_clock as sensor_clock
+import ftin.data.io.phone_exports as phone_exports
+import ftin.data.io.sensor_clock as sensor_clock
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles
-from ftin.data.readers.sensor_clock import SensorSeries
+from ftin.data.io.phone_exports import ExportFiles
+from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
@@ -69,7 +70,7 @@ def _separator(line: str) -> str:
 
 
 def _header(data: bytes) -> list[str]:
-    line = exports.first_line(data)
+    line = phone_exports.first_line(data)
     return [c.strip().strip('"').strip() for c in line.split(_separator(line))]
 
 
@@ -90,14 +91,14 @@ def is_phyphox_csv(data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    return exports.claims_export(
+    return phone_exports.claims_export(
         path, lambda name: name.lower().endswith(".csv"), lambda _n, head: is_phyphox_csv(head)
     )
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    return exports.discover_exports(
+    return phone_exports.discover_exports(
         root, claims, lambda files: any(f.lower().endswith(".csv") for f in files), skip_folder="meta"
     )
 
@@ -117,7 +118,7 @@ def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, Sen
     if not groups:
         return []
     try:
-        sep = _separator(exports.first_line(data))
+        sep = _separator(phone_exports.first_line(data))
         table = pd.read_csv(io.BytesIO(data), engine="c", header=0, sep=sep, decimal=_decimal(data, sep))
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         raise DataFormatError(f"{source}: {name} is not a readable CSV table ({str(exc).strip()})") from None
@@ -137,7 +138,7 @@ def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, Sen
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One phyphox export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    return exports.without_overflow_warnings(_read_export, files, name)
+    return phone_exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -201,7 +202,10 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     return validate_read(seq)  # the checks every reader shares
 
 
+@register_reader(priority=30)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))
+    return read_export(
+        phone_exports.open_export(path), options.pop("name", None) or phone_exports.export_name(path)
+    )

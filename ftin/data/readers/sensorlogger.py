@@ -34,12 +34,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-import ftin.data.readers.exports as exports
-import ftin.data.readers.sensor_clock as sensor_clock
+import ftin.data.io.phone_exports as phone_exports
+import ftin.data.io.sensor_clock as sensor_clock
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles
-from ftin.data.readers.sensor_clock import SensorSeries
+from ftin.data.io.phone_exports import ExportFiles
+from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
@@ -70,7 +71,7 @@ def _cells(line: str) -> list[str]:
 def looks_like_sensor_file(name: str, data: bytes) -> bool:
     if name.lower() not in KNOWN_FILES:
         return False
-    cells = set(_cells(exports.first_line(data)))
+    cells = set(_cells(phone_exports.first_line(data)))
     if name.lower() == "metadata.csv":
         return "appversion" in cells or "platform" in cells
     if name.lower() == "orientation.csv":
@@ -79,12 +80,12 @@ def looks_like_sensor_file(name: str, data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    return exports.claims_export(path, lambda name: name.lower() in KNOWN_FILES, looks_like_sensor_file)
+    return phone_exports.claims_export(path, lambda name: name.lower() in KNOWN_FILES, looks_like_sensor_file)
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    return exports.discover_exports(
+    return phone_exports.discover_exports(
         root, claims, lambda files: bool({f.lower() for f in files} & KNOWN_FILES)
     )
 
@@ -174,7 +175,7 @@ def _platform(files: ExportFiles, source: str) -> tuple[str | None, dict[str, An
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One Sensor Logger export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    return exports.without_overflow_warnings(_read_export, files, name)
+    return phone_exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -289,7 +290,10 @@ def _orientation_on_clock(series: SensorSeries, clock: np.ndarray) -> np.ndarray
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
+@register_reader(priority=20)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))
+    return read_export(
+        phone_exports.open_export(path), options.pop("name", None) or phone_exports.export_name(path)
+    )

@@ -36,7 +36,8 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout, read_json, reference_pose_meta
+from ftin.data.io.sequence_folders import MarkedFolderLayout, read_json, reference_pose_meta
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     check_finite,
@@ -143,6 +144,7 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return result
 
 
+@register_reader(priority=50)
 def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSequence:
     """Read one TLIO sequence; ``path`` is its folder (or its ``imu0_resampled.npy``)."""
     calibration = Calibration(calibration)

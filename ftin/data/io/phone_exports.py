@@ -2,7 +2,7 @@
 
 Shared by the Sensor Logger and phyphox readers: opening an export (folder or ZIP) as an in-memory
 set of files, recognising and discovering exports. Their sensors are merged onto one clock in
-``ftin.data.readers.sensor_clock``.
+``ftin.data.io.sensor_clock``.
 
 Decisions:
 

@@ -1,6 +1,6 @@
 """Phone sensors recorded on different clocks, merged onto one, with units and signs from gravity.
 
-Shared by the Sensor Logger and phyphox readers (``ftin.data.readers.exports`` opens the files).
+Shared by the Sensor Logger and phyphox readers (``ftin.data.io.phone_exports`` opens the files).
 
 Decisions:
 
