@@ -170,6 +170,10 @@ def open_export(path: Path) -> ExportFiles:
             return read_zip(path.read_bytes(), str(path))
         except OSError as exc:
             raise DataFormatError(f"{path}: cannot read file ({exc.strerror or exc})") from None
+    if path.suffix.lower() == ".zip":
+        raise DataFormatError(
+            f"{path}: not a ZIP file (it does not start with PK); export the recording again"
+        )
     return read_folder(path.parent)
 
 

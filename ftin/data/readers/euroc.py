@@ -80,7 +80,7 @@ def _read_asl_csv(path: Path, min_columns: int, what: str) -> tuple[np.ndarray, 
         pass  # re-read as text below to say which line and column is wrong
     try:
         frame = pd.read_csv(path, header=None, comment="#", dtype=str, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise DataFormatError(f"{path}: cannot read as CSV ({what}): {exc}") from exc
     if frame.shape[1] < min_columns:
         raise DataFormatError(

@@ -124,7 +124,7 @@ def _read_numeric_csv(path: Path, n_columns: int, what: str) -> np.ndarray:
         return values
     try:
         frame = pd.read_csv(path, header=None, dtype=str)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise DataFormatError(f"{path}: cannot read as CSV ({what}): {exc}") from exc
     if frame.shape[1] != n_columns:
         raise DataFormatError(
