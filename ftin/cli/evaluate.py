@@ -11,7 +11,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.checkpoint import atomic_write_text, load_model
+from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
     AlignOption,
@@ -25,6 +25,7 @@ from ftin.cli.common import (
 )
 from ftin.data.loading import load_sequences
 from ftin.evaluate import evaluate_checkpoint
+from ftin.files import atomic_write_text
 from ftin.metrics import Convention
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from ftin.checkpoint import atomic_write_text, load_model
+from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
     AlignOption,
@@ -25,6 +25,7 @@ from ftin.data.discovery import read_sequence
 from ftin.data.errors import DataFormatError
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
+from ftin.files import atomic_write_text
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on

@@ -15,7 +15,6 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from ftin.checkpoint import atomic_write_text
 from ftin.cli.common import (
     REPORT_ERRORS,
     ConventionOption,
@@ -26,6 +25,7 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
+from ftin.files import atomic_write_text
 from ftin.metrics import Convention
 from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
 from ftin.report.campaign import ate_figure, load_results, render

@@ -22,7 +22,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ftin.checkpoint import atomic_write_bytes
+from ftin.files import atomic_write_bytes
 from ftin.report.results import (
     CONVENTION_LABELS,
     FIGURE_MODELS,

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ftin.checkpoint import atomic_write_text, to_json_safe
+from ftin.files import atomic_write_text, to_json_safe
 from ftin.metrics import TrajectoryMetrics
 from ftin.report.evaluation import representative_sequence
 from ftin.report.figures import pde_figure, trajectory_figure, write_png
