@@ -36,7 +36,7 @@ call. Steps and decisions:
    height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
    (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
-   with the device world frame at the start, design §2); without it, the estimate is in the
+   with the device world frame at the start: ``docs/design.md``, "Frames"); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).
 6. Scoring is not inference: ``ftin.evaluate.score(prediction)`` compares the trajectory with the
    prepared ground truth under the alignment rules of ``ftin.metrics.align``, for the CLI, the

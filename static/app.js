@@ -509,7 +509,7 @@ function setUp() {
 
 setUp();
 
-// --- alignment (issue 10): the align option of POST /predict, and what was fitted ---------------
+// --- alignment: the align option of POST /predict, and what was fitted -------------------------
 function alignParam() {
   const select = $("align-select");
   return select && select.value ? `&align=${encodeURIComponent(select.value)}` : "";

@@ -1,6 +1,6 @@
 """Kinds of data, in words: which checkpoint was trained on what, and which suits a sequence.
 
-Decisions (issue 11, items 8 and 10):
+Decisions:
 - A checkpoint's training data and a sequence's folder are named by what they are ("OxIOD",
   "simulated walks"), never by a developer's path (``../shared/data/oxiod``) or a reader id (``csv``).
 - The kind is recognised from the words in the paths and sequence names a checkpoint records

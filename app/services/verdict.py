@@ -1,7 +1,7 @@
 """What a finished prediction tells a user at a glance: path length against the truth, and which of
 the library's messages are warnings and which are information.
 
-Decisions (issue 11):
+Decisions:
 - A model that barely moves scores well on ATE / RTE / PDE in a small room (it never strays far
   from the start), so every result with ground truth carries the path-length ratio (predicted /
   true horizontal path, ``ftin.metrics.path_length_ratio``) and a warning naming the path when the

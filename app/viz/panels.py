@@ -3,7 +3,7 @@
 uPlot (built into viser, works offline) draws the line plots; the FDL spectra are heatmap images
 drawn by matplotlib with their axes and a colour bar.
 
-Decisions (issue 11):
+Decisions:
 - Every plot names the run it shows; the panels clear themselves when the scene is cleared, and
   the FDL plots are hidden (not left showing another model's spectra) for a model without FDL.
 - The raw IMU spectrum is in decibels (20 log10 of the amplitude, re 1 rad/s and 1 m/s²): gyro

@@ -21,7 +21,7 @@ A finished (or focused) run is drawn by the scene's own drawing thread, in arriv
 prediction's HTTP response never waits for the scene. ``flush()`` waits until everything queued is
 drawn; ``stop()`` ends the thread.
 
-Decisions (issue 11):
+Decisions:
 - No stale state: the Sequence menu always shows the recording on screen (an uploaded one is
   added to the menu as "<name> (uploaded)", and Run works on it); the status line names what is
   shown; "Clear scene" empties the plots and the timeline too.

@@ -76,7 +76,7 @@ def metrics_markdown(views: list[RunView]) -> str:
         else f"Convention: {convention} (see the API's metrics.convention_text)"
     )
     aligned = [f"{v.model_name}: {v.alignment}" for v in views if v.alignment and v.alignment != "none"]
-    if aligned:  # the ground truth drawn is the aligned one (issue 10)
+    if aligned:  # the ground truth drawn is the aligned one
         alignment = "Aligned to the ground truth, which is drawn aligned: " + "; ".join(aligned)
     return (
         "\n".join(lines)

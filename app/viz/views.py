@@ -140,7 +140,7 @@ class RunView:
 
 
 def _alignment_words(metrics: Any) -> str | None:
-    """``start (heading +12.3°)``: the alignment the metrics used and what it fitted (issue 10)."""
+    """``start (heading +12.3°)``: the alignment the metrics used and what it fitted."""
     if metrics is None or getattr(metrics, "alignment", None) is None:
         return None
     heading = "" if metrics.heading_deg is None else f" (fitted heading {metrics.heading_deg:+.1f}°)"

@@ -1,6 +1,6 @@
 """World-frame IMU windows, velocity targets, input normalisation and the training Dataset.
 
-Decisions (design §2):
+Decisions (``docs/design.md``, "Frames"):
 - Window ``k`` starts at sample ``s = k * stride``; its input is samples ``s .. s + L - 1`` and its
   target is the mean velocity over the same ``L`` sample intervals,
   ``(p[s + L] - p[s]) / (t[s + L] - t[s])``. A window therefore needs sample ``s + L`` and starts run

@@ -1,4 +1,4 @@
-"""Trajectory error metrics: ATE, RTE and PDE under a stated convention (design §4).
+"""Trajectory error metrics: ATE, RTE and PDE under a stated convention (``docs/design.md``, "Metrics").
 
 A convention fixes three things, and every metric of one evaluation follows the same three:
 

@@ -194,7 +194,7 @@ def test_the_response_does_not_wait_for_the_drawing(scene: DashboardScene, monke
     assert scene.shown_run_ids() == [run.run_id]
 
 
-# --- issue 11: the scene tells the truth, keeps no stale state, does not pile up repeats ---------
+# --- the scene tells the truth, keeps no stale state, does not pile up repeats ---------------------
 
 
 def test_a_repeat_replaces_its_predecessor(scene: DashboardScene) -> None:

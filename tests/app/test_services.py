@@ -312,7 +312,7 @@ def test_run_store_is_thread_safe() -> None:
 
 
 def test_training_data_is_summarised_in_words_not_listed() -> None:
-    """Issue 11: no developer paths in the UI; the kind of data, else the folder's name."""
+    """No developer paths in the UI; the kind of data, else the folder's name."""
 
     def trained_on(data: object) -> str | None:
         return ModelEntry(

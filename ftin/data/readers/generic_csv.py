@@ -90,7 +90,7 @@ __all__ = [  # the table and limits are re-exported: callers and tests know them
 ]
 
 FORMAT = "csv"
-DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz (design §2)
+DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
