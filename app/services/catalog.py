@@ -1,4 +1,4 @@
-"""The sequences ``GET /sequences`` lists: whatever ``ftin.data.readers`` finds in the data folders.
+"""The sequences ``GET /sequences`` lists: whatever ``ftin.data.discovery`` finds in the data folders.
 
 Security decision: a sequence id is only ever a key into the table built here at start-up. No
 request string is joined to a path, and a reference whose resolved path leaves its data folder
@@ -49,7 +49,7 @@ class SequenceEntry:
     name: str
     dataset: str  # the reader format, e.g. "oxiod", "csv"
     folder: Path
-    ref: Any  # ftin.data.readers.SequenceRef
+    ref: Any  # ftin.data.discovery.SequenceRef
     kind: str | None = None  # app.services.kinds: "simulated", "oxiod", ... or None
     dataset_label: str = ""  # the folder in words, for menus ("Simulated walks (bundled samples)")
 
