@@ -46,13 +46,14 @@ call. Steps and decisions:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
+from ftin.data.gaps import holes_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
@@ -70,11 +71,12 @@ class Prediction:
     velocity_m_s: np.ndarray  # (M, D) world-frame mean velocity over each span
     orientation_source: str  # "device", "ground_truth" or "estimated"
     frame: str  # "ground_truth" or "device_world"
-    warnings: list[str]
+    warnings: list[str]  # what may be wrong with the result
     metrics: TrajectoryMetrics | None  # None from inference; set by a caller that scores (ftin.evaluate)
     features: dict | None  # name -> (windows, ...) float32 feature taps, when asked (window models)
     span_t_s: np.ndarray | None = None  # (M, 2) start and end time of each prediction's span
     prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare)
+    notes: list[str] = field(default_factory=list)  # how the input was read (gaps bridged, ...)
 
 
 def predict_trajectory(
@@ -112,7 +114,8 @@ def predict_trajectory(
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     gt = prepared.seq.gt
     start_m = gt.p_world_m[0] if gt is not None else np.zeros(3)
-    p_world_m = integrate_spans(t_s, span_start, span_end, velocity, start_m)
+    holes = holes_of(prepared.seq)
+    p_world_m = integrate_spans(t_s, *outside_holes(t_s, span_start, span_end, velocity, holes), start_m)
     return Prediction(
         trajectory=Trajectory(t_s.copy(), p_world_m, prepared.seq.q_world_device_wxyz),
         window_t_s=0.5 * (t_s[span_start] + t_s[span_end]),
@@ -124,6 +127,7 @@ def predict_trajectory(
         features=features,
         span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
         prepared=prepared,
+        notes=list(prepared.seq.meta.get("notes", [])),
     )
 
 
@@ -170,6 +174,34 @@ def select_parts(
     span_start = np.concatenate([first_start, later_start]).astype(np.int64)
     velocity = np.concatenate([part_velocity[0], part_velocity[1:, parts - later :].reshape(-1, dim)])
     return span_start, span_start + part, velocity
+
+
+def outside_holes(
+    t_s: np.ndarray,
+    span_start: np.ndarray,
+    span_end: np.ndarray,
+    velocity_m_s: np.ndarray,
+    holes_s: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The spans that see no hole in the recording (``ftin.data.gaps``: the data there is invented
+    by interpolation), plus a zero-velocity span over each stretch no remaining span covers, so the
+    trajectory holds its position across a hole instead of carrying the last velocity on."""
+    if not len(holes_s):
+        return span_start, span_end, velocity_m_s
+    a, b = t_s[span_start], t_s[span_end]
+    blind = ((a[:, None] < holes_s[None, :, 1]) & (b[:, None] > holes_s[None, :, 0])).any(axis=1)
+    keep = ~blind
+    covered = np.zeros(len(t_s) - 1, dtype=bool)
+    for s, e in zip(span_start[keep], span_end[keep], strict=True):
+        covered[s:e] = True
+    last_end = int(span_end.max())
+    fill_start = np.flatnonzero(~covered[:last_end])
+    zero = np.zeros((len(fill_start), velocity_m_s.shape[1]))
+    order = np.argsort(np.concatenate([span_start[keep], fill_start]), kind="stable")
+    starts = np.concatenate([span_start[keep], fill_start])[order]
+    ends = np.concatenate([span_end[keep], fill_start + 1])[order]
+    velocity = np.concatenate([velocity_m_s[keep], zero])[order]
+    return starts, ends, velocity
 
 
 def integrate_windows(

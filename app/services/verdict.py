@@ -30,7 +30,7 @@ STILL_RADIUS_M = 1.0
 WALK_MIN_M = 5.0
 
 # Library messages that describe how the input was read, not something that went wrong.
-_INFO_PREFIXES = ("t detected as", "t read in", "used column", "ignored columns")
+_INFO_PREFIXES = ("t detected as", "t read in", "used column", "ignored columns", "bridged ", "dropped ")
 _INFO_FRAGMENTS = (": resampled from",)
 
 
@@ -93,7 +93,7 @@ class Verdict:
 def judge(prediction: Any, truth: Trajectory | None) -> Verdict:
     """``prediction`` is an ``ftin.infer.Prediction``; ``truth`` the sequence's ground truth."""
     messages = unique([str(w) for w in prediction.warnings])
-    notes = [m for m in messages if is_information(m)]
+    notes = unique([*getattr(prediction, "notes", []), *(m for m in messages if is_information(m))])
     warnings = [m for m in messages if not is_information(m)]
     metrics = prediction.metrics
     ratio = None if metrics is None else getattr(metrics, "path_length_ratio", None)

@@ -39,6 +39,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.gaps import starts_outside_holes
 from ftin.data.types import ImuSequence
 
 N_CHANNELS = 6  # gyro xyz, acc xyz
@@ -229,7 +230,7 @@ class WindowDataset(torch.utils.data.Dataset):
         for seq in sequences:
             _check_training_sequence(seq, window)
             imu = world_imu(seq)
-            starts = window_starts(len(seq), window, stride)
+            starts = starts_outside_holes(seq, window_starts(len(seq), window, stride), window)
             imu_parts.append(imu)
             t_parts.append(np.asarray(seq.t_s, dtype=np.float64))
             p_parts.append(np.asarray(seq.gt.p_world_m[:, :out_dim], dtype=np.float64))

@@ -275,12 +275,21 @@ def test_decreasing_timestamp_names_the_line(data):
     assert "line 53" in message and "is earlier than the previous one" in message
 
 
-def test_gap_says_where_and_how_long(data):
+def test_a_short_gap_is_bridged_with_a_note_that_says_where(data):
     t = data["t"].copy()
     t[200:] += 0.5
+    seq = read_text(csv_text(CANONICAL, np.column_stack([t, data["gyro"], data["acc"]])))
+    (note,) = [n for n in seq.meta["notes"] if "bridged" in n]
+    assert "1 gap(s)" in note and "510 ms" in note and "between line 201 and line 202" in note
+    assert "holes_s" not in seq.meta
+
+
+def test_a_gap_of_two_recordings_names_the_lines_and_the_fix(data):
+    t = data["t"].copy()
+    t[200:] += 90.0
     message = error_of(csv_text(CANONICAL, np.column_stack([t, data["gyro"], data["acc"]])))
-    assert "gap of 0.51 s" in message
-    assert "between line 201" in message and "and line 202" in message
+    assert "no data for 90.0 s between line 201" in message and "and line 202" in message
+    assert "split the file there" in message
 
 
 def test_fewer_samples_than_one_window(data):

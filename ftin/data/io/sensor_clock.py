@@ -9,8 +9,8 @@ Decisions:
   covers. A sensor sampled faster than the clock is first averaged over each clock interval (the
   exact mean of its linear interpolant, from the running integral), so a 500 Hz gyroscope beside a
   100 Hz accelerometer keeps the rotation it measured instead of aliasing; slower or equal sensors
-  are interpolated linearly. Gaps are bridged by interpolation and reported in the warnings; a gap
-  longer than ``MAX_BRIDGED_GAP_S`` is an error naming the sensor and the time.
+  are interpolated linearly. Gaps follow the rule every input follows (``ftin.data.gaps``): bridged
+  by interpolation with a note, held (predicted around) with a warning, refused past a minute.
 """
 
 from __future__ import annotations
@@ -22,10 +22,9 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
 
-from ftin.data import frames, validate
+from ftin.data import frames, gaps, validate
 from ftin.data.errors import DataFormatError
 
-MAX_BRIDGED_GAP_S = 5.0  # a phone app paused for a moment; longer is another recording
 MIN_OVERLAP_S = 1.0
 
 
@@ -62,21 +61,47 @@ def clean_series(series: SensorSeries, source: str, warnings: list[str]) -> Sens
     return SensorSeries(series.name, t, v)
 
 
+def _gap_threshold_s(series: SensorSeries) -> float:
+    return max(5.0 * float(np.median(np.diff(series.t_s))), 0.05)
+
+
 def _check_gaps(series: SensorSeries, source: str, warnings: list[str]) -> None:
+    """Gaps of one sensor, by the rule every input follows (``ftin.data.gaps``): bridged with a note,
+    held with a warning (``held_holes`` puts them in the sequence's meta), refused past a minute."""
     dt = np.diff(series.t_s)
-    median = float(np.median(dt))
-    gaps = np.flatnonzero(dt > max(5.0 * median, 0.05))
-    if not gaps.size:
+    found = np.flatnonzero(dt > _gap_threshold_s(series))
+    if not found.size:
         return
-    worst = int(gaps[np.argmax(dt[gaps])])
-    if dt[worst] > MAX_BRIDGED_GAP_S:
+    worst = int(found[np.argmax(dt[found])])
+    if dt[worst] > gaps.HOLD_MAX_S:
         raise DataFormatError(
-            f"{source}: {series.name} has a gap of {dt[worst]:.2f} s at t = {series.t_s[worst]:.2f} s "
-            f"(more than {MAX_BRIDGED_GAP_S:g} s); the sensor stopped recording: split the recording there"
+            f"{source}: {series.name} has no data for {dt[worst]:.1f} s from t = {series.t_s[worst]:.2f} s "
+            f"(more than {gaps.HOLD_MAX_S:g} s): the sensor stopped recording; these are two recordings"
         )
-    warnings.append(
-        f"{series.name}: {gaps.size} gap(s) up to {dt[worst] * 1000:.0f} ms bridged by interpolation"
-    )
+    bridged = found[dt[found] <= gaps.BRIDGE_MAX_S]
+    if bridged.size:
+        longest = int(bridged[np.argmax(dt[bridged])])
+        warnings.append(
+            f"bridged {bridged.size} gap(s) in {series.name} by interpolation: {dt[bridged].sum():.3g} s in "
+            f"all, the longest {dt[longest] * 1000:.0f} ms at t = {series.t_s[longest]:.2f} s"
+        )
+    for i in found[dt[found] > gaps.BRIDGE_MAX_S]:
+        warnings.append(
+            f"{series.name}: no data for {dt[i]:.1f} s from t = {series.t_s[i]:.2f} s: the walk there is "
+            "unknown; the parts on either side are predicted separately and the trajectory holds its "
+            "position across the hole"
+        )
+
+
+def held_holes(required: list[SensorSeries], clock: np.ndarray) -> list[list[float]]:
+    """``[[start, end], ...]`` on ``clock``'s time axis: the holes longer than ``gaps.BRIDGE_MAX_S`` in
+    any required sensor (``meta["holes_s"]``)."""
+    holes = []
+    for series in required:
+        dt = np.diff(series.t_s)
+        for i in np.flatnonzero((dt > _gap_threshold_s(series)) & (dt > gaps.BRIDGE_MAX_S)):
+            holes.append([float(series.t_s[i]), float(series.t_s[i + 1])])
+    return sorted(holes)
 
 
 def _interval_means(series: SensorSeries, grid_s: np.ndarray, step_s: float) -> np.ndarray:
@@ -263,7 +288,13 @@ def checked_gyro(
     return gyro
 
 
-def export_meta(fmt: str, source: str, clock: np.ndarray) -> dict[str, Any]:
-    """The ``meta`` entries every phone export shares."""
+def export_meta(
+    fmt: str, source: str, clock: np.ndarray, required: list[SensorSeries] | None = None
+) -> dict[str, Any]:
+    """The ``meta`` entries every phone export shares (``holes_s`` when a required sensor has one)."""
     rate_hz = float(1.0 / (clock[1] - clock[0])) if len(clock) > 1 else 0.0
-    return {"dataset": fmt, "source": source, "rate_hz": rate_hz, "carry": "unknown"}
+    meta: dict[str, Any] = {"dataset": fmt, "source": source, "rate_hz": rate_hz, "carry": "unknown"}
+    holes = held_holes(required or [], clock)
+    if holes:
+        meta["holes_s"] = holes
+    return meta

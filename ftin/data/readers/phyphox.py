@@ -185,7 +185,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     acc = total
     gyro = sensor_clock.checked_gyro(gyro, acc, sensor_clock.low_pass(acc, clock), clock, source, warnings)
     meta: dict[str, Any] = {
-        **sensor_clock.export_meta(FORMAT, source, clock),
+        **sensor_clock.export_meta(FORMAT, source, clock, [gyro_series, acc_series]),
         "sensor_rates_hz": {
             gyro_label: round(gyro_series.rate_hz, 2),
             acc_label: round(acc_series.rate_hz, 2),

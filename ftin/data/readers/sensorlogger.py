@@ -238,7 +238,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     gyro = sensor_clock.checked_gyro(on[gyro_key], acc, up, clock, source, warnings)
 
     meta: dict[str, Any] = {
-        **sensor_clock.export_meta(FORMAT, source, clock),
+        **sensor_clock.export_meta(FORMAT, source, clock, [series[gyro_key], *(series[k] for k in acc_keys)]),
         "device": device,
         "sensor_rates_hz": {s.name: round(s.rate_hz, 2) for s in series.values()},
         "specific_force_from": " + ".join(series[k].name for k in acc_keys),
