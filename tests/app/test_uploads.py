@@ -130,3 +130,17 @@ def test_metrics_json_names_the_orientation_filter(client: TestClient) -> None:
     result = client.post("/predict", files={"file": ("p.zip", body, "application/zip")}).json()
     assert client.get(result["metrics_url"]).json()["orientation_filter"] == "vqf-6d"
     assert client.get(f"/runs/{result['run_id']}/ground_truth.tum").status_code == 404
+
+
+def test_an_upload_with_a_phones_dropped_samples_predicts_with_a_note(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    # Six samples dropped at once, as a real phone does; and a 3 s hole that must not pass silently.
+    short_gap = sample_frame.drop(index=range(400, 406)).to_csv(index=False).encode()
+    body = client.post("/predict", files={"file": ("walk.csv", short_gap, "text/csv")}).json()
+    assert any(n.startswith("bridged 1 gap(s)") and "line 401 and line 402" in n for n in body["notes"])
+    rate = 1.0 / float(np.median(np.diff(sample_frame["t"])))
+    hole = sample_frame.drop(index=range(400, 400 + int(3 * rate))).to_csv(index=False).encode()
+    answer = client.post("/predict", files={"file": ("walk.csv", hole, "text/csv")})
+    assert answer.status_code == 200
+    assert any("no data for 3.0 s" in w and "holds its position" in w for w in answer.json()["warnings"])
