@@ -200,27 +200,46 @@ def acceleration_scale(values: np.ndarray, what: str, source: str, warnings: lis
 
 
 def gyro_scale_from_gravity(
-    t_s: np.ndarray, gyro: np.ndarray, up_device: np.ndarray, source: str, warnings: list[str]
+    t_s: np.ndarray,
+    gyro: np.ndarray,
+    up_device: np.ndarray,
+    source: str,
+    warnings: list[str],
+    stated_unit: str | None = None,
 ) -> float:
     """Check the gyroscope's unit and sign against how the gravity direction turns in the device.
 
     A vector fixed in the world, seen from the device, turns as ``du/dt = -omega x u``; the factor
     ``k`` of the least-squares fit ``du/dt = -k (gyro x u)`` is 1 for rad/s, pi/180 for deg/s and
-    negative for a gyroscope with the opposite sign convention. Returns the factor to apply
-    (1, pi/180, -1, ...), or 1 with a warning when the recording turns too little to tell.
+    negative for a gyroscope with the opposite sign convention. Both sides of the fit pass the same
+    0.5 Hz low-pass: ``u`` is a smoothed direction (a low-passed accelerometer, or the OS's gravity),
+    so an unfiltered rate term would count the step-frequency wobble as misfit and bias ``k`` towards
+    0 while walking (a rad/s phyphox walk fitted 0.03).
+
+    ``stated_unit`` (a header's unit, or the phone app's documented one) always wins: the fit then
+    only checks it, and where it disagrees a warning gives both numbers. A clear sign flip (k near
+    -1) is still applied, since no header states a sign. Without a stated unit the fit decides.
+    Returns the factor to apply (1, pi/180, -1, ...), or 1 with a warning when the recording turns
+    too little to tell.
     """
     u = up_device / np.linalg.norm(up_device, axis=1, keepdims=True)
-    du = np.gradient(u, t_s, axis=0)
-    model = -np.cross(gyro, u)
+    du = low_pass(np.gradient(u, t_s, axis=0), t_s)
+    model = low_pass(-np.cross(gyro, u), t_s)
     if float(np.sqrt(np.mean(np.sum(model**2, axis=1)))) < _MIN_ROTATION_FOR_GYRO_CHECK_RAD_S:
         warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
         return 1.0
     k = float(np.sum(du * model) / np.sum(model * model))
-    for factor, meaning in (
-        (1.0, None),
-        (np.pi / 180.0, "deg/s, converted to rad/s"),
-        (-1.0, "left-handed sign"),
-    ):
+    if 0.5 <= -k <= 2.0:
+        warnings.append(f"gyroscope sign: its rates turn gravity by {k:.3g}x: left-handed axes, negated")
+        return -1.0
+    if stated_unit is not None:
+        if not 0.5 <= k <= 2.0:
+            warnings.append(
+                f"gyroscope unit {stated_unit} kept as stated, though the gravity-turn check fits {k:.3g} "
+                "(1 expected for rad/s, 0.0175 for deg/s): check the trajectory's turns"
+            )
+        return 1.0
+    for factor, meaning in ((1.0, None), (np.pi / 180.0, "deg/s, converted to rad/s")):
         if 0.5 <= k / factor <= 2.0:
             if meaning is not None:
                 warnings.append(f"gyroscope read as {meaning} (its rates turn gravity by {k:.3g}x rad/s)")
@@ -269,21 +288,28 @@ def gravity_sign(
     return 1.0, None
 
 
-def low_pass(acc: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
-    """Gravity's direction in the device frame: specific force low-passed at ``cutoff_hz``."""
+def low_pass(values: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
+    """``values`` (N, C) low-passed at ``cutoff_hz``, zero phase: of the specific force, gravity's
+    direction in the device frame."""
     rate = 1.0 / float(np.median(np.diff(t_s)))
-    if len(acc) < 30 or rate <= 2 * cutoff_hz:
-        return np.repeat(acc.mean(axis=0, keepdims=True), len(acc), axis=0)
-    return sosfiltfilt(butter(2, cutoff_hz, fs=rate, output="sos"), acc, axis=0)
+    if len(values) < 30 or rate <= 2 * cutoff_hz:
+        return np.repeat(values.mean(axis=0, keepdims=True), len(values), axis=0)
+    return sosfiltfilt(butter(2, cutoff_hz, fs=rate, output="sos"), values, axis=0)
 
 
 def checked_gyro(
-    gyro: np.ndarray, acc: np.ndarray, up: np.ndarray, clock: np.ndarray, source: str, warnings: list[str]
+    gyro: np.ndarray,
+    acc: np.ndarray,
+    up: np.ndarray,
+    clock: np.ndarray,
+    source: str,
+    warnings: list[str],
+    stated_unit: str | None = None,
 ) -> np.ndarray:
     """The gyroscope in rad/s with the sign gravity's turning in the device frame shows
-    (``gyro_scale_from_gravity``), the IMU checked before and after."""
+    (``gyro_scale_from_gravity``: a stated unit wins), the IMU checked before and after."""
     check_imu(gyro, acc, source)
-    gyro = gyro * gyro_scale_from_gravity(clock, gyro, up, source, warnings)
+    gyro = gyro * gyro_scale_from_gravity(clock, gyro, up, source, warnings, stated_unit)
     check_imu(gyro, acc, source)
     return gyro
 

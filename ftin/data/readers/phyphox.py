@@ -183,7 +183,9 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         "no orientation in the export to check it"
     )
     acc = total
-    gyro = sensor_clock.checked_gyro(gyro, acc, sensor_clock.low_pass(acc, clock), clock, source, warnings)
+    stated = f"{'rad/s' if gyro_scale == 1.0 else 'deg/s'} (the header of {gyro_label})"
+    up = sensor_clock.low_pass(acc, clock)
+    gyro = sensor_clock.checked_gyro(gyro, acc, up, clock, source, warnings, stated_unit=stated)
     meta: dict[str, Any] = {
         **sensor_clock.export_meta(FORMAT, source, clock, [gyro_series, acc_series]),
         "sensor_rates_hz": {

@@ -44,6 +44,8 @@ from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
+# Sensor Logger documents its gyroscope in rad/s on both platforms (awesome-sensor-logger UNITS.md).
+GYRO_UNIT_DOCUMENTED = "rad/s (Sensor Logger's documented unit)"
 FORMAT = "sensorlogger"
 
 AXIS_SENSORS = (
@@ -235,7 +237,9 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     sign, q = sensor_clock.gravity_sign(q, total, platform, source, warnings)
     acc = sign * total
     up = sign * gravity if gravity is not None else sensor_clock.low_pass(acc, clock)
-    gyro = sensor_clock.checked_gyro(on[gyro_key], acc, up, clock, source, warnings)
+    gyro = sensor_clock.checked_gyro(
+        on[gyro_key], acc, up, clock, source, warnings, stated_unit=GYRO_UNIT_DOCUMENTED
+    )
 
     meta: dict[str, Any] = {
         **sensor_clock.export_meta(FORMAT, source, clock, [series[gyro_key], *(series[k] for k in acc_keys)]),
