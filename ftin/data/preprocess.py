@@ -91,6 +91,10 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
     if seq.gt is not None:
         gt_q = None if seq.gt.q_world_body_wxyz is None else _slerp(t_old, seq.gt.q_world_body_wxyz, t_new)
         gt = Trajectory(t_new, _interp_columns(t_old, seq.gt.p_world_m, t_new), gt_q)
+    meta = _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz))
+    mag = seq.meta.get("mag_uT")
+    if mag is not None and len(mag) == len(seq):  # the magnetometer rides on the IMU's clock
+        meta["mag_uT"] = _interp_columns(t_old, np.asarray(mag, dtype=np.float64), t_new)
     return ImuSequence(
         seq.name,
         t_new,
@@ -98,7 +102,7 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
         _interp_columns(t_old, acc, t_new),
         q,
         gt,
-        _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz)),
+        meta,
     )
 
 

@@ -239,7 +239,7 @@ def read_csv(
             f"{source}: missing column(s) {', '.join(missing)}; found columns: {found} "
             f"(accepted names: see the CSV schema){hint}"
         )
-    for group in ("q", "gt"):
+    for group in ("q", "gt", "mag"):
         present = [c for c in GROUPS[group] if c in chosen]
         if present and len(present) < len(GROUPS[group]):
             absent = [c for c in GROUPS[group] if c not in chosen]
@@ -283,6 +283,8 @@ def read_csv(
         # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
         meta["gt_frame"] = "device_world" if in_device_world else "unknown"
+    if "mag_x" in chosen:
+        meta["mag_uT"] = stacked("mag")
     meta["warnings"] = warnings
     seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta)
     names = ColumnNames(
@@ -355,6 +357,10 @@ def write_csv(seq: ImuSequence, path: str | os.PathLike | IO[str]) -> Path | Non
         prefix = GT_DEVICE_WORLD_PREFIX if device_world else "gt"
         for i, axis in enumerate("xyz"):
             columns[f"{prefix}_{axis}"] = seq.gt.p_world_m[:, i]
+    mag = seq.meta.get("mag_uT")
+    if mag is not None and len(mag) == len(seq):
+        for i, axis in enumerate("xyz"):
+            columns[f"mag_{axis}"] = np.asarray(mag)[:, i]
     frame = pd.DataFrame(columns)
     if isinstance(path, (str, os.PathLike)):
         out = Path(path)
