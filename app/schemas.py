@@ -123,6 +123,11 @@ class ArraysPredictRequest(BaseModel):
     gt_p_world_m: list[list[float]] | None = Field(
         None, description="Optional N rows of ground-truth position x, y, z (m); enables metrics."
     )
+    mag_uT: list[list[float]] | None = Field(
+        None,
+        description="Optional N rows of device-frame magnetic field x, y, z (µT): the orientation filter "
+        "then references its heading to magnetic north (VQF 9-D).",
+    )
 
 
 class TrajectoryPayload(BaseModel):

@@ -72,6 +72,7 @@ def sequence_from_arrays(
     acc_m_s2: Sequence[Sequence[float]],
     q_world_device_wxyz: Sequence[Sequence[float]] | None = None,
     gt_p_world_m: Sequence[Sequence[float]] | None = None,
+    mag_uT: Sequence[Sequence[float]] | None = None,
 ) -> ImuSequence:
     """Build a sequence from plain arrays (the JSON body of ``POST /predict``), checked by
     ``ftin.data.validate`` as every reader's output is; rows are named ``sample i`` (0-based)."""
@@ -86,6 +87,10 @@ def sequence_from_arrays(
     meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
     if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
         meta["gt_frame"] = "unknown"
+    if mag_uT is not None:
+        meta["mag_uT"] = _rows("mag_uT", mag_uT, 3, len(t))
+        if not np.isfinite(meta["mag_uT"]).all():
+            raise InvalidInputError("mag_uT: every value must be a finite number (µT)")
     try:
         return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))
     except DataFormatError as exc:

@@ -144,3 +144,21 @@ def test_an_upload_with_a_phones_dropped_samples_predicts_with_a_note(
     answer = client.post("/predict", files={"file": ("walk.csv", hole, "text/csv")})
     assert answer.status_code == 200
     assert any("no data for 3.0 s" in w and "holds its position" in w for w in answer.json()["warnings"])
+
+
+def test_a_json_body_with_a_magnetometer_runs_the_9d_filter(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    rows = len(sample_frame)
+    body = {
+        "t_s": sample_frame["t"].tolist(),
+        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
+        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
+        "mag_uT": np.tile([20.0, 0.0, -40.0], (rows, 1)).tolist(),
+    }
+    answer = client.post("/predict", json=body)
+    assert answer.status_code == 200
+    assert any("9-D" in m for m in answer.json()["warnings"] + answer.json()["notes"])
+    body["mag_uT"] = body["mag_uT"][:-1]
+    bad = client.post("/predict", json=body)
+    assert bad.status_code == 422 and "mag_uT has" in bad.json()["detail"]
