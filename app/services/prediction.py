@@ -87,12 +87,11 @@ def sequence_from_arrays(
     meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
     if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
         meta["gt_frame"] = "unknown"
-    if mag_uT is not None:
-        meta["mag_uT"] = _rows("mag_uT", mag_uT, 3, len(t))
-        if not np.isfinite(meta["mag_uT"]).all():
-            raise InvalidInputError("mag_uT: every value must be a finite number (µT)")
+    mag = None if mag_uT is None else _rows("mag_uT", mag_uT, 3, len(t))
+    if mag is not None and not np.isfinite(mag).all():
+        raise InvalidInputError("mag_uT: every value must be a finite number (µT)")
     try:
-        return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))
+        return validate(ImuSequence(name, t, gyro, acc, q, gt, meta, mag))
     except DataFormatError as exc:
         raise InvalidInputError(str(exc)) from None
 

@@ -82,6 +82,7 @@ def sequence_summary(ref: SequenceRef, seq: ImuSequence) -> dict[str, Any]:
         "rate_hz": round(seq.rate_hz, 3),
         "has_gt": seq.gt is not None,
         "has_orientation": seq.q_world_device_wxyz is not None,
+        "has_magnetometer": seq.mag_uT is not None,
         "orientation_source": seq.meta.get("orientation_source"),
         "carry": seq.meta.get("carry", "unknown"),
         "warnings": list(seq.meta.get("warnings", [])),

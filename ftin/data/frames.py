@@ -376,4 +376,4 @@ def rotate_trajectory_about_z(trajectory: Trajectory, yaw: float) -> Trajectory:
     turn = yaw_rotation(yaw)
     q = trajectory.q_world_body_wxyz
     q_new = None if q is None else wxyz_from_rotation(turn * rotation_from_wxyz(q))
-    return Trajectory(trajectory.t_s.copy(), turn.apply(trajectory.p_world_m), q_new)
+    return Trajectory(trajectory.t_s.copy(), turn.apply(trajectory.p_world_m), q_new, trajectory.tracked)

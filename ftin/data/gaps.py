@@ -82,15 +82,15 @@ def drop_repeated_rows(seq: ImuSequence) -> tuple[ImuSequence, np.ndarray | None
 
 def _take(seq: ImuSequence, rows: np.ndarray) -> ImuSequence:
     q = None if seq.q_world_device_wxyz is None else seq.q_world_device_wxyz[rows]
+    mag = None if seq.mag_uT is None else seq.mag_uT[rows]
     gt = None
     if seq.gt is not None:
         gt_q = None if seq.gt.q_world_body_wxyz is None else seq.gt.q_world_body_wxyz[rows]
-        gt = type(seq.gt)(seq.gt.t_s[rows], seq.gt.p_world_m[rows], gt_q)
-    meta = dict(seq.meta)
-    mag = meta.get("mag_uT")
-    if mag is not None and len(mag) == len(seq):
-        meta["mag_uT"] = np.asarray(mag)[rows]
-    return ImuSequence(seq.name, seq.t_s[rows], seq.gyro_rad_s[rows], seq.acc_m_s2[rows], q, gt, meta)
+        tracked = None if seq.gt.tracked is None else seq.gt.tracked[rows]
+        gt = type(seq.gt)(seq.gt.t_s[rows], seq.gt.p_world_m[rows], gt_q, tracked)
+    return ImuSequence(
+        seq.name, seq.t_s[rows], seq.gyro_rad_s[rows], seq.acc_m_s2[rows], q, gt, dict(seq.meta), mag
+    )
 
 
 def describe_bridged(gaps: list[Gap], row_label: RowLabel) -> str:

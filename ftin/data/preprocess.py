@@ -53,8 +53,9 @@ def _interp_columns(t_s: np.ndarray, values: np.ndarray, t_new_s: np.ndarray) ->
 def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSequence:
     """The sequence on a uniform grid ``t_s[0] + k / rate_hz`` inside the original time span.
 
-    Vectors (gyro, specific force, ground-truth positions) are interpolated linearly, orientations by
-    Slerp. Decision: when the new rate is lower than the old one and ``antialias`` is set, gyro and
+    Vectors (gyro, specific force, magnetometer, ground-truth positions) are interpolated linearly,
+    orientations by Slerp; a ground-truth sample is tracked when the samples around it both were.
+    Decision: when the new rate is lower than the old one and ``antialias`` is set, gyro and
     specific force first pass a zero-phase Butterworth low-pass (order 4, cut-off at 0.8 x the new
     Nyquist frequency) so that vibration above the new Nyquist frequency does not fold into the band
     (EuRoC's 200 Hz drone IMU resampled to 100 Hz, say). Ground truth is smooth and is not filtered.
@@ -90,11 +91,11 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
     gt = None
     if seq.gt is not None:
         gt_q = None if seq.gt.q_world_body_wxyz is None else _slerp(t_old, seq.gt.q_world_body_wxyz, t_new)
-        gt = Trajectory(t_new, _interp_columns(t_old, seq.gt.p_world_m, t_new), gt_q)
-    meta = _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz))
-    mag = seq.meta.get("mag_uT")
-    if mag is not None and len(mag) == len(seq):  # the magnetometer rides on the IMU's clock
-        meta["mag_uT"] = _interp_columns(t_old, np.asarray(mag, dtype=np.float64), t_new)
+        tracked = None
+        if seq.gt.tracked is not None:  # a new sample is measured when both old ones around it are
+            tracked = np.interp(t_new, t_old, seq.gt.tracked.astype(np.float64)) > 1.0 - 1e-9
+        gt = Trajectory(t_new, _interp_columns(t_old, seq.gt.p_world_m, t_new), gt_q, tracked)
+    mag = None if seq.mag_uT is None else _interp_columns(t_old, seq.mag_uT, t_new)
     return ImuSequence(
         seq.name,
         t_new,
@@ -102,7 +103,8 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
         _interp_columns(t_old, acc, t_new),
         q,
         gt,
-        meta,
+        _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz)),
+        mag,
     )
 
 
@@ -112,7 +114,7 @@ class AhrsMethod(str, Enum):
     ``VQF`` (the default): Laidig & Seel's VQF (Information Fusion 2023) in its offline batch mode
     (``vqf.offlineVQF``, C++ core): forward-backward filtering with gyroscope bias estimation and rest
     detection; 9-D (magnetometer-referenced heading) when the recording carries a magnetometer
-    (``meta["mag_uT"]``, same length), else 6-D. ``MADGWICK`` / ``MAHONY``: the ``ahrs`` package's
+    (``ImuSequence.mag_uT``), else 6-D. ``MADGWICK`` / ``MAHONY``: the ``ahrs`` package's
     filters, one Python call per sample (kept for comparison: ``scripts/orientation_quality.py``).
     """
 
@@ -158,8 +160,8 @@ def estimate_orientation(
     All filters return world-from-device quaternions whose world +z is the direction of the measured
     specific force at rest (checked by tests on a synthetic rotating device), i.e. exactly our
     ``q_world_device`` with z up. VQF runs on the whole recording at once (its sample time is the
-    median interval: readers guarantee a near-uniform clock); with a magnetometer in
-    ``meta["mag_uT"]`` (and ``use_magnetometer``) it runs in 9-D mode and the heading is
+    median interval: readers guarantee a near-uniform clock); with a magnetometer
+    (``seq.mag_uT``, and ``use_magnetometer``) it runs in 9-D mode and the heading is
     referenced to magnetic north, else in 6-D mode and the heading is arbitrary and drifts slowly;
     ``meta["orientation_filter"]`` and a warning name the mode that ran. ``filter_options`` go to the
     filter (VQF: its ``params`` keys, e.g. ``tauAcc``; Madgwick: ``gain``; Mahony: ``k_P``, ``k_I``).
@@ -219,11 +221,9 @@ def _vqf(seq: ImuSequence, use_magnetometer: bool, options: dict[str, float]) ->
     """``(q_world_device_wxyz, "6d" | "9d")`` from ``vqf.offlineVQF`` (scalar-first, z up)."""
     from vqf import offlineVQF  # deferred: only this function needs the compiled extension
 
-    mag = seq.meta.get("mag_uT") if use_magnetometer else None
-    if mag is not None:
-        mag = np.asarray(mag, dtype=np.float64)
-        if mag.shape != (len(seq), 3) or not np.isfinite(mag).all():
-            mag = None  # resampled or sliced since the reader: not on this clock
+    mag = seq.mag_uT if use_magnetometer else None
+    if mag is not None and not np.isfinite(mag).all():
+        mag = None  # a broken magnetometer must not break the attitude: 6-D instead
     gyr = np.ascontiguousarray(seq.gyro_rad_s, dtype=np.float64)
     acc = np.ascontiguousarray(seq.acc_m_s2, dtype=np.float64)
     sample_time_s = float(np.median(np.diff(seq.t_s)))

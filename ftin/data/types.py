@@ -23,11 +23,17 @@ def _as_float_array(name: str, value: Any, shape_tail: tuple[int, ...]) -> np.nd
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Positions (and optionally body orientations) over time in one world frame."""
+    """Positions (and optionally body orientations) over time in one world frame.
+
+    ``tracked`` (optional, bool) is False where a motion-capture system lost the body (or returned a
+    glitch) and the reader interpolated the pose: such samples must not become training targets.
+    ``None`` means every sample was measured.
+    """
 
     t_s: np.ndarray  # (N,) monotonic seconds
     p_world_m: np.ndarray  # (N, 3)
     q_world_body_wxyz: np.ndarray | None = None  # (N, 4)
+    tracked: np.ndarray | None = None  # (N,) bool
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
@@ -40,6 +46,11 @@ class Trajectory:
             if len(q) != n:
                 raise ValueError(f"q_world_body_wxyz has {len(q)} rows, t_s has {n}")
             object.__setattr__(self, "q_world_body_wxyz", q)
+        if self.tracked is not None:
+            tracked = np.asarray(self.tracked, dtype=bool)
+            if tracked.shape != (n,):
+                raise ValueError(f"tracked must have shape ({n},), got {tracked.shape}")
+            object.__setattr__(self, "tracked", tracked)
 
     def __len__(self) -> int:
         return len(self.t_s)
@@ -49,12 +60,18 @@ class Trajectory:
         return float(self.t_s[-1] - self.t_s[0]) if len(self) else 0.0
 
     @property
+    def tracked_mask(self) -> np.ndarray:
+        """``(N,)`` bool: ``tracked``, or all True when every sample was measured."""
+        return np.ones(len(self), dtype=bool) if self.tracked is None else self.tracked
+
+    @property
     def path_length_m(self) -> float:
         return float(np.linalg.norm(np.diff(self.p_world_m, axis=0), axis=1).sum())
 
     def slice(self, start: int, stop: int) -> Trajectory:
         q = None if self.q_world_body_wxyz is None else self.q_world_body_wxyz[start:stop]
-        return Trajectory(self.t_s[start:stop], self.p_world_m[start:stop], q)
+        tracked = None if self.tracked is None else self.tracked[start:stop]
+        return Trajectory(self.t_s[start:stop], self.p_world_m[start:stop], q, tracked)
 
 
 @dataclass(frozen=True)
@@ -65,6 +82,9 @@ class ImuSequence:
     lies still. ``q_world_device_wxyz`` rotates device-frame vectors into a gravity-aligned world
     frame (z up, arbitrary yaw). ``gt`` is sampled at ``t_s`` (same N) and lives in the ground-truth
     world frame, which the reader has already aligned with the device world frame at the start.
+
+    ``mag_uT`` (optional) is the calibrated magnetometer in the device frame, on the same clock: the
+    orientation filter's heading reference (``ftin.data.preprocess``).
 
     ``meta`` keys in use: ``dataset`` (format name), ``source`` (path), ``carry`` (handheld, pocket,
     trolley, ...), ``orientation_source`` ("device", "ground_truth", "estimated"), ``warnings``.
@@ -77,11 +97,14 @@ class ImuSequence:
     q_world_device_wxyz: np.ndarray | None = None  # (N, 4)
     gt: Trajectory | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    mag_uT: np.ndarray | None = None  # (N, 3) device frame, calibrated
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
         n = len(self.t_s)
-        for name in ("gyro_rad_s", "acc_m_s2"):
+        for name in ("gyro_rad_s", "acc_m_s2", "mag_uT"):
+            if getattr(self, name) is None:
+                continue  # only the magnetometer is optional
             array = _as_float_array(name, getattr(self, name), (3,))
             if len(array) != n:
                 raise ValueError(f"{name} has {len(array)} rows, t_s has {n}")
@@ -115,6 +138,7 @@ class ImuSequence:
     def slice(self, start: int, stop: int) -> ImuSequence:
         q = None if self.q_world_device_wxyz is None else self.q_world_device_wxyz[start:stop]
         gt = None if self.gt is None else self.gt.slice(start, stop)
+        mag = None if self.mag_uT is None else self.mag_uT[start:stop]
         return ImuSequence(
             self.name,
             self.t_s[start:stop],
@@ -123,4 +147,5 @@ class ImuSequence:
             q,
             gt,
             dict(self.meta),
+            mag,
         )

@@ -18,6 +18,9 @@ Decisions (``docs/design.md``, "Frames"):
   be at the intended rate: ``ensure_orientation`` and ``resample`` come first).
 - Windows are strided views of one ``(N, 6)`` array (``sliding_window_view``) or gathered with one
   fancy index per batch; no per-window Python loop.
+- Ground truth that a motion-capture system did not measure (``Trajectory.tracked`` False: lost or
+  glitching, interpolated by the reader) never becomes a target: training windows with a part bound
+  on such a sample are dropped (``measured_starts``); inputs are all real IMU samples either way.
 - Yaw augmentation rotates gyro, acc and the targets (every part of a window alike) about world z by
   the same angle, which keeps the physics consistent and makes the network heading-agnostic
   (RoNIN). Angles are drawn per epoch out of
@@ -111,11 +114,28 @@ def part_velocity_targets(
     return (dp / dt[:, :, None]).astype(np.float32)
 
 
+def measured_starts(
+    starts: np.ndarray, tracked: np.ndarray | None, window: int, parts: int = 1
+) -> np.ndarray:
+    """The window starts whose target is measured: every part bound a tracked ground-truth sample.
+
+    A target only reads positions at its part bounds (``part_velocity_targets``), so a window over an
+    untracked stretch still has an exact target when its bounds were tracked; a bound on a sample the
+    reader interpolated (``Trajectory.tracked`` False) would make up its target, so that window goes.
+    """
+    starts = np.asarray(starts, dtype=np.int64)
+    if tracked is None or not len(starts):
+        return starts
+    bounds = starts[:, None] + np.arange(parts + 1) * (window // parts)  # (M, K + 1)
+    return starts[np.asarray(tracked, dtype=bool)[bounds].all(axis=1)]
+
+
 def make_windows(seq: ImuSequence, window: int, stride: int, out_dim: int = 2) -> Windows:
-    """World-frame windows of ``seq`` and their velocity targets (needs ground truth)."""
+    """World-frame windows of ``seq`` and their velocity targets (needs ground truth); windows whose
+    target would read an untracked ground-truth sample are left out (``measured_starts``)."""
     _check_training_sequence(seq, window)
     imu = world_imu(seq)
-    starts = window_starts(len(seq), window, stride)
+    starts = measured_starts(window_starts(len(seq), window, stride), seq.gt.tracked, window)
     x = np.ascontiguousarray(window_view(imu, window)[starts])  # (M, 6, L)
     v = velocity_targets(seq.t_s, seq.gt.p_world_m, starts, window, out_dim)
     return Windows(x=x, v=v, start=starts, window=window, stride=stride)
@@ -230,7 +250,8 @@ class WindowDataset(torch.utils.data.Dataset):
         for seq in sequences:
             _check_training_sequence(seq, window)
             imu = world_imu(seq)
-            starts = starts_outside_holes(seq, window_starts(len(seq), window, stride), window)
+            starts = measured_starts(window_starts(len(seq), window, stride), seq.gt.tracked, window, parts)
+            starts = starts_outside_holes(seq, starts, window)
             imu_parts.append(imu)
             t_parts.append(np.asarray(seq.t_s, dtype=np.float64))
             p_parts.append(np.asarray(seq.gt.p_world_m[:, :out_dim], dtype=np.float64))

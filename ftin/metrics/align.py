@@ -125,7 +125,7 @@ def _moved(traj: Trajectory, R: Rotation, t: np.ndarray) -> Trajectory:
     q = traj.q_world_body_wxyz
     if q is not None:
         q = frames.wxyz_from_rotation(R * frames.rotation_from_wxyz(q))
-    return Trajectory(traj.t_s.copy(), R.apply(np.array(traj.p_world_m)) + t, q)
+    return Trajectory(traj.t_s.copy(), R.apply(np.array(traj.p_world_m)) + t, q, traj.tracked)
 
 
 def _start_count(t_s: np.ndarray, gt_m: np.ndarray, window_s: float) -> tuple[int, float]:

@@ -295,8 +295,10 @@ def test_shared_data_lists_every_dataset(shared_data):
     by_format: dict[str, list[str]] = {}
     for ref in refs:
         by_format.setdefault(ref.format, []).append(ref.name)
-    assert sorted(by_format) == ["euroc", "oxiod", "phyphox", "ridi", "sensorlogger"]
+    assert sorted(by_format) == ["euroc", "inria_attitude", "oxiod", "phyphox", "ridi", "sensorlogger"]
     assert len(by_format["oxiod"]) == 12 and len(by_format["euroc"]) == 5 and len(by_format["ridi"]) == 21
+    assert len(by_format["inria_attitude"]) == 84
+    assert "inria_attitude/datasets/android/Thibaud_Nexus5_Dist_AR" in by_format["inria_attitude"]
     assert sorted(by_format["sensorlogger"]) == [
         "phone/sensorlogger/2022-09-16_11-15-46",
         "phone/sensorlogger/inhand-20-steps-Zyf",

@@ -439,15 +439,15 @@ def test_a_magnetometer_column_reaches_the_orientation_filter_in_microtesla(data
     field_ut = np.tile([20.0, 0.0, -40.0], (len(data["t"]), 1))
     header = [*CANONICAL, "magnet_x [nT]", "magnet_y [nT]", "magnet_z [nT]"]
     seq = read_text(csv_text(header, np.column_stack([imu_rows(data), field_ut * 1000.0])))
-    np.testing.assert_allclose(seq.meta["mag_uT"], field_ut)
+    np.testing.assert_allclose(seq.mag_uT, field_ut)
     assert "mag converted from nT (unit in header)" in seq.meta["warnings"]
     for aliases in (["mx", "my", "mz"], ["magnetometer_x", "magnetometer_y", "magnetometer_z"]):
         again = read_text(csv_text([*CANONICAL, *aliases], np.column_stack([imu_rows(data), field_ut])))
-        np.testing.assert_allclose(again.meta["mag_uT"], field_ut)
+        np.testing.assert_allclose(again.mag_uT, field_ut)
     message = error_of(
         csv_text([*CANONICAL, "mag_x", "mag_y"], np.column_stack([imu_rows(data), field_ut[:, :2]]))
     )
     assert "incomplete mag columns" in message and "mag_z" in message
     out = io.StringIO()
     write_csv(seq, out)
-    np.testing.assert_allclose(read_text(out.getvalue()).meta["mag_uT"], field_ut)
+    np.testing.assert_allclose(read_text(out.getvalue()).mag_uT, field_ut)

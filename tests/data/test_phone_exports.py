@@ -243,7 +243,7 @@ def test_phyphox_zip_with_gyroscope_and_magnetometer():
     expected = truth(seq.t_s + 0.0143)
     np.testing.assert_allclose(seq.gyro_rad_s, expected["gyro"], atol=0.02)
     np.testing.assert_allclose(seq.acc_m_s2, expected["f"], atol=0.05)
-    assert seq.meta["mag_uT"].shape == (len(seq), 3)
+    assert seq.mag_uT.shape == (len(seq), 3)
     from ftin.data.preprocess import estimate_orientation
 
     out = estimate_orientation(seq)
@@ -311,7 +311,7 @@ def test_shared_sensor_logger_exports(shared_data):
         f_world = frames.rotate_to_world(seq.q_world_device_wxyz, seq.acc_m_s2).mean(axis=0)
         assert f_world[2] == pytest.approx(9.85, abs=0.1) and np.hypot(*f_world[:2]) < 0.1
     assert any("iOS" in w for w in ios.meta["warnings"])  # iOS: gravity reported downwards, negated
-    assert android.meta["mag_uT"].shape == (len(android), 3)
+    assert android.mag_uT.shape == (len(android), 3)
     for seq in (ios, android):  # rad/s as the app documents it: kept, never read as deg/s
         assert not any("deg/s" in w for w in seq.meta["warnings"])
         assert np.percentile(np.linalg.norm(seq.gyro_rad_s, axis=1), 99) < 10.0

@@ -175,3 +175,24 @@ def test_ensure_orientation_keeps_or_estimates():
     estimated = preprocess.ensure_orientation(bare)
     assert estimated.q_world_device_wxyz is not None
     assert estimated.meta["orientation_source"] == "estimated"
+
+
+def test_resample_and_slice_keep_the_magnetometer_and_the_tracked_mask():
+    seq = _synthetic(duration_s=4.0)
+    mag = np.column_stack(
+        [np.linspace(20.0, 30.0, len(seq)), np.full(len(seq), -5.0), np.full(len(seq), 40.0)]
+    )
+    tracked = np.ones(len(seq), dtype=bool)
+    tracked[150:160] = False
+    seq = seq.with_(mag_uT=mag, gt=Trajectory(seq.t_s, seq.gt.p_world_m, seq.gt.q_world_body_wxyz, tracked))
+    out = preprocess.resample(seq, 50.0)
+    assert out.mag_uT.shape == (len(out), 3)
+    np.testing.assert_allclose(out.mag_uT[:, 0], np.interp(out.t_s, seq.t_s, mag[:, 0]))
+    # A new sample is tracked only when the old samples on both sides of it were.
+    assert out.gt.tracked.tolist() == [not (1.495 < t < 1.595) for t in out.t_s]
+    part = seq.slice(140, 170)
+    assert part.mag_uT.shape == (30, 3) and part.gt.tracked.sum() == 20
+    with pytest.raises(ValueError, match="mag_uT"):
+        seq.with_(mag_uT=mag[:-1])
+    with pytest.raises(ValueError, match="tracked"):
+        Trajectory(seq.t_s, seq.gt.p_world_m, None, tracked[:-1])

@@ -13,6 +13,7 @@ from ftin.data.windows import (
     WindowDataset,
     fit_normalization,
     make_windows,
+    measured_starts,
     part_velocity_targets,
     rotate_yaw,
     window_starts,
@@ -164,3 +165,23 @@ def test_normalization(sim_sequences):
     assert InputNormalization.from_json(stats.to_json()) == stats
     with pytest.raises(ValueError, match="positive"):
         InputNormalization.from_json({"kind": "channel_stats", "mean": [0] * 6, "std": [0] * 6})
+
+
+def test_untracked_ground_truth_never_becomes_a_target(sim_sequences):
+    seq = sim_sequences[0]
+    tracked = np.ones(len(seq), dtype=bool)
+    tracked[100:130] = False  # the mocap lost the body for 30 samples
+    gt = seq.gt
+    seq = seq.with_(gt=Trajectory(gt.t_s, gt.p_world_m, gt.q_world_body_wxyz, tracked))
+    every = window_starts(len(seq), 25, 5)
+    assert measured_starts(every, None, 25).tolist() == every.tolist()
+    kept = make_windows(seq, 25, 5).start
+    # A window goes exactly when one of its bounds (start, end) is untracked; one across the gap stays.
+    expected = [s for s in every if tracked[s] and tracked[s + 25]]
+    assert kept.tolist() == expected and len(expected) < len(every)
+    assert any(s < 100 and s + 25 >= 130 for s in expected) is False  # 25 samples cannot span 30
+    ds = WindowDataset([seq], 25, 5, parts=5, augment_yaw=False)
+    bounds = ds.starts[:, None] + np.arange(6) * 5
+    assert tracked[bounds].all() and len(ds) < len(every)
+    spanning = measured_starts(np.array([95]), tracked, 40)  # bounds 95 and 135, the gap inside
+    assert spanning.tolist() == [95]

@@ -283,10 +283,9 @@ def read_csv(
         # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
         meta["gt_frame"] = "device_world" if in_device_world else "unknown"
-    if "mag_x" in chosen:
-        meta["mag_uT"] = stacked("mag")
+    mag = stacked("mag") if "mag_x" in chosen else None
     meta["warnings"] = warnings
-    seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta)
+    seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta, mag)
     names = ColumnNames(
         chosen["t"].header.strip(),
         headers_of("gyro"),
@@ -357,10 +356,9 @@ def write_csv(seq: ImuSequence, path: str | os.PathLike | IO[str]) -> Path | Non
         prefix = GT_DEVICE_WORLD_PREFIX if device_world else "gt"
         for i, axis in enumerate("xyz"):
             columns[f"{prefix}_{axis}"] = seq.gt.p_world_m[:, i]
-    mag = seq.meta.get("mag_uT")
-    if mag is not None and len(mag) == len(seq):
+    if seq.mag_uT is not None:
         for i, axis in enumerate("xyz"):
-            columns[f"mag_{axis}"] = np.asarray(mag)[:, i]
+            columns[f"mag_{axis}"] = seq.mag_uT[:, i]
     frame = pd.DataFrame(columns)
     if isinstance(path, (str, os.PathLike)):
         out = Path(path)

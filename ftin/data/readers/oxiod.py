@@ -3,8 +3,8 @@
 Layout facts (see ../shared/data/README.md): no header, rows synchronised 1:1, the time column is
 lossy so time comes from the row index. ``imuN.csv`` columns: 0 time, 1-3 attitude roll, pitch, yaw
 (rad), 4-6 rotation rate (rad/s, device frame), 7-9 gravity (g), 10-12 user acceleration (g),
-13-15 magnetic field. ``viN.csv``: 0 time, 1 Vicon frame counter (unusable), 2-4 position (m,
-Vicon world, z up), 5-8 marker orientation quaternion x, y, z, w.
+13-15 magnetic field (µT, kept as ``ImuSequence.mag_uT``). ``viN.csv``: 0 time, 1 Vicon frame
+counter (unusable), 2-4 position (m, Vicon world, z up), 5-8 marker orientation quaternion x, y, z, w.
 
 Decisions (all options of :func:`read`):
 
@@ -332,7 +332,8 @@ def read(
         "warnings": warnings,
     }
     name = _sequence_name(imu_path)
-    seq = ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta)
+    mag = imu[keep, 13:16]  # CoreMotion's calibrated magnetic field, µT
+    seq = ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 
 

@@ -18,7 +18,7 @@ Decisions:
   orientation in the export that sign cannot be checked and a warning says so. The gyroscope's unit
   and sign are checked against how gravity turns (``sensor_clock.gyro_scale_from_gravity``).
 * Sensors are merged onto one clock as for Sensor Logger (``sensor_clock``); the magnetometer, when
-  present, goes to ``meta["mag_uT"]`` for the orientation filter (9-D mode).
+  present, goes to ``ImuSequence.mag_uT`` for the orientation filter (9-D mode).
 """
 
 from __future__ import annotations
@@ -195,12 +195,13 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         "specific_force_from": acc_label,
         "frame": "device_world",
     }
+    mag = None
     if found.get("mag"):
         mag_label, mag_series, mag_scale = found["mag"][0]
         mag_series = sensor_clock.clean_series(mag_series, source, warnings)
-        meta["mag_uT"] = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
+        mag = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
     meta["warnings"] = warnings
-    seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta)
+    seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 
 

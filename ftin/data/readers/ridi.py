@@ -2,10 +2,11 @@
 
 Layout (RIDI's ``gen_dataset.py`` and RoNIN's ``data_ridi.py``): ``pandas.to_csv`` output, so the
 first column is an unnamed row index; then ``time`` (ns, phone clock), ``gyro_x..z`` (rad/s),
-``acce_x..z`` (specific force incl. gravity, m/s²), ``linacce_*``, ``grav_*``, ``magnet_*``,
-``pos_x..z`` (Tango position, m, gravity-aligned z-up world), ``ori_w..z`` (Tango orientation,
-scalar first) and ``rv_w..z`` (the phone's game rotation vector, scalar first), all at 200 Hz.
-Some releases add ``gyro_stab_*``/``acce_stab_*`` columns; extra columns are ignored.
+``acce_x..z`` (specific force incl. gravity, m/s²), ``linacce_*``, ``grav_*``, ``magnet_*`` (µT,
+kept as ``ImuSequence.mag_uT`` when present), ``pos_x..z`` (Tango position, m, gravity-aligned z-up
+world), ``ori_w..z`` (Tango orientation, scalar first) and ``rv_w..z`` (the phone's game rotation
+vector, scalar first), all at 200 Hz. Some releases add ``gyro_stab_*``/``acce_stab_*`` columns;
+extra columns are ignored.
 
 Decisions (options of :func:`read`):
 
@@ -218,7 +219,10 @@ def read_processed_csv(
         "gt_tilt_offset_deg": round(float(np.degrees(tilt)), 3),
         "warnings": warnings,
     }
-    seq = ImuSequence(folder.name, t_s, gyro, acc, q_device, gt, meta)
+    mag = None
+    if all(f"magnet_{a}" in table.columns for a in "xyz"):  # optional: IMUNet's CSVs may lack it
+        mag = numeric_columns(table, [f"magnet_{a}" for a in "xyz"], source, row_label)
+    seq = ImuSequence(folder.name, t_s, gyro, acc, q_device, gt, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 
 

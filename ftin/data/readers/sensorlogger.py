@@ -20,7 +20,7 @@ Decisions (each checked on the shared iPhone 12 mini and Xiaomi exports, see the
 * Gyroscope: ``Gyroscope`` (bias-compensated) when present, else ``GyroscopeUncalibrated``; its unit
   and sign are checked against how gravity turns in the device frame (``gyro_scale_from_gravity``).
 * ``Orientation`` is the phone's own attitude (``orientation_source = "device"``); the magnetometer,
-  when present, is kept in ``meta["mag_uT"]`` for the orientation filter of recordings without one.
+  when present, is kept in ``ImuSequence.mag_uT`` for the orientation filter of recordings without one.
 * What cannot give a trajectory (no gyroscope; acceleration without gravity and no ``Gravity``)
   raises ``DataFormatError`` naming the missing sensor and what to enable in the app.
 """
@@ -251,10 +251,9 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     if q is not None:
         meta["orientation_source"] = "device"
     mag_key = next((k for k in ("Magnetometer", "MagnetometerUncalibrated") if k in series), None)
-    if mag_key is not None:
-        meta["mag_uT"] = sensor_clock.on_clock(series[mag_key], clock, source, warnings)
+    mag = None if mag_key is None else sensor_clock.on_clock(series[mag_key], clock, source, warnings)
     meta["warnings"] = warnings
-    seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta)
+    seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 
 
