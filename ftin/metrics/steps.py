@@ -115,8 +115,8 @@ def detect_steps(t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray |
     """The steps in a recording's specific force (``(N, 3)`` m/s², any device frame); the gyroscope
     (``(N, 3)`` rad/s), when given, tells a phone on a limb (module docstring)."""
     t = np.asarray(t_s, dtype=np.float64)
-    if len(t) < MIN_SAMPLES or not np.all(np.diff(t) > 0):
-        return Steps(np.empty(0), 0.0, None)
+    if len(t) < MIN_SAMPLES or not np.all(np.diff(t) > 0) or 0.45 / np.median(np.diff(t)) <= 2 * BAND_HZ[0]:
+        return Steps(np.empty(0), 0.0, None)  # too short, unordered, or sampled too slowly for steps
     signal, rate_hz = step_signal(t, acc_m_s2)
     n, width = len(signal), max(int(round(WINDOW_S * rate_hz)), MIN_SAMPLES)
     hop = max(int(round(HOP_S * rate_hz)), 1)
