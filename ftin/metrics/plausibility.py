@@ -236,10 +236,16 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
     path, length, speed = p.value("path_length") or 0.0, p.value("step_length"), p.value("moving_speed")
     low, high = STEP_LENGTH_RANGE_M
     walking = cadence is not None and cadence <= MAX_WALKING_CADENCE and steps >= MIN_STEPS_TO_JUDGE
+    if walking and (speed is None or speed < STILL_SPEED_M_S):
+        return [
+            f"The accelerometer shows {steps:.0f} steps ({cadence:.0f} a minute) but the prediction "
+            "barely moves: the model misses the walk."
+        ]
     if walking and length is not None and not low <= length <= high:
         side = "below" if length < low else "above"
         cause = (
-            "the model likely underestimates the distance walked (or the walk turned on the spot)"
+            "the model likely underestimates the distance walked (unless the walk went in tight turns, "
+            "where steps are short)"
             if length < low
             else "the model likely overestimates the distance walked"
         )
@@ -247,14 +253,9 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
             f"Predicted step length {length:.2f} m ({path:.1f} m over {steps:.0f} steps) is {side} the "
             f"human walking range {low:.1f}-{high:.1f} m: {cause}."
         ]
-    if walking and cadence is not None:
+    if walking and cadence is not None and speed is not None:
         rate = cadence / 60.0
         slow, fast = rate * low * (1 - SPEED_SLACK), rate * high * (1 + SPEED_SLACK)
-        if speed is None or speed < STILL_SPEED_M_S:
-            return [
-                f"The accelerometer shows {steps:.0f} steps ({cadence:.0f} a minute) but the prediction "
-                "barely moves: the model misses the walk."
-            ]
         if not slow <= speed <= fast:
             return [
                 f"The predicted speed while moving, {speed:.2f} m/s, does not fit a cadence of "

@@ -23,8 +23,9 @@ Decisions:
   ``REFRACTORY_SHARE`` of the local step period (the refractory period), with a prominence of at
   least ``PROMINENCE_SHARE`` of the local signal's standard deviation: harmonics of a heel strike
   (the signal has several bumps per step) fall inside the refractory period.
-- Cadence is steps per minute of walking (not of the whole recording): standing at the start and
-  end of a recording does not lower it.
+- Cadence is steps per minute of walking (not of the whole recording): walking time is the time
+  between the steps of each bout (steps no further apart than ``BOUT_GAP_SHARE`` local periods) plus
+  one period a bout, so standing at the start and end of a recording does not lower it.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ MIN_SAMPLES = 32
 LIMB_GYRO_RAD_S = 0.8
 STRIDE_MIN_S = 0.9
 EDGE_SHARE = 0.5
+BOUT_GAP_SHARE = 2.0
 
 
 @dataclass(frozen=True)
@@ -160,5 +162,16 @@ def detect_steps(t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray |
                 kept[-1] = peak
             continue
         kept.append(int(peak))
-    walking_s = float(np.count_nonzero(walking[1:] & walking[:-1]) / rate_hz)
-    return Steps(t[kept], walking_s, median_period)
+    times = t[kept]
+    return Steps(times, _walking_s(times, period[kept]), median_period)
+
+
+def _walking_s(times: np.ndarray, period: np.ndarray) -> float:
+    """Time spent walking: the intervals between steps of one bout (no longer than ``BOUT_GAP_SHARE``
+    local periods), and one period for each bout's first step."""
+    if len(times) == 0:
+        return 0.0
+    gaps = np.diff(times)
+    in_bout = gaps <= BOUT_GAP_SHARE * period[1:]
+    bouts = 1 + np.count_nonzero(~in_bout)
+    return float(gaps[in_bout].sum() + bouts * np.median(period))
