@@ -4,12 +4,13 @@
 prediction's frame (for drawing), its path length and median accuracy, and how far apart the two are.
 
 Decisions:
-- The GPS fixes go onto the local metric plane at the first fix (``ftin.data.location``: east, north),
-  then the prediction is aligned to them at the start, as ``ftin.metrics.align``'s ``start``
-  alignment does with a ground truth (yaw + shift fitted on the start, every later deviation counts),
-  but on a longer start (``START_WINDOW_S``, and at least the 2 m of path ``align`` asks for): GPS is
-  accurate to metres, so a heading needs tens of metres of walk to mean anything. The drawn GPS track
-  is moved into the prediction's frame by the inverse of that fit; the prediction is never moved.
+- The GPS fixes go onto the local metric plane at the first fix (``ftin.data.location``: east, north)
+  and are aligned with the prediction at the start: the first common fix is pinned to the prediction
+  at that instant, and the turn between the two is fitted (least squares, about that point) on the
+  start: ``START_WINDOW_S``, extended until the GPS has moved ``MIN_START_PATH_M``. GPS is accurate to
+  metres, so a heading needs tens of metres of walk to mean anything; every later deviation counts,
+  as with ``ftin.metrics.align``'s ``start``. The drawn GPS track is turned into the prediction's
+  frame; the prediction is never moved.
 - The distance between the two is measured at the GPS fixes inside the prediction's time span
   (the prediction interpolated there): its RMS, and at the last common fix.
 - The GPS path length is measured on the fixes interpolated to one a second and smoothed over
@@ -26,11 +27,10 @@ from scipy.ndimage import uniform_filter1d
 
 from ftin.data.location import GpsTrack
 from ftin.data.types import Trajectory
-from ftin.metrics.align import Alignment, fit_alignment
-from ftin.metrics.trajectory import _common_samples
 
 START_WINDOW_S = 30.0
 SMOOTH_S = 5.0
+MIN_START_PATH_M = 10.0
 MIN_COMMON_FIXES = 2
 
 
@@ -46,7 +46,7 @@ class GpsComparison:
     median_accuracy_m: float | None
     distance_rms_m: float | None = None  # prediction vs GPS at the common fixes, after the start alignment
     final_distance_m: float | None = None  # ... at the last common fix
-    heading_deg: float | None = None  # the fitted turn from the prediction's frame to east/north
+    heading_deg: float | None = None  # the fitted turn from the prediction's frame to east/north, deg
     align_window_s: float | None = None
 
 
@@ -58,35 +58,51 @@ def smoothed_path_m(t_s: np.ndarray, xy_m: np.ndarray) -> float:
     xy = xy_m[keep]
     ticks = np.arange(t[0], t[-1] + 1e-9, 1.0)
     grid = np.column_stack([np.interp(ticks, t, xy[:, i]) for i in (0, 1)])
-    grid = uniform_filter1d(grid, max(int(round(SMOOTH_S)), 1), axis=0, mode="nearest")
-    return float(np.linalg.norm(np.diff(grid, axis=0), axis=1).sum())
+    width = max(int(round(SMOOTH_S)), 1)
+    smooth = uniform_filter1d(grid, width, axis=0, mode="nearest")
+    # the ends are averaged one-sidedly (a straight walk would lose metres there): keep the fixes there
+    half = min(width // 2, len(grid) // 2)
+    smooth[:half], smooth[len(grid) - half :] = grid[:half], grid[len(grid) - half :]
+    return float(np.linalg.norm(np.diff(smooth, axis=0), axis=1).sum())
+
+
+def _start_count(t_s: np.ndarray, gps_m: np.ndarray) -> int:
+    """Fixes of the start window: ``START_WINDOW_S``, extended to ``MIN_START_PATH_M`` of GPS path."""
+    path = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(gps_m, axis=0), axis=1))])
+    n_time = int(np.searchsorted(t_s, t_s[0] + START_WINDOW_S, side="right"))
+    n_path = int(np.searchsorted(path, MIN_START_PATH_M, side="left")) + 1
+    return min(max(n_time, n_path, 2), len(t_s))
 
 
 def compare_gps(trajectory: Trajectory, track: GpsTrack) -> GpsComparison:
     """The prediction ``trajectory`` beside ``track`` (module docstring)."""
-    en = track.local_plane()
     t, keep = np.unique(track.t_s, return_index=True)
-    gps = Trajectory(t, np.column_stack([en[keep], np.zeros(len(t))]))
-    figures = {"path_m": smoothed_path_m(track.t_s, en), "median_accuracy_m": track.median_accuracy_m}
+    en, accuracy = track.local_plane()[keep], track.accuracy_m[keep]
+    figures = {"path_m": smoothed_path_m(t, en), "median_accuracy_m": track.median_accuracy_m}
     common = (t >= trajectory.t_s[0]) & (t <= trajectory.t_s[-1])
     if np.count_nonzero(common) < MIN_COMMON_FIXES or len(trajectory) < 2:
         # nothing to align on: draw the fixes from the prediction's start, unturned
-        drawn = gps.p_world_m[:, :2] - gps.p_world_m[:1, :2] + trajectory.p_world_m[0, :2]
-        return GpsComparison(t, drawn, track.accuracy_m[keep], len(t), **figures)
-    fit = fit_alignment(
-        trajectory, Trajectory(t[common], gps.p_world_m[common]), Alignment.START, START_WINDOW_S
-    )
-    moved = fit.gt_in_estimate_frame(gps)
-    _, est_m, gps_m = _common_samples(trajectory, Trajectory(t[common], moved.p_world_m[common]))
-    gap = np.linalg.norm(est_m[:, :2] - gps_m[:, :2], axis=1)
+        drawn = en - en[:1] + trajectory.p_world_m[0, :2]
+        return GpsComparison(t, drawn, accuracy, len(t), **figures)
+    p = trajectory.p_world_m
+    est = np.column_stack([np.interp(t[common], trajectory.t_s, p[:, i]) for i in (0, 1)])
+    gps = en[common]
+    n = _start_count(t[common], gps)
+    a, b = est[:n] - est[0], gps[:n] - gps[0]
+    # least-squares turn about the start taking the prediction's displacements onto the GPS's
+    yaw = float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a * b)))
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s], [s, c]])  # gps - gps[0] ≈ R (est - est[0])
+    drawn = (en - gps[0]) @ R + est[0]  # row vectors: R^T applied, the GPS in the prediction's frame
+    gap = np.linalg.norm(est - drawn[common], axis=1)
     return GpsComparison(
         t,
-        moved.p_world_m[:, :2],
-        track.accuracy_m[keep],
+        drawn,
+        accuracy,
         len(t),
         **figures,
         distance_rms_m=float(np.sqrt(np.mean(gap**2))),
         final_distance_m=float(gap[-1]),
-        heading_deg=fit.heading_deg,
-        align_window_s=fit.window_s,
+        heading_deg=float(np.degrees(yaw)),
+        align_window_s=float(t[common][n - 1] - t[common][0]),
     )
