@@ -104,3 +104,26 @@ def test_the_phyphox_walk_gps(shared_data: Path) -> None:
     # a 7.7 min walk: 660-680 m smoothed (1.4 m/s); the raw polyline is longer by the fixes' jitter
     assert 600 < smooth < 720 and raw > smooth
     assert np.linalg.norm(en[-1]) == pytest.approx(78.0, abs=1.0)  # it ends 78 m from where it began
+
+
+def test_synthetic_exports_of_both_apps_carry_their_gps_on_the_sequence_clock() -> None:
+    from ftin.data.readers.uploads import read_bytes
+    from tests.data.test_phone_exports import T0_NS, phyphox_export, sensor_logger, zip_bytes
+
+    t = np.arange(0.5, 19.0, 1.0)
+    lat, lon = LAT0 + t * 1e-5, np.full(len(t), LON0)
+    files = sensor_logger()  # the gyroscope starts 1.3 ms after the accelerometer: t = 0 is then
+    files["Location.csv"] = sensorlogger_location_csv(
+        T0_NS + (t * 1e9).astype(np.int64), t, lat, lon, [5.0] * len(t)
+    )
+    track = read_bytes(zip_bytes(files), "sensorlogger.zip").meta["gps"]
+    assert track.t_s == pytest.approx(t - 0.0013, abs=1e-6) and track.lat_deg == pytest.approx(lat)
+
+    files = phyphox_export()  # the accelerometer starts at 0.0123 s, the gyroscope at 0.0143 s: t = 0
+    header = '"Time (s)","Latitude (°)","Longitude (°)","Height (m)","Velocity (m/s)","Direction (°)",'
+    header += '"Horizontal Accuracy (m)","Vertical Accuracy (°)"'
+    rows = [f"{a:.9E},{b:.9E},{c:.9E},2.4E1,NaN,NaN,4.0E0,1.6E1" for a, b, c in zip(t, lat, lon, strict=True)]
+    files["Location.csv"] = "\n".join([header, *rows]) + "\n"
+    track = read_bytes(zip_bytes(files), "phyphox.zip").meta["gps"]
+    assert track.t_s == pytest.approx(t - 0.0143, abs=1e-6) and track.median_accuracy_m == 4.0
+    assert track.altitude_m == pytest.approx(np.full(len(t), 24.0))

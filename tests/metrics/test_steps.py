@@ -91,5 +91,5 @@ def test_ridi_walks_give_a_human_step_length_in_every_carry_mode(shared_data: Pa
         pytest.skip(f"no RIDI walk {name}")
     seq = read_sequence(folder)
     steps = detect_steps(seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
-    assert 90.0 <= steps.cadence_per_min <= 125.0  # a walk (RIDI: 105-130 steps/min measured)
+    assert 95.0 <= steps.cadence_per_min <= 135.0  # a walk (RIDI: 105-130 steps/min measured)
     assert 0.5 <= _smoothed_path_m(seq) / steps.count <= 0.9
