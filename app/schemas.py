@@ -179,6 +179,13 @@ class MetricsPayload(BaseModel):
     )
     align_window_s: float | None = Field(None, description="Seconds of the start fitted on (align=start).")
     alignment_text: str = Field("", description="The alignment in words.")
+    worse_than_standing_still: bool | None = Field(
+        None, description="True when the model's ATE is at or above standing still's (None: no baseline)."
+    )
+    standing_still_text: str | None = Field(None, description="The comparison with standing still, in words.")
+    scope_note: str | None = Field(
+        None, description="Why ATE / RTE / PDE mean little here (too short or too confined), if they do."
+    )
 
     @classmethod
     def from_run(cls, run: Run) -> MetricsPayload | None:
@@ -186,6 +193,7 @@ class MetricsPayload(BaseModel):
         if pred.metrics is None:
             return None
         values, verdict = pred.metrics.as_dict(), run.verdict
+        still = verdict.still
         convention = str(values.get("convention", "ronin"))
         window_s = float(values.get("rte_window_s", 60.0))
         t = np.asarray(pred.trajectory.t_s)
@@ -200,6 +208,9 @@ class MetricsPayload(BaseModel):
             duration_s=float(t[-1] - t[0]) if len(t) > 1 else None,
             stand_still=verdict.stand_still,
             **_alignment_fields(values),
+            worse_than_standing_still=None if still is None else still.worse_than_standing_still,
+            standing_still_text=None if still is None else still.text,
+            scope_note=verdict.scope_note,
         )
 
 
@@ -213,6 +224,46 @@ def _alignment_fields(values: dict[str, Any]) -> dict[str, Any]:
         "align_window_s": values.get("align_window_s"),
         "alignment_text": describe_alignment(values["alignment"]),
     }
+
+
+class FigurePayload(BaseModel):
+    name: str
+    unit: str
+    value: float | None = Field(description="None where the figure is undefined (e.g. no steps detected).")
+    description: str
+
+
+class GpsPayload(BaseModel):
+    """The export's GPS fixes in the prediction's frame (aligned at the start), and how they compare."""
+
+    t: list[float] = Field(description="Time of each fix on the recording's clock, s.")
+    x: list[float] = Field(description="Fix positions in the prediction's frame, m.")
+    y: list[float]
+    accuracy_m: list[float | None] = Field(description="Horizontal accuracy of each fix, m (None: unknown).")
+    figures: list[FigurePayload]
+
+
+class PlausibilityPayload(BaseModel):
+    """Figures that need no ground truth (ftin.metrics.plausibility) and the warnings they raise."""
+
+    figures: list[FigurePayload]
+    warnings: list[str]
+    gps: GpsPayload | None = Field(None, description="Present when the export has GPS fixes (Location.csv).")
+
+    @classmethod
+    def from_run(cls, run: Run) -> PlausibilityPayload:
+        p = run.plausibility
+        gps = None
+        if p.gps is not None:
+            accuracy = [None if not math.isfinite(a) else float(a) for a in p.gps.accuracy_m]
+            gps = GpsPayload(
+                t=p.gps.t_s.tolist(),
+                x=p.gps.p_m[:, 0].tolist(),
+                y=p.gps.p_m[:, 1].tolist(),
+                accuracy_m=accuracy,
+                figures=[FigurePayload(**vars(f)) for f in p.gps_figures],
+            )
+        return cls(figures=[FigurePayload(**vars(f)) for f in p.figures], warnings=p.warnings, gps=gps)
 
 
 class PredictionResponse(BaseModel):
@@ -230,6 +281,9 @@ class PredictionResponse(BaseModel):
         default_factory=list, description="Information on how the input was read (time unit, resampling)."
     )
     metrics: MetricsPayload | None
+    plausibility: PlausibilityPayload | None = Field(
+        None, description="Path length, speed, steps, cadence, step length, GPS: figures without ground truth"
+    )
     csv_url: str
     tum_url: str = Field("", description="The trajectory in TUM format (evo): /runs/{run_id}/trajectory.tum.")
     ground_truth_tum_url: str | None = Field(
@@ -263,6 +317,7 @@ class PredictionResponse(BaseModel):
             warnings=verdict.warnings,
             notes=verdict.notes,
             metrics=MetricsPayload.from_run(run),
+            plausibility=PlausibilityPayload.from_run(run),
             csv_url=f"/runs/{run.run_id}/trajectory.csv",
             tum_url=f"/runs/{run.run_id}/trajectory.tum",
             ground_truth_tum_url=None if run.sequence.gt is None else f"/runs/{run.run_id}/ground_truth.tum",

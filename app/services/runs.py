@@ -20,6 +20,7 @@ from app.services.errors import ConflictError, InvalidInputError, NotFoundError,
 from app.services.features import ModelInput
 from app.services.verdict import judge
 from ftin.data import ImuSequence
+from ftin.metrics.plausibility import Plausibility, assess
 
 log = logging.getLogger(__name__)
 
@@ -51,8 +52,12 @@ class Run:
         return len(self.sequence)
 
     @cached_property
+    def plausibility(self) -> Plausibility:  # figures without ground truth, GPS when the export has it
+        return assess(self.prediction.trajectory, self.sequence)
+
+    @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures
-        return judge(self.prediction, self.sequence.gt)
+        return judge(self.prediction, self.sequence.gt, self.plausibility.warnings)
 
 
 @dataclass

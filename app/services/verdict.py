@@ -11,7 +11,11 @@ Decisions:
   in the same list as real warnings. Those are information: the API returns them as ``notes``,
   and only the rest as ``warnings``. Both lists are de-duplicated, order kept.
 - The standing-still baseline (``ftin.metrics.stand_still``) is scored with the same convention:
-  a model is judged by how far below standing still it gets.
+  a model is judged by how far below standing still it gets. ``ftin.metrics.verdicts`` says it in
+  words: a model at or above standing still's ATE gets a warning, and a recording too short or too
+  confined for ATE to mean much gets a note.
+- Plausibility warnings (``ftin.metrics.plausibility``: step length, speed for the cadence) join the
+  warnings; the caller computes them, since they need the IMU sequence.
 """
 
 from __future__ import annotations
@@ -22,7 +26,8 @@ from typing import Any
 import numpy as np
 
 from ftin.data import Trajectory
-from ftin.metrics import evaluate_trajectory, path_length_ratio, stand_still
+from ftin.metrics import path_length_ratio
+from ftin.metrics.verdicts import StillVerdict, confinement_note, stand_still_metrics, still_verdict
 
 MIN_PATH_RATIO = 0.5
 MAX_PATH_RATIO = 2.0
@@ -88,11 +93,14 @@ class Verdict:
     predicted_path_m: float | None = None
     true_path_m: float | None = None
     stand_still: dict[str, float] | None = None  # ATE / RTE / PDE of never moving, same convention
+    still: StillVerdict | None = None  # worse than standing still? in words
+    scope_note: str | None = None  # too short or too confined for ATE to mean much
 
 
-def judge(prediction: Any, truth: Trajectory | None) -> Verdict:
-    """``prediction`` is an ``ftin.infer.Prediction``; ``truth`` the sequence's ground truth."""
-    messages = unique([str(w) for w in prediction.warnings])
+def judge(prediction: Any, truth: Trajectory | None, plausibility: list[str] | None = None) -> Verdict:
+    """``prediction`` is an ``ftin.infer.Prediction``; ``truth`` the sequence's ground truth;
+    ``plausibility`` the plausibility warnings of the prediction (``ftin.metrics.plausibility``)."""
+    messages = unique([str(w) for w in [*prediction.warnings, *(plausibility or [])]])
     notes = unique([*getattr(prediction, "notes", []), *(m for m in messages if is_information(m))])
     warnings = [m for m in messages if not is_information(m)]
     metrics = prediction.metrics
@@ -102,19 +110,16 @@ def judge(prediction: Any, truth: Trajectory | None) -> Verdict:
     warnings = unique(warnings + path_warnings(prediction.trajectory, truth, ratio))
     if truth is None or metrics is None:
         return Verdict(warnings, notes, ratio)
+    still_metrics = stand_still_metrics(truth, metrics)
+    still = still_verdict(metrics, still_metrics)
+    scope = confinement_note(truth)
     return Verdict(
-        warnings,
-        notes,
+        unique(warnings + ([still.text] if still is not None and still.worse_than_standing_still else [])),
+        unique(notes + ([scope] if scope else [])),
         None if ratio is None or not np.isfinite(ratio) else float(ratio),
         horizontal_path_m(prediction.trajectory),
         horizontal_path_m(truth),
-        _stand_still_metrics(truth, metrics),
+        still_metrics,
+        still,
+        scope,
     )
-
-
-def _stand_still_metrics(truth: Trajectory, metrics: Any) -> dict[str, float] | None:
-    try:
-        still = evaluate_trajectory(stand_still(truth), truth, metrics.convention, metrics.rte_window_s)
-    except ValueError:
-        return None
-    return {"ate": float(still.ate), "rte": float(still.rte), "pde": float(still.pde)}

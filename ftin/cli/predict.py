@@ -27,6 +27,8 @@ from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.files import atomic_write_text
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+from ftin.metrics.plausibility import FigureValue, assess
+from ftin.metrics.verdicts import confinement_note, stand_still_metrics, still_verdict
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -100,7 +102,8 @@ def predict_command(
                 raise DataFormatError(f"{input_path}: no ground truth to write to {gt_out}")
             note = f"ground truth of {input_path}, in {out.name}'s frame"
             atomic_write_text(gt_out, tum_text(shown_gt, note))
-    for warning in prediction.warnings:
+    plausibility = assess(prediction.trajectory, seq)
+    for warning in dict.fromkeys([*prediction.warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     if prediction.metrics is not None:
@@ -110,6 +113,26 @@ def predict_command(
             f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
             f"alignment {m.alignment}{heading})"
         )
+        if shown_gt is not None:
+            verdict = still_verdict(m, stand_still_metrics(shown_gt, m))
+            for line in (verdict.text if verdict else None, confinement_note(shown_gt)):
+                if line:
+                    typer.echo(line)
+    typer.echo("plausibility: " + "; ".join(figure_text(f) for f in plausibility.figures))
+    if plausibility.gps is not None:
+        typer.echo("GPS: " + "; ".join(figure_text(f) for f in plausibility.gps_figures))
+
+
+def figure_text(figure: FigureValue) -> str:
+    """``step length 0.62 m``: a plausibility figure for the terminal (``-`` where undefined)."""
+    if figure.value is None:
+        value = "-"
+    elif figure.unit in ("steps", "fixes"):
+        value = f"{figure.value:.0f} {figure.unit}"
+    else:
+        digits = 2 if figure.unit in ("m/s",) or abs(figure.value) < 10 else 0
+        value = f"{figure.value:.{digits}f} {figure.unit}"
+    return f"{figure.name.replace('_', ' ')} {value}"
 
 
 def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:

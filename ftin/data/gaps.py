@@ -131,8 +131,8 @@ def mend_clock(
     if too_long:
         g = too_long[0]
         raise DataFormatError(
-            f"{source}: no data for {g.duration_s:.1f} s between {row_label(g.index)} (t={g.start_s:.3f} s) "
-            f"and {row_label(g.index + 1)} (t={g.end_s:.3f} s), more than {HOLD_MAX_S:g} s: these are two "
+            f"{source}: no data for {g.duration_s:.4g} s between {row_label(g.index)} (t={g.start_s:.10g} s) "
+            f"and {row_label(g.index + 1)} (t={g.end_s:.10g} s), more than {HOLD_MAX_S:g} s: these are two "
             f"recordings; split the file there and predict each ({len(too_long)} such gap(s))"
         )
     bridged = [g for g in gaps if g.duration_s <= BRIDGE_MAX_S]

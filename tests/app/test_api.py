@@ -320,8 +320,8 @@ def test_unsupported_content_type_is_415(client: TestClient) -> None:
 @pytest.mark.parametrize(
     ("change", "expected"),
     [
-        (
-            {"t_s": [0.0, 0.01, 0.01, 0.03]},
+        (  # a timestamp repeated with other values (an exact repeat is dropped with a note)
+            {"t_s": [0.0, 0.01, 0.01, 0.03], "gyro_rad_s": [[0, 0, 0], [0, 0, 0], [0, 0, 0.1], [0, 0, 0]]},
             "sample 2, column 't_s': timestamp",
         ),
         ({"gyro_rad_s": [[0, 0]] * 4}, "gyro_rad_s: expected a list of rows of 3 numbers"),

@@ -18,7 +18,8 @@ Decisions:
   orientation in the export that sign cannot be checked and a warning says so. The gyroscope's unit
   and sign are checked against how gravity turns (``sensor_clock.gyro_scale_from_gravity``).
 * Sensors are merged onto one clock as for Sensor Logger (``sensor_clock``); the magnetometer, when
-  present, goes to ``ImuSequence.mag_uT`` for the orientation filter (9-D mode).
+  present, goes to ``ImuSequence.mag_uT`` for the orientation filter (9-D mode); ``Location.csv`` (GPS)
+  to ``meta["gps"]`` (``ftin.data.location``).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import pandas as pd
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.io.sensor_clock as sensor_clock
+from ftin.data import location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
@@ -200,6 +202,11 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         mag_label, mag_series, mag_scale = found["mag"][0]
         mag_series = sensor_clock.clean_series(mag_series, source, warnings)
         mag = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
+    gps_file = files.find("Location")
+    if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
+        track = location.phyphox_track(gps_file[1], gps_file[0], float(clock[0]))
+        if track is not None:
+            meta["gps"] = track
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares

@@ -19,6 +19,7 @@ Decisions (each checked on the shared iPhone 12 mini and Xiaomi exports, see the
   Android upwards); without orientation, ``Metadata.csv``'s platform decides.
 * Gyroscope: ``Gyroscope`` (bias-compensated) when present, else ``GyroscopeUncalibrated``; its unit
   and sign are checked against how gravity turns in the device frame (``gyro_scale_from_gravity``).
+* ``Location.csv`` (GPS), when it holds fixes, goes to ``meta["gps"]`` (``ftin.data.location``).
 * ``Orientation`` is the phone's own attitude (``orientation_source = "device"``); the magnetometer,
   when present, is kept in ``ImuSequence.mag_uT`` for the orientation filter of recordings without one.
 * What cannot give a trajectory (no gyroscope; acceleration without gravity and no ``Gravity``)
@@ -36,7 +37,7 @@ import pandas as pd
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.io.sensor_clock as sensor_clock
-from ftin.data import frames
+from ftin.data import frames, location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
@@ -252,6 +253,12 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         meta["orientation_source"] = "device"
     mag_key = next((k for k in ("Magnetometer", "MagnetometerUncalibrated") if k in series), None)
     mag = None if mag_key is None else sensor_clock.on_clock(series[mag_key], clock, source, warnings)
+    gps_file = files.find("Location")
+    if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
+        zero_ns = None if origin is None else origin + int(round(clock[0] * 1e9))
+        track = location.sensorlogger_track(gps_file[1], gps_file[0], zero_ns, float(clock[0]))
+        if track is not None:
+            meta["gps"] = track
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
