@@ -288,7 +288,7 @@ def test_a_gap_of_two_recordings_names_the_lines_and_the_fix(data):
     t = data["t"].copy()
     t[200:] += 90.0
     message = error_of(csv_text(CANONICAL, np.column_stack([t, data["gyro"], data["acc"]])))
-    assert "no data for 90 s between line 201" in message and "and line 202" in message
+    assert "no data for 90.01 s between line 201" in message and "and line 202" in message
     assert "split the file there" in message
 
 
