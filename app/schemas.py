@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.services.catalog import SequenceEntry, SequenceSummary
-from app.services.models import ModelEntry
+from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
 from ftin.data import Trajectory
 from ftin.metrics import describe, describe_alignment
@@ -199,7 +199,7 @@ class MetricsPayload(BaseModel):
 
 
 def _alignment_fields(values: dict[str, Any]) -> dict[str, Any]:
-    """The alignment of ``TrajectoryMetrics.as_dict()`` (``ftin.metrics.align``), for ``MetricsPayload``."""
+    """The alignment of ``TrajectoryMetrics.as_dict()`` (``ftin.metrics.alignment_modes``), for ``MetricsPayload``."""
     if values.get("alignment") is None:
         return {}
     return {

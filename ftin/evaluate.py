@@ -10,7 +10,7 @@ every result carries its path-length ratio (predicted / true horizontal path).
 ``score(prediction)`` is the one scoring step (evo's ``ape(traj_ref, traj_est)``: outside the
 estimator): the CLI, the evaluation, the report and the app call it on what inference returned.
 It compares the trajectory with the prepared ground truth (``Prediction.prepared``) under the rules
-of ``ftin.metrics.align``: the given alignment, else, under RoNIN's convention, the sequence's
+of ``ftin.metrics.alignment_modes``: the given alignment, else, under RoNIN's convention, the sequence's
 default (``start`` where the ground truth may be in another world frame, else ``none``); an
 alignment that cannot be fitted falls back to the unaligned metrics with a warning, and a ground
 truth that cannot be scored at all (one that never moves has no PDE) gives no metrics and a warning.
@@ -68,7 +68,7 @@ class EvaluationReport:
             if m is None:
                 return None
             values = {"ate": m.ate, "rte": m.rte, "pde": m.pde, "path_length_ratio": m.path_length_ratio}
-            if m.alignment is not None:  # ftin.metrics.align: which alignment, and the fitted heading
+            if m.alignment is not None:  # ftin.metrics.alignment_modes: which alignment, and the fitted heading
                 values.update(alignment=m.alignment, heading_deg=m.heading_deg)
             return values
 
@@ -147,7 +147,7 @@ def evaluate_checkpoint(
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
 
-    ``alignment`` (``ftin.metrics.align``) sets the convention it implies; ``None`` with the RoNIN
+    ``alignment`` (``ftin.metrics.alignment_modes``) sets the convention it implies; ``None`` with the RoNIN
     convention picks each sequence's default (``start`` where the ground truth may be in another world
     frame than the device's, else ``none``); ``None`` with another convention scores as before.
     """

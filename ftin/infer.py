@@ -39,7 +39,7 @@ call. Steps and decisions:
    with the device world frame at the start, design §2); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).
 6. Scoring is not inference: ``ftin.evaluate.score(prediction)`` compares the trajectory with the
-   prepared ground truth under the alignment rules of ``ftin.metrics.align``, for the CLI, the
+   prepared ground truth under the alignment rules of ``ftin.metrics.alignment_modes``, for the CLI, the
    evaluation and the app alike. ``Prediction.metrics`` stays ``None`` until a caller scores.
 """
 

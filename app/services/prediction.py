@@ -11,7 +11,7 @@ Decisions:
   (at most ``max_uncompressed_bytes``) and looked at again, a ZIP is a phone app's export (Sensor
   Logger, phyphox) or holds one CSV, anything else is a CSV: decoded as UTF-8 (a BOM is accepted)
   first, so that a binary file gets a plain "not a UTF-8 text file" message instead of a parser error.
-- Alignment (``ftin.metrics.align``): with ground truth, the metrics follow the request's ``align``
+- Alignment (``ftin.metrics.alignment_modes``): with ground truth, the metrics follow the request's ``align``
   or the reader's default, and the run keeps the ground truth in the prediction's frame, so that
   the page, the scene and the TUM export draw what was scored.
 - Windows go through the model in batches of ``BATCH_WINDOWS``: small enough for frequent progress
@@ -34,7 +34,7 @@ from app.services.catalog import SequenceCatalog
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
-from app.services.models import ModelEntry, ModelStore
+from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
@@ -96,7 +96,7 @@ def sequence_from_arrays(
     gt_p = None if gt_p_world_m is None else _rows("gt_p_world_m", gt_p_world_m, 3, len(t))
     gt = None if gt_p is None else Trajectory(t, gt_p)
     meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
-    if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
+    if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.alignment_modes)
         meta["gt_frame"] = "unknown"
     try:
         return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))

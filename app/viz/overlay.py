@@ -16,7 +16,7 @@ from app.viz.drawing import GridNodes, PathNodes, draw_grid, draw_path, extent_o
 from app.viz.palette import TRUTH_COLOR, ColorBook
 from app.viz.panels import NO_RUN, ErrorPanel, SpectraPanel
 from app.viz.summary import legend_html, metrics_markdown
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
 from ftin.data import ImuSequence
 
 TRUTH_PREFIX = "/truth"

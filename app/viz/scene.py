@@ -54,7 +54,7 @@ from app.viz.drawing import GridNodes, PathNodes
 from app.viz.overlay import SceneOverlay
 from app.viz.palette import ColorBook
 from app.viz.timeline import SceneTimeline
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
 from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)

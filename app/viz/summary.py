@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.viz.palette import START_COLOR, TRUTH_COLOR, WINDOW_COLOR, hex_color
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
 
 
 def legend_html(views: list[RunView], truth_shown: bool, grid_caption: str | None) -> str:

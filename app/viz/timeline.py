@@ -15,7 +15,7 @@ import viser
 
 from app.viz.drawing import PathNodes, set_window
 from app.viz.panels import ErrorPanel, SpectraPanel
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
 
 PLAY_TICK_S = 0.1
 

@@ -1,6 +1,6 @@
 """Trajectory metrics (ATE, RTE, PDE) under an explicit convention, and rigid alignment."""
 
-from ftin.metrics.align import (
+from ftin.metrics.alignment_modes import (
     Alignment,
     AlignmentFit,
     convention_for,
@@ -9,7 +9,7 @@ from ftin.metrics.align import (
     evaluate_aligned,
     fit_alignment,
 )
-from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
+from ftin.metrics.umeyama import RigidAlignment, fit_se2, fit_se3
 from ftin.metrics.trajectory import (
     Convention,
     TrajectoryMetrics,

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ftin.data.types import Trajectory
-from ftin.metrics.alignment import fit_se2, fit_se3
+from ftin.metrics.umeyama import fit_se2, fit_se3
 
 # Timestamps closer than this are the same instant (float noise from readers and resampling).
 _SAME_TIME_TOL_S = 1e-6
@@ -69,7 +69,7 @@ class TrajectoryMetrics:
     rte_window_s: float = 60.0
     # predicted / true horizontal path length; None where the truth does not move (no ratio exists)
     path_length_ratio: float | None = None
-    # Set by ``ftin.metrics.align.evaluate_aligned``: the alignment (``Alignment`` value), the fitted
+    # Set by ``ftin.metrics.alignment_modes.evaluate_aligned``: the alignment (``Alignment`` value), the fitted
     # heading of the estimate into the ground-truth frame (deg; None when nothing was fitted) and, for
     # "start", the seconds of the start it was fitted on.
     alignment: str | None = None

@@ -54,7 +54,7 @@ class RunView:
     loaded: LoadedModel | None  # to recompute feature taps
     model_input: ModelInput | None
     has_spectra: bool  # the model has FDL spectra to show
-    alignment: str | None = None  # ftin.metrics.align, in words with the fitted heading (None: no metrics)
+    alignment: str | None = None  # ftin.metrics.alignment_modes, in words with the fitted heading (None: no metrics)
 
     @classmethod
     def from_run(cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None) -> RunView:

@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.types import Trajectory
-from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
+from ftin.metrics.umeyama import RigidAlignment, fit_se2, fit_se3
 from ftin.metrics.trajectory import (
     Convention,
     TrajectoryMetrics,

@@ -1,4 +1,4 @@
-"""Alignment choices (``ftin.metrics.align``): analytic frame offsets and an independent evo check.
+"""Alignment choices (``ftin.metrics.alignment_modes``): analytic frame offsets and an independent evo check.
 
 evo: ``none`` = the unaligned APE on z = 0 copies / sqrt 2 (RoNIN's coordinate RMSE); ``se2`` = APE
 after ``align(correct_scale=False)`` on z = 0 copies; ``start`` = the same with ``n`` = the samples of
