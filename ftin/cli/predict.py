@@ -26,6 +26,7 @@ from ftin.data.readers import read_sequence
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+from ftin.metrics import list_metrics
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -71,13 +72,9 @@ def predict_command(
                 bar.update(task, completed=done)
 
             prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
-        shown_gt = seq.gt
         scored = score(prediction, align)
-        if scored is not None:
-            prediction.metrics = scored.metrics
-            prediction.warnings.extend(scored.warnings)
-            if scored.fit is not None and seq.gt is not None:
-                shown_gt = scored.fit.gt_in_estimate_frame(seq.gt)
+        shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
+        warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
         trajectory = prediction.trajectory
         if timestamps == "input":
             trajectory = at_times(trajectory, seq.t_s)
@@ -99,16 +96,14 @@ def predict_command(
                 raise DataFormatError(f"{input_path}: no ground truth to write to {gt_out}")
             note = f"ground truth of {input_path}, in {out.name}'s frame"
             atomic_write_text(gt_out, tum_text(shown_gt, note))
-    for warning in prediction.warnings:
+    for warning in warnings:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
-    if prediction.metrics is not None:
-        m = prediction.metrics
+    if scored is not None and scored.metrics is not None:
+        m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"
-        typer.echo(
-            f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
-            f"alignment {m.alignment}{heading})"
-        )
+        values = ", ".join(f"{x.label} {x.text(m.values.get(x.name))}" for x in list_metrics(in_tables=True))
+        typer.echo(f"{values} ({m.convention.value} convention, alignment {m.alignment}{heading})")
 
 
 def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:

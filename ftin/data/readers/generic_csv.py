@@ -277,7 +277,7 @@ def read_csv(
     if "gt_x" in chosen:
         gt = Trajectory(t_s, stacked("gt"))
         named = re.sub(r"[^a-z0-9]+", "_", chosen["gt_x"].header.strip().lower()).strip("_")
-        # ``gt_frame`` (read by ``ftin.metrics.alignment_modes.default_alignment``): "device_world" when the columns
+        # ``gt_frame`` (read by ``ftin.metrics.default_alignment``): "device_world" when the columns
         # say so (written by ``ftin data convert`` / ``ftin sim``), else "unknown": a phone attitude and
         # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
