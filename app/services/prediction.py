@@ -11,9 +11,10 @@ Decisions:
   (at most ``max_uncompressed_bytes``) and looked at again, a ZIP is a phone app's export (Sensor
   Logger, phyphox) or holds one CSV, anything else is a CSV: decoded as UTF-8 (a BOM is accepted)
   first, so that a binary file gets a plain "not a UTF-8 text file" message instead of a parser error.
-- Alignment (``ftin.metrics.alignment_modes``): with ground truth, the metrics follow the request's ``align``
-  or the reader's default, and the run keeps the ground truth in the prediction's frame, so that
-  the page, the scene and the TUM export draw what was scored.
+- Alignment (``ftin.metrics.alignment_modes``): with ground truth, the metrics follow the request's
+  ``align`` or the reader's default. The run keeps the sequence untouched and the scored result beside
+  it (``ftin.evaluate.score``), whose truth in the prediction's frame the page, the scene and the TUM
+  export draw: what was scored.
 - Windows go through the model in batches of ``BATCH_WINDOWS``: small enough for frequent progress
   and deadline checks, large enough to cost nothing in speed.
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
@@ -22,7 +23,6 @@ Decisions:
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from collections.abc import Sequence
 from pathlib import PurePath
@@ -31,10 +31,10 @@ from typing import Any
 import numpy as np
 
 from app.services.catalog import SequenceCatalog
+from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
-from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
@@ -43,13 +43,11 @@ from ftin.data.readers import exports
 from ftin.data.readers.uploads import gunzip, read_bytes
 from ftin.data.validate import validate
 from ftin.evaluate import score
-from ftin.infer import Prediction
 from ftin.metrics import Alignment
 
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
-GT_AS_GIVEN = "gt_as_given"  # meta key: the ground truth before a run aligned it for drawing
 
 
 def decode_upload(data: bytes, filename: str) -> str:
@@ -96,7 +94,7 @@ def sequence_from_arrays(
     gt_p = None if gt_p_world_m is None else _rows("gt_p_world_m", gt_p_world_m, 3, len(t))
     gt = None if gt_p is None else Trajectory(t, gt_p)
     meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
-    if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.alignment_modes)
+    if gt is not None:  # as the generic CSV's gt_x: maybe another world frame (ftin.metrics.alignment_modes)
         meta["gt_frame"] = "unknown"
     try:
         return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))
@@ -220,16 +218,14 @@ class PredictionService:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
 
         With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
-        where the truth may live in another world frame, else ``none``) and the run keeps the ground truth
-        moved into the prediction's frame by the fitted alignment: what is drawn is what was scored.
+        where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
+        the scored result beside it (``Run.score``; ``Run.truth`` is the truth moved into the prediction's
+        frame by the fitted alignment: what is drawn is what was scored).
         """
         deadline = deadline or self.new_deadline()
         if align is not None and align not in {a.value for a in Alignment}:
             choices = ", ".join(a.value for a in Alignment)
             raise InvalidInputError(f"align must be one of {choices}; got {align!r}")
-        if GT_AS_GIVEN in seq.meta:  # a finished run's sequence, its truth drawn aligned: start over
-            meta = {k: v for k, v in seq.meta.items() if k != GT_AS_GIVEN}
-            seq = seq.with_(gt=seq.meta[GT_AS_GIVEN], meta=meta)
         what = f"running {entry.name} on {seq.name}"
 
         def progress(done: int, total: int) -> None:
@@ -242,7 +238,7 @@ class PredictionService:
                 deadline.check(what)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
-                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress
+                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress, keep_prepared=False
                 )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))
@@ -253,29 +249,10 @@ class PredictionService:
         except Exception as exc:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
-        prepared = prediction.prepared
-        if "orientation_filter" in prepared.seq.meta:  # which filter ran (VQF 6-D or 9-D): for metrics.json
-            seq = seq.with_(meta={**seq.meta, "orientation_filter": prepared.seq.meta["orientation_filter"]})
-        seq = _aligned(seq, prediction, align)
-        starts = prepared.starts  # the model's own windows (a streaming model's too: the scene's spectra)
-        model_input = ModelInput(prepared.imu_world, starts, entry.loaded.window)
-        # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording.
-        prediction = dataclasses.replace(prediction, prepared=None)
-        run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input)
+        scored = score(prediction, align)  # beside the prediction and the sequence, both left as they are
+        # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
+        # the scene recomputes the spectra of the window it shows from it (a streaming model's too).
+        model_input = ModelInput(prediction.imu_world, prediction.starts, entry.loaded.window)
+        run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input, scored)
         self.runs.finish(run)
         return run
-
-
-def _aligned(seq: ImuSequence, prediction: Prediction, align: str | None) -> ImuSequence:
-    """Score ``prediction`` (``ftin.evaluate.score``: ``align``, else the sequence's default); ``seq``
-    with its ground truth in the prediction's frame (unchanged without ground truth or a fit)."""
-    scored = score(prediction, align)
-    if seq.gt is None or scored is None:
-        return seq
-    prediction.warnings.extend(scored.warnings)
-    prediction.metrics = scored.metrics
-    if scored.fit is None or scored.fit.alignment is Alignment.NONE:
-        return seq
-    # The run draws the aligned truth; the truth as given stays in meta, so that running another model
-    # on this sequence (the scene's "compare") starts from the file's own frames again.
-    return seq.with_(gt=scored.fit.gt_in_estimate_frame(seq.gt), meta={**seq.meta, GT_AS_GIVEN: seq.gt})

@@ -32,8 +32,8 @@ def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: b
     assert len(velocity["t"]) == len(velocity["vx"]) == len(velocity["vy"]) > 10
     assert velocity["vz"] is None  # a 2-D model
     metrics = body["metrics"]
-    assert {"ate", "rte", "pde", "path_length_ratio"} <= set(metrics)
-    scored = ("ate", "rte", "pde", "path_length_ratio")
+    assert {"ate", "ate_euclidean", "rte", "pde", "path_length_ratio"} <= set(metrics)
+    scored = ("ate", "ate_euclidean", "rte", "pde", "path_length_ratio")
     assert all(np.isfinite(metrics[k]) and metrics[k] >= 0 for k in scored)
     assert metrics["convention"] == "ronin" and "no alignment" in metrics["convention_text"]
     assert metrics["predicted_path_m"] > 0 and metrics["true_path_m"] > 0
@@ -222,7 +222,12 @@ def test_a_phone_lying_still_while_the_truth_walks_gets_a_path_warning(
     assert len(path_warnings) == 1, body["warnings"]  # one warning, not one per symptom
     assert "barely moves" in path_warnings[0] and f"{metrics['true_path_m']:.0f} m" in path_warnings[0]
     # The stand-still baseline is scored with the same convention, for comparison.
-    assert set(metrics["stand_still"]) == {"ate", "rte", "pde"} and metrics["stand_still"]["ate"] > 0
+    table_metrics = {m["name"] for m in client.get("/metrics").json() if m["in_tables"]}
+    assert (
+        set(metrics["stand_still"]) == table_metrics
+        and {"ate", "ate_euclidean", "rte", "pde"} <= table_metrics
+    )
+    assert metrics["stand_still"]["ate"] > 0 and metrics["stand_still"]["path_length_ratio"] == 0.0
 
 
 def test_a_plausible_path_has_no_path_warning_and_read_notes_are_not_warnings(
