@@ -16,7 +16,7 @@ from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
 from ftin.data import Trajectory
-from ftin.metrics import describe, describe_alignment, list_metrics
+from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_metrics
 
 
 class ErrorResponse(BaseModel):
@@ -157,10 +157,11 @@ class MetricInfo(BaseModel):
     scale: float = Field(description="Shown as value * scale in display_unit (PDE as a percentage).")
     display_unit: str
     digits: int = Field(description="Decimals shown.")
+    headline: bool = Field(False, description="The headline metric (the standing-still baseline's figure).")
 
 
 def metric_infos() -> list[MetricInfo]:
-    return [MetricInfo(**m.as_dict()) for m in list_metrics()]
+    return [MetricInfo(**m.as_dict(), headline=m.name == HEADLINE_METRIC) for m in list_metrics()]
 
 
 class _MetricsPayloadBase(BaseModel):

@@ -22,6 +22,7 @@ def test_metrics_lists_the_registry_and_every_result_carries_each(
     )
     assert by_name["ate"]["unit"] == by_name["ate_euclidean"]["unit"] == "m"
     assert by_name["path_length_ratio"]["better"] == "closer to 1"
+    assert [m["name"] for m in listed if m["headline"]] == ["ate"]
     metrics = upload(client, csv_with_gt).json()["metrics"]
     assert set(metric_names()) <= set(metrics)
     assert metrics["ate_euclidean"] > metrics["ate"] > 0  # sqrt 2 apart on the horizontal plane
