@@ -154,7 +154,7 @@ class MetricInfo(BaseModel):
     better: str = Field(description="lower, higher, closer to 1, or neither (a figure, not a score).")
     needs_truth: bool
     in_tables: bool = Field(description="Shown as a column of the compact tables.")
-    scale: float = Field(description="Shown as value * scale in display_unit (PDE as a percentage).")
+    scale: float = Field(description="Shown as value * scale in display_unit (a ratio as a percentage).")
     display_unit: str
     digits: int = Field(description="Decimals shown.")
     headline: bool = Field(False, description="The headline metric (the standing-still baseline's figure).")

@@ -1,4 +1,4 @@
-"""Evaluate a checkpoint on sequences with ground truth: per-sequence and mean ATE / RTE / PDE.
+"""Evaluate a checkpoint on sequences with ground truth: every registered metric per sequence and mean.
 
 Each sequence goes through exactly the inference path users get (``ftin.infer``), and the metrics
 follow one stated convention (``ftin.metrics``, RoNIN's by default). The mean weighs every sequence
@@ -13,7 +13,7 @@ It compares the trajectory with the prepared ground truth (``Prediction.truth``)
 of ``ftin.metrics.alignment_modes``: the given alignment, else, under RoNIN's convention, the sequence's
 default (``start`` where the ground truth may be in another world frame, else ``none``); an
 alignment that cannot be fitted falls back to the unaligned metrics with a warning, and a ground
-truth that cannot be scored at all (one that never moves has no PDE) gives no metrics and a warning.
+truth that cannot be scored at all (one that never moves has no drift ratio) gives no metrics and a warning.
 The result stands beside the prediction (``Scored``), which it never changes, as evo's ``ape()``
 returns a result and leaves the reference alone. Path lengths are compared over the model's window
 (``ftin.metrics.definitions``).

@@ -39,8 +39,8 @@ def evaluate_command(
     rte_window_s: RteWindowOption = 60.0,
     align: AlignOption = None,
 ) -> None:
-    """Every metric (ATE both conventions, RTE, PDE, path ratio) of a checkpoint per sequence and their
-    mean, under a stated convention."""
+    """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
+    sequence and their mean, under a stated convention."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
         sequences = load_sequences(data, "--data")
@@ -59,7 +59,7 @@ def evaluate_command(
     table.add_column("sequence", overflow="fold")
     shown, headline = list_metrics(in_tables=True), get_metric(HEADLINE_METRIC)
     for header in ("duration", *(m.header for m in shown), f"stand-still {headline.header}"):
-        table.add_column(header, justify="right", no_wrap=True)
+        table.add_column(escape(header), justify="right", no_wrap=True)
 
     def cells(m: Any) -> list[str]:
         return [metric.format(m.values.get(metric.name), "-") for metric in shown]

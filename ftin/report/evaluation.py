@@ -7,7 +7,7 @@ Decisions:
 - Two checkpoints for one column are an error (which one would the table show?): a folder holding
   e.g. ``ftin-oxiod`` and ``ftin-sim`` is narrowed with name globs (``find_checkpoints(patterns=...)``,
   ``ftin table --pattern '*-oxiod'``). Checkpoints of models outside the layout (e.g. ``resnet1d``)
-  are evaluated too: they appear in the PDE chart and ``results.json`` and are named in a note.
+  are evaluated too: they appear in the metric chart and ``results.json`` and are named in a note.
 - The representative sequence of a dataset (trajectory figure) is the one whose FTIN ATE is the
   median (lower middle for an even count; RoNIN ResNet's ATE without an FTIN checkpoint): neither the
   best nor the worst case, so the figure does not cherry-pick.
