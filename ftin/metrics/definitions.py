@@ -27,6 +27,8 @@ HEADLINE = (
 
 HEADLINE_METRIC = "ate"  # the one number a result is ranked by (the stand-still column, Fig. 4's pick)
 
+MIN_TRAVEL_FOR_HEADING_M = 0.3  # shorter displacements have no reliable direction (sway, jitter)
+
 # Below this much ground-truth path a ratio means nothing (a recording of someone standing still).
 MIN_PATH_FOR_RATIO_M = 0.5
 
@@ -116,6 +118,31 @@ def _predicted_path(c: Comparison) -> float:
 )
 def _true_path(c: Comparison) -> float:
     return compared_path_m(c.gt_xyz_m, c.t_s, c.smooth_s)
+
+
+@register(
+    "heading_error_deg",
+    "Heading",
+    "deg",
+    "RMS angle between the predicted and the true horizontal direction of travel over each model "
+    "window (where both move at least 0.3 m)",
+    in_tables=False,
+    digits=1,
+)
+def _heading_error(c: Comparison) -> float | None:
+    width = max(1, int(round((c.smooth_s or 1.0) / float(np.median(np.diff(c.t_s))))))
+    if len(c.t_s) <= width:
+        return None
+    d_est = c.est_m[width:, :2] - c.est_m[:-width, :2]
+    d_gt = c.gt_m[width:, :2] - c.gt_m[:-width, :2]
+    moving = (np.linalg.norm(d_gt, axis=1) >= MIN_TRAVEL_FOR_HEADING_M) & (
+        np.linalg.norm(d_est, axis=1) >= MIN_TRAVEL_FOR_HEADING_M
+    )
+    if not moving.any():
+        return None  # a direction needs travel: a predictor that never moves has none
+    e, g = d_est[moving], d_gt[moving]
+    angle = np.arctan2(g[:, 0] * e[:, 1] - g[:, 1] * e[:, 0], np.sum(g * e, axis=1))
+    return float(np.degrees(np.sqrt(np.mean(angle**2))))
 
 
 # --- the arithmetic, shared with the array functions of ftin.metrics.trajectory ---------------------

@@ -93,3 +93,16 @@ def test_a_correct_prediction_of_a_swaying_walk_reads_one_when_paths_compare_lik
     # Smoothing hides no real error: half the speed still reads half the path.
     slow = Trajectory(est.t_s, est.p_world_m[0] + 0.5 * (est.p_world_m - est.p_world_m[0]))
     assert evaluate_trajectory(slow, gt, smooth_s=1.0).path_length_ratio == pytest.approx(0.5, abs=0.01)
+
+
+def test_heading_error_is_the_angle_between_directions_of_travel():
+    """A metric added as one definition (ftin.metrics.definitions) and this test: it reaches the JSON,
+    the page and the reports through the registry."""
+    gt = _square_walk()
+    turn = np.radians(10.0)
+    R = np.array([[np.cos(turn), -np.sin(turn), 0], [np.sin(turn), np.cos(turn), 0], [0, 0, 1]])
+    turned = Trajectory(gt.t_s, (gt.p_world_m - gt.p_world_m[0]) @ R.T + gt.p_world_m[0])
+    assert evaluate_trajectory(turned, gt, smooth_s=1.0).heading_error_deg == pytest.approx(10.0, abs=1e-6)
+    assert evaluate_trajectory(gt, gt).heading_error_deg == pytest.approx(0.0, abs=1e-9)
+    # a predictor that never moves has no direction of travel: undefined, never 0
+    assert evaluate_trajectory(stand_still(gt), gt).heading_error_deg is None
