@@ -39,8 +39,11 @@ call. Steps and decisions:
    with the device world frame at the start: ``docs/design.md``, "Frames"); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).
 6. Scoring is not inference: ``ftin.evaluate.score(prediction)`` compares the trajectory with the
-   prepared ground truth under the alignment rules of ``ftin.metrics.align``, for the CLI, the
-   evaluation and the app alike. ``Prediction.metrics`` stays ``None`` until a caller scores.
+   prepared ground truth (``Prediction.truth``) under the alignment rules of
+   ``ftin.metrics.alignment_modes``, for the CLI, the evaluation and the app alike, and returns a
+   result of its own: a prediction is never written after it is returned.
+7. ``keep_prepared=False`` keeps only the model's input (``imu_world``, ``starts``: 24 bytes a sample)
+   instead of the whole prepared copy of the recording, for a server that keeps many results.
 """
 
 from __future__ import annotations
@@ -57,7 +60,6 @@ from ftin.data.gaps import holes_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
-from ftin.metrics import TrajectoryMetrics
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
@@ -72,10 +74,17 @@ class Prediction:
     orientation_source: str  # "device", "ground_truth" or "estimated"
     frame: str  # "ground_truth" or "device_world"
     warnings: list[str]  # what may be wrong with the result
-    metrics: TrajectoryMetrics | None  # None from inference; set by a caller that scores (ftin.evaluate)
     features: dict | None  # name -> (windows, ...) float32 feature taps, when asked (window models)
     span_t_s: np.ndarray | None = None  # (M, 2) start and end time of each prediction's span
-    prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare)
+    prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare); see step 7
+    # What scoring reads (ftin.evaluate.score): the ground truth on the prediction's grid, whether its
+    # world frame is known to be the device's ("gt_frame"), and the model's window in seconds.
+    truth: Trajectory | None = None
+    truth_frame: str | None = None
+    window_s: float | None = None
+    orientation_filter: str | None = None  # which attitude filter ran (VQF 6-D or 9-D), when one did
+    imu_world: np.ndarray | None = None  # (N, 6) float32 world-frame IMU the model read
+    starts: np.ndarray | None = None  # (M,) first sample of each of the model's windows
     notes: list[str] = field(default_factory=list)  # how the input was read (gaps bridged, ...)
 
 
@@ -87,9 +96,11 @@ def predict_trajectory(
     batch_size: int = 1024,
     progress: Callable[[int, int], None] | None = None,
     return_features: bool = False,
+    keep_prepared: bool = True,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
-    carries the prepared sequence (``Prediction.prepared``) and no metrics."""
+    carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
+    what scoring reads, never metrics."""
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}")
     stride = loaded.stride if stride is None else stride
@@ -123,10 +134,15 @@ def predict_trajectory(
         orientation_source=str(prepared.seq.meta.get("orientation_source", "device")),
         frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
         warnings=[*prepared.seq.meta.get("warnings", []), *notes],
-        metrics=None,
         features=features,
         span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
-        prepared=prepared,
+        prepared=prepared if keep_prepared else None,
+        truth=gt,
+        truth_frame=prepared.seq.meta.get("gt_frame"),
+        window_s=loaded.window / float(loaded.imu_rate_hz),
+        orientation_filter=prepared.seq.meta.get("orientation_filter"),
+        imu_world=prepared.imu_world,
+        starts=prepared.starts,
         notes=list(prepared.seq.meta.get("notes", [])),
     )
 

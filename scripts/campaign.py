@@ -402,7 +402,7 @@ def evaluate_job(job: Any, state: dict[str, Any], runs: Path, checkpoint: Path) 
                         "name": res.name,
                         "duration_s": res.duration_s,
                         **res.metrics.as_dict(),
-                        "stand_still": {"ate": still.ate, "rte": still.rte, "pde": still.pde},
+                        "stand_still": dict(still.values),  # every registered metric of never moving
                     }
                 )
             key = f"{dataset}/{part}/{orientation or 'ground_truth'}"

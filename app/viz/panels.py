@@ -23,8 +23,8 @@ import numpy as np
 import viser
 
 from app.viz.palette import hex_color
+from app.viz.run_scene_data import RAW_CHANNELS, RunView
 from app.viz.spectra import common_time_grid, with_cursor
-from app.viz.views import RAW_CHANNELS, RunView
 
 NO_RUN = "(no run)"
 _BLANK = np.full((8, 8, 3), 255, dtype=np.uint8)

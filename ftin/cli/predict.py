@@ -27,8 +27,9 @@ from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.files import atomic_write_text
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
-from ftin.metrics.verdicts import confinement_note, stand_still_metrics, still_verdict
+from ftin.metrics.verdicts import confinement_note, still_verdict
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -74,13 +75,9 @@ def predict_command(
                 bar.update(task, completed=done)
 
             prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
-        shown_gt = seq.gt
         scored = score(prediction, align)
-        if scored is not None:
-            prediction.metrics = scored.metrics
-            prediction.warnings.extend(scored.warnings)
-            if scored.fit is not None and seq.gt is not None:
-                shown_gt = scored.fit.gt_in_estimate_frame(seq.gt)
+        shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
+        warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
         trajectory = prediction.trajectory
         if timestamps == "input":
             trajectory = at_times(trajectory, seq.t_s)
@@ -103,18 +100,16 @@ def predict_command(
             note = f"ground truth of {input_path}, in {out.name}'s frame"
             atomic_write_text(gt_out, tum_text(shown_gt, note))
     plausibility = assess(prediction.trajectory, seq)
-    for warning in dict.fromkeys([*prediction.warnings, *plausibility.warnings]):
+    for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
-    if prediction.metrics is not None:
-        m = prediction.metrics
+    if scored is not None and scored.metrics is not None:
+        m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"
-        typer.echo(
-            f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
-            f"alignment {m.alignment}{heading})"
-        )
+        values = ", ".join(f"{x.label} {x.text(m.values.get(x.name))}" for x in list_metrics(in_tables=True))
+        typer.echo(f"{values} ({m.convention.value} convention, alignment {m.alignment}{heading})")
         if shown_gt is not None:
-            verdict = still_verdict(m, stand_still_metrics(shown_gt, m))
+            verdict = still_verdict(m, scored.stand_still)
             for line in (verdict.text if verdict else None, confinement_note(shown_gt)):
                 if line:
                     typer.echo(line)

@@ -71,10 +71,10 @@ def table_command(
     rte_window_s: RteWindowOption = 60.0,
     stride: StrideOption = None,
 ) -> None:
-    """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
-    trajectory figures, for every checkpoint in a folder on every dataset. With --campaign: the
-    campaign's Table 1, and --checkpoints/--dataset add a zero-shot transfer section (its full report
-    in OUT/transfer)."""
+    """The paper's Table 1 (every registered metric per dataset: ATE in both conventions, RTE, drift,
+    path ratio; FTIN vs RoNIN ResNet, ablation) plus the drift-error and trajectory figures, for every
+    checkpoint in a folder on every dataset. With --campaign: the campaign's Table 1, and
+    --checkpoints/--dataset add a zero-shot transfer section (its full report in OUT/transfer)."""
     with user_errors(*REPORT_ERRORS):
         if campaign is None and (checkpoints is None or not dataset):
             raise ValueError("--checkpoints and --dataset are required (or --campaign DIR)")

@@ -9,7 +9,7 @@ Decisions:
   at that instant, and the turn between the two is fitted (least squares, about that point) on the
   start: ``START_WINDOW_S``, extended until the GPS has moved ``MIN_START_PATH_M``. GPS is accurate to
   metres, so a heading needs tens of metres of walk to mean anything; every later deviation counts,
-  as with ``ftin.metrics.align``'s ``start``. The drawn GPS track is turned into the prediction's
+  as with ``ftin.metrics.alignment_modes``'s ``start``. The drawn GPS track is turned into the prediction's
   frame; the prediction is never moved.
 - The distance between the two is measured at the GPS fixes inside the prediction's time span
   (the prediction interpolated there): its RMS, and at the last common fix.

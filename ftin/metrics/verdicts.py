@@ -19,12 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ftin.data.types import Trajectory
-from ftin.metrics.trajectory import (
-    TrajectoryMetrics,
-    evaluate_trajectory,
-    horizontal_path_length,
-    stand_still,
-)
+from ftin.metrics.trajectory import horizontal_path_length
 
 MIN_DURATION_S = 30.0
 CONFINED_SIDE_M = 10.0
@@ -45,18 +40,10 @@ def _value(metrics: object, key: str) -> float | None:
     return None if value is None or not np.isfinite(value) else float(value)
 
 
-def stand_still_metrics(truth: Trajectory, metrics: TrajectoryMetrics) -> dict[str, float] | None:
-    """ATE / RTE / PDE of the predictor that never moves, under ``metrics``' convention and window."""
-    try:
-        still = evaluate_trajectory(stand_still(truth), truth, metrics.convention, metrics.rte_window_s)
-    except ValueError:
-        return None
-    return {"ate": float(still.ate), "rte": float(still.rte), "pde": float(still.pde)}
-
-
 def still_verdict(metrics: object, still: Mapping[str, float] | object | None) -> StillVerdict | None:
     """``metrics`` (a ``TrajectoryMetrics`` or a mapping with ``ate``/``rte``/``pde``) against the
-    standing-still baseline scored the same way; None when either ATE is missing."""
+    standing-still baseline scored the same way (``ftin.evaluate.Scored.stand_still``); None when
+    either ATE is missing."""
     if still is None:
         return None
     ate, still_ate = _value(metrics, "ate"), _value(still, "ate")

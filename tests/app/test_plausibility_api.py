@@ -12,7 +12,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from ftin.metrics.plausibility import FIGURES, GPS_FIGURES
-from tests.app.test_api import upload
+from tests.app.routes.helpers import upload
 from tests.data.test_location import LAT0, LON0, sensorlogger_location_csv
 
 

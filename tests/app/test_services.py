@@ -15,8 +15,8 @@ from fastapi.testclient import TestClient
 from app.main import create_app
 from app.services import Services
 from app.services.catalog import SequenceCatalog, make_sequence_id
+from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import ConflictError, InvalidInputError, NotFoundError, StartupError
-from app.services.models import ModelEntry, ModelStore
 from app.services.runs import RunListener, RunState, RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, DEFAULT_CHECKPOINT_DIR, Settings
 

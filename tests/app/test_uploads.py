@@ -86,6 +86,25 @@ def test_align_default_start_names_the_heading_and_draws_the_aligned_truth(
     assert bad.status_code == 422
 
 
+def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    data = turned_csv(sample_frame, 40.0)
+    predictor = client.app.state.services.predictor
+    seq = predictor.read_upload(data, "mocap.csv")
+    gt_before = seq.gt.p_world_m.copy()
+    first = predictor.predict_imu(seq, DEFAULT_MODEL)
+    # The sequence is the one given, its truth in the file's frame; the aligned truth is the result's.
+    assert first.sequence is seq and set(first.sequence.meta) == set(seq.meta)
+    np.testing.assert_array_equal(first.sequence.gt.p_world_m, gt_before)
+    assert first.score.fit.alignment.value == "start" and first.metrics is first.score.metrics
+    assert np.abs(first.truth.p_world_m - gt_before).max() > 1.0
+    # Running another model on the run's own sequence scores exactly as running on the file.
+    again = predictor.predict_imu(first.sequence, DEFAULT_MODEL)
+    assert again.metrics.values == first.metrics.values
+    np.testing.assert_allclose(again.truth.p_world_m, first.truth.p_world_m)
+
+
 def test_run_exports_tum_metrics_and_input_timestamps(client: TestClient, csv_with_gt: bytes) -> None:
     result = client.post(
         "/predict", params={"model": DEFAULT_MODEL}, files={"file": ("walk.csv", csv_with_gt, "text/csv")}

@@ -10,7 +10,7 @@ One header row, then one row per IMU sample; column order is free. Canonical col
 * optional ``gt_x, gt_y, gt_z`` — ground-truth position [m]; named ``gt_device_world_x, ...`` when it
   is in the orientation's world frame (what ``write_csv`` writes from our readers), else it may be
   in its own world frame (motion capture beside a phone attitude) and comparisons align it at the
-  start (``meta["gt_frame"]``, ``ftin.metrics.align``).
+  start (``meta["gt_frame"]``, ``ftin.metrics.alignment_modes``).
 
 This module reads and writes; the column table, aliases and header matching are in
 ``ftin.data.io.csv_columns``, the checks in ``ftin.data.validate``. Decisions:
@@ -278,7 +278,7 @@ def read_csv(
     if "gt_x" in chosen:
         gt = Trajectory(t_s, stacked("gt"))
         named = re.sub(r"[^a-z0-9]+", "_", chosen["gt_x"].header.strip().lower()).strip("_")
-        # ``gt_frame`` (read by ``ftin.metrics.align.default_alignment``): "device_world" when the columns
+        # ``gt_frame`` (read by ``ftin.metrics.default_alignment``): "device_world" when the columns
         # say so (written by ``ftin data convert`` / ``ftin sim``), else "unknown": a phone attitude and
         # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
