@@ -54,7 +54,7 @@ def table_command(
         typer.Option(
             "--campaign",
             help="Instead of evaluating checkpoints: the training campaign's collected results "
-            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row; "
+            "(ftin campaign collect), tabled per the protocol with seeds and the stand-still row; "
             "with --checkpoints and --dataset also a zero-shot transfer section (full report in "
             "OUT/transfer).",
         ),
@@ -84,7 +84,7 @@ def table_command(
         if checkpoints is not None:
             evaluated = _evaluate(checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride)
         if campaign is not None:
-            written = _campaign_table(campaign, out, transfer=evaluated)
+            written = campaign_table(campaign, out, transfer=evaluated)
         else:
             written = write_report(evaluated, out).paths()
     out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
@@ -129,7 +129,7 @@ def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> l
     return [DatasetSpec(name, tuple(p)) for name, p in paths.items()]
 
 
-def _campaign_table(folder: Path, out: Path, transfer: ReportResults | None = None) -> list[Path]:
+def campaign_table(folder: Path, out: Path, transfer: ReportResults | None = None) -> list[Path]:
     """The campaign's files (table.md first), then the transfer report's."""
     results, manifest = load_results(folder)
     table_md, table_csv, summary = render(results, manifest)
