@@ -59,9 +59,12 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
 
 def train_job(runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
     """The Ray task: one job on the frozen code its ``PYTHONPATH`` names."""
+    import ray
+
     from ftin.campaign.job import run_job
 
-    return run_job(runs, spec, data_root, device=device, threads=threads)
+    node = ray.get_runtime_context().get_node_id()[:12]
+    return run_job(runs, spec, data_root, device=device, threads=threads, where=f"ray node {node}")
 
 
 def run(

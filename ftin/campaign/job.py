@@ -33,8 +33,11 @@ SIM_DATA = "sim-data"
 LOCK_WAIT_S = 120.0  # a job cancelled a moment ago may still be writing its resume state
 
 
-def run_job(runs: str, spec: dict[str, Any], data_root: str, *, device: str = "cpu", threads: int = 1) -> str:
-    """Train and evaluate the job ``spec`` in ``<runs>/<name>``; its stop reason, or ``done``."""
+def run_job(
+    runs: str, spec: dict[str, Any], data_root: str, *, device: str = "cpu", threads: int = 1, where: str = ""
+) -> str:
+    """Train and evaluate the job ``spec`` in ``<runs>/<name>``; its stop reason, or ``done``.
+    ``where`` (the Ray node) goes into the job's log beside the host and process."""
     import torch
 
     from ftin.train.config import TrainConfig
