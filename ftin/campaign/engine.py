@@ -1,9 +1,10 @@
 """Ray for the campaign: a local Ray with N one-thread workers, or an existing cluster (``--address``).
 
 Every job is one Ray task (one CPU, ``gpus_per_job`` GPUs) that runs ``ftin.campaign.job.run_job``
-on the job's frozen code: the task's ``PYTHONPATH`` is the frozen copy in the campaign folder (Ray
-takes a local ``working_dir`` only for a whole driver, not per task, and the campaign folder must be
-shared by every node anyway: results and checkpoints land in one folder). A worker that dies is
+on the job's frozen code, the copy in the campaign folder, first on the task's path (Ray takes a
+local ``working_dir`` only for a whole driver, not per task, and the campaign folder must be shared
+by every node anyway: results and checkpoints land in one folder). Jobs on different copies run in
+different worker processes (their runtime environments differ). A worker that dies is
 retried (``RETRIES``) and its job continues from its last resume state. Stopping the driver (Ctrl-C,
 SIGTERM, ``stop``) cancels the running tasks: each job writes its resume state at its next step and
 the next ``run`` continues it. Jobs come from ``Campaign.pending`` each time a slot frees, so a
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -50,21 +52,31 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
     if address:
         ray.init(address=address, **options)
     else:
-        ray.init(num_cpus=workers, **options)
+        ray.init(address="local", num_cpus=workers, **options)  # never a cluster found running here
     try:
         yield ray
     finally:
         ray.shutdown()
 
 
-def train_job(runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
-    """The Ray task: one job on the frozen code its ``PYTHONPATH`` names."""
+def train_job(code: str, runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
+    """The Ray task: one job on its frozen code. Ray puts the driver's folder first on a worker's
+    path (a checkout there would shadow the frozen copy), so the task is pickled by value, puts
+    ``code`` first itself and only then imports ftin."""
+    import importlib
+    import sys
+
     import ray
 
-    from ftin.campaign.job import run_job
-
+    sys.path.insert(0, code)
+    loaded = sys.modules.get("ftin")
+    if loaded is not None and not str(loaded.__file__).startswith(code):
+        raise RuntimeError(
+            f"this worker already holds ftin from {loaded.__file__}, not the job's code {code}"
+        )
+    job = importlib.import_module("ftin.campaign.job")
     node = ray.get_runtime_context().get_node_id()[:12]
-    return run_job(runs, spec, data_root, device=device, threads=threads, where=f"ray node {node}")
+    return job.run_job(runs, spec, data_root, device=device, threads=threads, where=f"ray node {node}")
 
 
 def run(
@@ -83,6 +95,7 @@ def run(
     outcomes: dict[str, str] = {}
     with ray_session(address, workers) as ray, _stop_on_signals(stop):
         slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
+        ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # train_job, by value
         task = ray.remote(train_job)
         device = "cuda" if gpus_per_job > 0 else "cpu"
         in_flight: dict[Any, str] = {}
@@ -98,7 +111,9 @@ def run(
                         max_retries=RETRIES,
                         name=job.name,
                         runtime_env={"env_vars": env},
-                    ).remote(str(campaign.runs), job.to_json(), str(campaign.data_root), device, threads)
+                    ).remote(
+                        str(code), str(campaign.runs), job.to_json(), str(campaign.data_root), device, threads
+                    )
                     in_flight[ref] = job.name
                     on_event(f"{job.name}: submitted (code {code.name})")
             if not in_flight:

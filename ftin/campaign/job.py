@@ -55,10 +55,9 @@ def run_job(
         job = protocol.Job.from_json(read_json(out / JOB_FILE))
         root = Path(runs) if job.dataset == protocol.SIM else Path(data_root)
         resume = (out / RESUME_FILE).exists()
-        _log(
-            out,
-            f"{'resuming' if resume else 'starting'} on {socket.gethostname()} pid {os.getpid()} ({device})",
-        )
+        host = f"{socket.gethostname()} pid {os.getpid()} {where}".strip()
+        code = Path(__file__).resolve().parents[2]  # the frozen copy this job runs on
+        _log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
         try:
             if job.dataset == protocol.SIM:
                 make_sim_data(Path(runs) / SIM_DATA)
