@@ -21,7 +21,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from ftin.campaign import INSTALL_HINT, CampaignError
@@ -50,7 +50,13 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
         return
     options: dict[str, Any] = {"logging_level": "WARNING", "log_to_driver": False}
     if address:
-        ray.init(address=address, **options)
+        try:
+            ray.init(address=address, **options)
+        except ConnectionError as exc:
+            raise CampaignError(
+                f"{exc}. A cluster started by `ray start` takes drivers with RAY_AUTH_MODE=token set and "
+                "its token in ~/.ray/auth_token (or RAY_AUTH_TOKEN)"
+            ) from None
     else:
         ray.init(address="local", num_cpus=workers, **options)  # never a cluster found running here
     try:
@@ -172,3 +178,34 @@ def _stop_on_signals(stop: threading.Event) -> Iterator[None]:
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+
+
+def map_tasks(
+    fn: Callable[..., Any],
+    items: Sequence[Any],
+    *shared: Any,
+    workers: int | None = None,
+    address: str | None = None,
+    on_done: Callable[[int], None] | None = None,
+) -> list[Any]:
+    """``fn(item, *shared)`` for every item as Ray tasks (one CPU each, ``workers`` at a time; default:
+    the cluster's CPUs), results in the items' order. ``shared`` goes to the object store once;
+    ``on_done(index)`` is called as each item finishes (progress bars)."""
+    with ray_session(address, workers) as ray:
+        slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
+        env = {name: "1" for name in THREAD_ENV}
+        task = ray.remote(fn).options(num_cpus=1, max_retries=RETRIES, runtime_env={"env_vars": env})
+        refs = [ray.put(value) for value in shared]
+        results: list[Any] = [None] * len(items)
+        queue, in_flight = list(enumerate(items)), {}
+        while queue or in_flight:
+            while queue and len(in_flight) < slots:
+                index, item = queue.pop(0)
+                in_flight[task.remote(item, *refs)] = index
+            ready, _ = ray.wait(list(in_flight), num_returns=1)
+            for ref in ready:
+                index = in_flight.pop(ref)
+                results[index] = ray.get(ref)
+                if on_done is not None:
+                    on_done(index)
+        return results

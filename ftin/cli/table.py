@@ -18,9 +18,11 @@ from rich.markup import escape
 from ftin.checkpoint import atomic_write_text
 from ftin.cli.common import (
     REPORT_ERRORS,
+    AddressOption,
     ConventionOption,
     RteWindowOption,
     StrideOption,
+    WorkersOption,
     app,
     out_console,
     progress_bar,
@@ -70,6 +72,8 @@ def table_command(
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
     stride: StrideOption = None,
+    workers: WorkersOption = None,
+    address: AddressOption = None,
 ) -> None:
     """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
     trajectory figures, for every checkpoint in a folder on every dataset. With --campaign: the
@@ -82,7 +86,9 @@ def table_command(
             raise ValueError("a transfer section needs both --checkpoints and --dataset")
         evaluated = None
         if checkpoints is not None:
-            evaluated = _evaluate(checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride)
+            evaluated = _evaluate(
+                checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride, workers, address
+            )
         if campaign is not None:
             written = campaign_table(campaign, out, transfer=evaluated)
         else:
@@ -99,13 +105,33 @@ def _evaluate(
     convention: Convention,
     rte_window_s: float,
     stride: int | None,
+    workers: int | None = None,
+    address: str | None = None,
 ) -> ReportResults:
     specs = parse_dataset_options(dataset)
-    loaded = load_checkpoints(find_checkpoints(checkpoints, pattern))
+    stems = find_checkpoints(checkpoints, pattern)
+    loaded = load_checkpoints(stems)
     datasets = load_datasets(specs)
-    total = len(loaded) * sum(len(d.sequences) for d in datasets)
+    per_checkpoint = sum(len(d.sequences) for d in datasets)
+    total = len(loaded) * per_checkpoint
     with progress_bar() as bar:
         task = bar.add_task("evaluating", total=total)
+        if workers is not None or address is not None:  # one Ray task per checkpoint
+            from ftin.campaign.scoring import evaluate_checkpoints_on_ray
+
+            by_name = {stem.name: stem for stem in stems}
+            return evaluate_checkpoints_on_ray(
+                [by_name[model.name] for model in loaded],
+                datasets,
+                workers=workers,
+                address=address,
+                on_done=lambda i: bar.update(
+                    task, description=escape(loaded[i].name), advance=per_checkpoint
+                ),
+                convention=convention,
+                rte_window_s=rte_window_s,
+                stride=stride,
+            )
 
         def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
             bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)

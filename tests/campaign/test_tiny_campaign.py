@@ -23,16 +23,6 @@ TIMING_KEYS = {"wall_time_s", "finished", "elapsed_s"}  # the only fields a stop
 
 
 @pytest.fixture(scope="module")
-def ray_local():
-    ray = engine.import_ray()
-    ray.init(
-        address="local", num_cpus=2, logging_level="WARNING", log_to_driver=False, include_dashboard=False
-    )
-    yield ray
-    ray.shutdown()
-
-
-@pytest.fixture(scope="module")
 def jobs_file(tmp_path_factory) -> Path:
     """Simulated walks under a data root, and two jobs of a tiny TCN (seeds 0 and 1) on them."""
     root = tmp_path_factory.mktemp("data")
