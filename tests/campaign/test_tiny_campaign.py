@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("ray", reason="the campaign engine needs the [cluster] extra (ray)")
 
 from ftin.campaign import engine  # noqa: E402
-from ftin.campaign.collect import collect  # noqa: E402
+from ftin.campaign.collect import collect, ship  # noqa: E402
 from ftin.campaign.folder import Campaign  # noqa: E402
 from ftin.campaign.status import campaign_status  # noqa: E402
 from ftin.sim.samples import write_walks  # noqa: E402
@@ -111,3 +111,16 @@ def test_a_stopped_campaign_resumes_to_the_records_of_an_uninterrupted_one(ray_l
     assert training["epochs"] == 1 and training["stop_reason"] == "max_epochs"
     rows = expected["walks__ronin_tcn-s0.json"]["evaluation"]["parts"]["walks/test/ground_truth"]
     assert len(rows) == 1 and rows[0]["stand_still"]["ate"] > 0 and rows[0]["path_length_ratio"] is not None
+
+    # shipping: the gate's verdict decides; a refused name's earlier checkpoint is withdrawn
+    checkpoints = tmp_path / "checkpoints"
+    checkpoints.mkdir()
+    (checkpoints / "ronin_tcn-walks.md").write_text("an earlier card")
+    written = ship(reference, tmp_path / "records-reference", checkpoints, on_event=lambda _: None)
+    manifest = expected["manifest.json"]
+    if "ronin_tcn-walks" in manifest["shipped"]:
+        assert {p.name for p in written} == {f"ronin_tcn-walks{s}" for s in (".safetensors", ".json", ".md")}
+        assert "best of 2 seed(s)" in (checkpoints / "ronin_tcn-walks.md").read_text()
+    else:
+        assert manifest["not_shipped"]["ronin_tcn-walks"]["refused"] and not written
+        assert not (checkpoints / "ronin_tcn-walks.md").exists()
