@@ -14,10 +14,12 @@ from rich.table import Table
 from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
+    AddressOption,
     AlignOption,
     CheckpointOption,
     ConventionOption,
     RteWindowOption,
+    WorkersOption,
     app,
     out_console,
     progress_bar,
@@ -39,6 +41,8 @@ def evaluate_command(
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
     align: AlignOption = None,
+    workers: WorkersOption = None,
+    address: AddressOption = None,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
     sequence and their mean, under a stated convention."""
@@ -51,9 +55,20 @@ def evaluate_command(
             def advance(name: str) -> None:
                 bar.update(task, description=f"evaluating {escape(name)}", advance=1)
 
-            report = evaluate_checkpoint(
-                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance, alignment=align
-            )
+            options = {"convention": convention, "rte_window_s": rte_window_s, "alignment": align}
+            if workers is not None or address is not None:  # one Ray task per recording
+                from ftin.campaign.scoring import evaluate_checkpoint_on_ray
+
+                report = evaluate_checkpoint_on_ray(
+                    checkpoint,
+                    sequences,
+                    workers=workers,
+                    address=address,
+                    on_done=lambda i: advance(sequences[i].name),
+                    **options,
+                )
+            else:
+                report = evaluate_checkpoint(loaded, sequences, on_sequence=advance, **options)
         if json_out is not None:
             atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
     table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")

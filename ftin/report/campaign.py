@@ -1,4 +1,4 @@
-"""Table 1 from the training campaign's per-job results (``scripts/campaign.py collect``).
+"""Table 1 from the training campaign's per-job results (``ftin campaign collect``).
 
 Input: a folder of ``<dataset>__<job>.json`` records (training summary, history, per-sequence
 metrics of the job's best checkpoint on the validation and test parts, ground-truth and device
@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.metrics import HEADLINE, HEADLINE_METRIC, Better, get_metric, list_metrics
-from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
+from ftin.protocol import ABLATIONS, COMBINED, COMPARED, OXIOD, RIDI
 from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
@@ -50,6 +50,7 @@ LABELS = {
     "resnet_tdl": "+TDL",
     "ftin_other": "FTIN, other TDL variant (seed 0)",
     "ftin-pedestrian": "FTIN-pedestrian (both datasets)",
+    "ftin-walking": "FTIN-walking (every walking dataset)",
 }
 # The registered table metrics (ftin.metrics): a record written before a metric existed shows "—".
 METRICS = tuple(m.name for m in list_metrics(in_tables=True))
@@ -76,7 +77,7 @@ def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
     folder = Path(folder)
     manifest_path = folder / "manifest.json"
     if not manifest_path.exists():
-        raise ValueError(f"{folder}: no manifest.json (run `scripts/campaign.py collect` first)")
+        raise ValueError(f"{folder}: no manifest.json (run `ftin campaign collect` first)")
     manifest = json.loads(manifest_path.read_text())
     variant = manifest.get("ftin_variant")
     results = []
@@ -84,8 +85,8 @@ def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
         record = json.loads(path.read_text())
         training = record["training"]
         model = training["model"]
-        if training["dataset"] == PEDESTRIAN:
-            model = "ftin-pedestrian"
+        if training["dataset"] in COMBINED:  # e.g. ftin-pedestrian: a row of its own
+            model = f"{model}-{training['dataset']}"
         elif model == "ftin" and training.get("variant") != variant:
             model = "ftin_other"
         results.append(JobResult(training["job"], model, training["dataset"], training["seed"], record))
@@ -98,7 +99,7 @@ def per_seed_means(results: Sequence[JobResult], dataset: str, part: str, orient
     """``{model: {seed: {metric: mean over recordings}}}`` plus ``stand_still`` (seed -1)."""
     table: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
     for result in results:
-        if result.dataset not in (dataset, PEDESTRIAN):
+        if dataset not in COMBINED.get(result.dataset, (result.dataset,)):
             continue
         rows = result.rows(dataset, part, orientation)
         if not rows:
@@ -149,7 +150,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
         *COMPARED,
         *[m for m in ABLATIONS if m != "ftin"],
         "ftin_other",
-        "ftin-pedestrian",
+        *sorted({r.model for r in results if r.dataset in COMBINED}),
     ]
     md = io.StringIO()
     rows_csv: list[list[Any]] = []

@@ -73,7 +73,7 @@ def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = 
 def render_campaign_card(
     meta: dict[str, Any], record: dict[str, Any], seeds: list[dict[str, Any]], variant: str | None = None
 ) -> str:
-    """The card of a checkpoint shipped by the training campaign (``scripts/campaign.py collect``).
+    """The card of a checkpoint shipped by the training campaign (``ftin campaign ship``).
 
     ``record`` is the shipped job's (training summary, history, evaluation); ``seeds`` every seed's
     record of the same model and dataset, for the spread over seeds.
