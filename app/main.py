@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 import ftin
 from app.api.errors import BodySizeLimitMiddleware, install_error_handlers
-from app.api.routes import exports, health, models, pages, predict, runs, sequences
+from app.api.routes import exports, health, metrics, models, pages, predict, runs, sequences
 from app.api.routes.pages import STATIC_DIR
 from app.services import Services
 from app.services.errors import StartupError
@@ -78,7 +78,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     app.add_middleware(BodySizeLimitMiddleware, max_body_bytes=app.state.settings.max_upload_bytes)
     install_error_handlers(app)
-    for module in (health, models, sequences, predict, runs, exports, pages):
+    for module in (health, models, metrics, sequences, predict, runs, exports, pages):
         app.include_router(module.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     return app

@@ -10,13 +10,13 @@ import math
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from app.services.catalog import SequenceEntry, SequenceSummary
-from app.services.models import ModelEntry
+from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
 from ftin.data import Trajectory
-from ftin.metrics import describe, describe_alignment
+from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_metrics
 
 
 class ErrorResponse(BaseModel):
@@ -123,6 +123,11 @@ class ArraysPredictRequest(BaseModel):
     gt_p_world_m: list[list[float]] | None = Field(
         None, description="Optional N rows of ground-truth position x, y, z (m); enables metrics."
     )
+    mag_uT: list[list[float]] | None = Field(
+        None,
+        description="Optional N rows of device-frame magnetic field x, y, z (µT): the orientation filter "
+        "then references its heading to magnetic north (VQF 9-D).",
+    )
 
 
 class TrajectoryPayload(BaseModel):
@@ -144,27 +149,40 @@ class VelocityPayload(BaseModel):
     vz: list[float] | None = Field(description="Only for models that predict 3-D velocity.")
 
 
-class MetricsPayload(BaseModel):
-    """``None`` where a metric is undefined for this sequence (e.g. not finite)."""
+class MetricInfo(BaseModel):
+    """One registered metric (``ftin.metrics.registry``): how a client names, shows and reads it."""
 
-    ate: float | None = Field(description="Absolute trajectory error, m (see convention).")
-    rte: float | None = Field(description="Relative trajectory error over rte_window_s, m.")
-    pde: float | None = Field(description="Position drift error: final error / ground-truth path length.")
-    path_length_ratio: float | None = Field(
-        None,
-        description="Predicted / true horizontal path length (1: the right distance; 0: a model that "
-        "never moves). None when the ground truth walks less than 0.5 m.",
-    )
-    predicted_path_m: float | None = Field(None, description="Horizontal length of the predicted path, m.")
-    true_path_m: float | None = Field(None, description="Horizontal length of the ground-truth path, m.")
+    name: str = Field(description="The key of its value in every metrics object.")
+    label: str = Field(description="Short name for table headers.")
+    unit: str = Field(description="Unit of the value as given ('' for a ratio).")
+    description: str
+    better: str = Field(description="lower, higher, closer to 1, or neither (a figure, not a score).")
+    needs_truth: bool
+    in_tables: bool = Field(description="Shown as a column of the compact tables.")
+    scale: float = Field(description="Shown as value * scale in display_unit (a ratio as a percentage).")
+    display_unit: str
+    digits: int = Field(description="Decimals shown.")
+    headline: bool = Field(False, description="The headline metric (the standing-still baseline's figure).")
+
+
+def metric_infos() -> list[MetricInfo]:
+    return [MetricInfo(**m.as_dict(), headline=m.name == HEADLINE_METRIC) for m in list_metrics()]
+
+
+class _MetricsPayloadBase(BaseModel):
+    """How the values were scored; the values themselves are one field per registered metric."""
+
     convention: str = Field("ronin", description="How the estimate is aligned before scoring.")
     convention_text: str = Field("", description="The convention, the units and the definitions in words.")
     rte_window_s: float = Field(60.0, description="RTE window, s.")
+    smooth_s: float | None = Field(
+        None, description="Seconds both paths were smoothed over before their lengths (the model's window)."
+    )
     duration_s: float | None = Field(
         None, description="Length of the recording, s (below rte_window_s, RTE is the scaled drift)."
     )
-    stand_still: dict[str, float] | None = Field(
-        None, description="ATE / RTE / PDE of a predictor that never moves, same convention: the baseline."
+    stand_still: dict[str, float | None] | None = Field(
+        None, description="The table metrics of a predictor that never moves, same convention: the baseline."
     )
     alignment: str | None = Field(
         None, description="none, start, se2 or se3: how the prediction was aligned before scoring (align=)."
@@ -174,40 +192,103 @@ class MetricsPayload(BaseModel):
     )
     align_window_s: float | None = Field(None, description="Seconds of the start fitted on (align=start).")
     alignment_text: str = Field("", description="The alignment in words.")
+    worse_than_standing_still: bool | None = Field(
+        None, description="True when the model's ATE is at or above standing still's (None: no baseline)."
+    )
+    standing_still_text: str | None = Field(None, description="The comparison with standing still, in words.")
+    scope_note: str | None = Field(
+        None, description="Why ATE / RTE / PDE mean little here (too short or too confined), if they do."
+    )
 
     @classmethod
     def from_run(cls, run: Run) -> MetricsPayload | None:
-        pred = run.prediction
-        if pred.metrics is None:
+        metrics = run.metrics
+        if metrics is None:
             return None
-        values, verdict = pred.metrics.as_dict(), run.verdict
-        convention = str(values.get("convention", "ronin"))
-        window_s = float(values.get("rte_window_s", 60.0))
-        t = np.asarray(pred.trajectory.t_s)
+        verdict = run.verdict
+        still = verdict.still
+        t = np.asarray(run.prediction.trajectory.t_s)
         return cls(
-            **{k: _finite(values[k]) for k in ("ate", "rte", "pde")},
-            path_length_ratio=verdict.path_length_ratio,
-            predicted_path_m=verdict.predicted_path_m,
-            true_path_m=verdict.true_path_m,
-            convention=convention,
-            convention_text=describe(convention, window_s),
-            rte_window_s=window_s,
+            **{name: _finite(value) for name, value in metrics.values.items()},
+            convention=metrics.convention.value,
+            convention_text=describe(metrics.convention, metrics.rte_window_s),
+            rte_window_s=metrics.rte_window_s,
+            smooth_s=metrics.smooth_s,
             duration_s=float(t[-1] - t[0]) if len(t) > 1 else None,
             stand_still=verdict.stand_still,
-            **_alignment_fields(values),
+            **_alignment_fields(metrics),
+            worse_than_standing_still=None if still is None else still.worse_than_standing_still,
+            standing_still_text=None if still is None else still.text,
+            scope_note=verdict.scope_note,
         )
 
 
-def _alignment_fields(values: dict[str, Any]) -> dict[str, Any]:
-    """The alignment of ``TrajectoryMetrics.as_dict()`` (``ftin.metrics.align``), for ``MetricsPayload``."""
-    if values.get("alignment") is None:
+# One field per registered metric (None where undefined for this sequence, e.g. not finite): the
+# schema follows the registry, so a new metric needs no edit here.
+MetricsPayload = create_model(
+    "MetricsPayload",
+    __base__=_MetricsPayloadBase,
+    **{
+        m.name: (
+            float | None,
+            Field(None, description=f"{m.label}: {m.description}" + (f", {m.unit}" if m.unit else "")),
+        )
+        for m in list_metrics()
+    },
+)
+
+
+def _alignment_fields(metrics: Any) -> dict[str, Any]:
+    """The alignment of a ``TrajectoryMetrics`` (``ftin.metrics.alignment_modes``), for ``MetricsPayload``."""
+    if metrics.alignment is None:
         return {}
+    heading = metrics.heading_deg
     return {
-        "alignment": values["alignment"],
-        "heading_deg": _finite(values.get("heading_deg")) if values.get("heading_deg") is not None else None,
-        "align_window_s": values.get("align_window_s"),
-        "alignment_text": describe_alignment(values["alignment"]),
+        "alignment": metrics.alignment,
+        "heading_deg": None if heading is None else _finite(heading),
+        "align_window_s": metrics.align_window_s,
+        "alignment_text": describe_alignment(metrics.alignment),
     }
+
+
+class FigurePayload(BaseModel):
+    name: str
+    unit: str
+    value: float | None = Field(description="None where the figure is undefined (e.g. no steps detected).")
+    description: str
+
+
+class GpsPayload(BaseModel):
+    """The export's GPS fixes in the prediction's frame (aligned at the start), and how they compare."""
+
+    t: list[float] = Field(description="Time of each fix on the recording's clock, s.")
+    x: list[float] = Field(description="Fix positions in the prediction's frame, m.")
+    y: list[float]
+    accuracy_m: list[float | None] = Field(description="Horizontal accuracy of each fix, m (None: unknown).")
+    figures: list[FigurePayload]
+
+
+class PlausibilityPayload(BaseModel):
+    """Figures that need no ground truth (ftin.metrics.plausibility) and the warnings they raise."""
+
+    figures: list[FigurePayload]
+    warnings: list[str]
+    gps: GpsPayload | None = Field(None, description="Present when the export has GPS fixes (Location.csv).")
+
+    @classmethod
+    def from_run(cls, run: Run) -> PlausibilityPayload:
+        p = run.plausibility
+        gps = None
+        if p.gps is not None:
+            accuracy = [None if not math.isfinite(a) else float(a) for a in p.gps.accuracy_m]
+            gps = GpsPayload(
+                t=p.gps.t_s.tolist(),
+                x=p.gps.p_m[:, 0].tolist(),
+                y=p.gps.p_m[:, 1].tolist(),
+                accuracy_m=accuracy,
+                figures=[FigurePayload(**vars(f)) for f in p.gps_figures],
+            )
+        return cls(figures=[FigurePayload(**vars(f)) for f in p.figures], warnings=p.warnings, gps=gps)
 
 
 class PredictionResponse(BaseModel):
@@ -224,7 +305,12 @@ class PredictionResponse(BaseModel):
     notes: list[str] = Field(
         default_factory=list, description="Information on how the input was read (time unit, resampling)."
     )
-    metrics: MetricsPayload | None
+    metrics: MetricsPayload | None = Field(
+        description="Every registered metric by name (GET /metrics says which)."
+    )
+    plausibility: PlausibilityPayload | None = Field(
+        None, description="Path length, speed, steps, cadence, step length, GPS: figures without ground truth"
+    )
     csv_url: str
     tum_url: str = Field("", description="The trajectory in TUM format (evo): /runs/{run_id}/trajectory.tum.")
     ground_truth_tum_url: str | None = Field(
@@ -244,9 +330,7 @@ class PredictionResponse(BaseModel):
             sequence=run.sequence.name,
             source=run.source,
             trajectory=TrajectoryPayload.from_trajectory(pred.trajectory),
-            ground_truth=None
-            if run.sequence.gt is None
-            else TrajectoryPayload.from_trajectory(run.sequence.gt),
+            ground_truth=None if run.truth is None else TrajectoryPayload.from_trajectory(run.truth),
             velocity=VelocityPayload(
                 t=np.asarray(pred.window_t_s).tolist(),
                 vx=v[:, 0].tolist(),
@@ -258,9 +342,10 @@ class PredictionResponse(BaseModel):
             warnings=verdict.warnings,
             notes=verdict.notes,
             metrics=MetricsPayload.from_run(run),
+            plausibility=PlausibilityPayload.from_run(run),
             csv_url=f"/runs/{run.run_id}/trajectory.csv",
             tum_url=f"/runs/{run.run_id}/trajectory.tum",
-            ground_truth_tum_url=None if run.sequence.gt is None else f"/runs/{run.run_id}/ground_truth.tum",
+            ground_truth_tum_url=None if run.truth is None else f"/runs/{run.run_id}/ground_truth.tum",
             metrics_url=f"/runs/{run.run_id}/metrics.json",
             scene_url=scene_url,
         )
@@ -289,5 +374,7 @@ class RunStatusResponse(BaseModel):
 
 
 def _finite(value: Any) -> float | None:
+    if value is None:
+        return None
     value = float(value)
     return value if math.isfinite(value) else None

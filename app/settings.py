@@ -13,7 +13,7 @@ Decisions:
 - The default model (``FTIN_DEFAULT_MODEL``) is ``ftin-pedestrian``, trained on real walks; when
   that checkpoint is absent the first FTIN checkpoint stands in (``ModelStore``). The 3D scene ticks,
   per sequence, the checkpoint trained on that kind of data (``app.services.kinds``).
-- Limits (issue 6): one prediction reads at most ``FTIN_MAX_SAMPLES`` samples (default one hour at
+- Limits: one prediction reads at most ``FTIN_MAX_SAMPLES`` samples (default one hour at
   200 Hz) and must finish within ``FTIN_INFERENCE_TIMEOUT_S`` (waiting for a free slot included);
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
   slow each other down, and each holds its windows in memory); finished runs are kept while they

@@ -7,9 +7,8 @@ wants to know (training data, split, metrics, wall time, epochs, package version
 - The JSON stores the SHA-256 of the weights file, so a pair written by different saves, or a
   corrupted weights file, is reported instead of silently loaded.
 - Weights may be stored as float16 (half the size); ``load_model`` upcasts them to the model's dtype.
-- Files are written to a temporary name and ``os.replace``d, so a killed process never leaves a
-  half-written file under the real name; the weights go first, the JSON (which names their hash)
-  last.
+- Files are written atomically (``ftin.files``); the weights go first, the JSON (which names
+  their hash) last.
 """
 
 from __future__ import annotations
@@ -17,21 +16,17 @@ from __future__ import annotations
 import hashlib
 import importlib.metadata
 import json
-import math
-import os
 import struct
-import tempfile
 from dataclasses import dataclass
-from enum import Enum
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 from safetensors.torch import load as load_safetensors
 from safetensors.torch import save as save_safetensors
 
 from ftin.data.windows import InputNormalization
+from ftin.files import atomic_write_bytes, atomic_write_text, to_json_safe
 from ftin.models import UnknownModelError, create_model
 from ftin.models.base import VelocityModel
 
@@ -162,54 +157,6 @@ def package_version() -> str:
         return importlib.metadata.version("ftin-studio")
     except importlib.metadata.PackageNotFoundError:  # running from a source tree that is not installed
         return "unknown"
-
-
-# --- atomic files and JSON -------------------------------------------------------------------------
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path`` and ``os.replace`` it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        # mkstemp creates 0600; keep a replaced file's mode, else the usual 0644 of a new file.
-        os.chmod(tmp, path.stat().st_mode & 0o777 if path.exists() else 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    atomic_write_bytes(path, text.encode("utf-8"))
-
-
-def to_json_safe(value: Any) -> Any:
-    """Plain JSON values: numpy scalars and arrays, tuples, paths and enums converted; NaN/inf -> None."""
-    if isinstance(value, dict):
-        return {str(k): to_json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return to_json_safe(value.tolist())
-    if isinstance(value, Enum):
-        return value.value
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if value is None or isinstance(value, str):
-        return value
-    raise TypeError(f"cannot store {type(value).__name__} value {value!r} in checkpoint JSON")
 
 
 # --- loading checks --------------------------------------------------------------------------------

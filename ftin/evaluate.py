@@ -1,4 +1,4 @@
-"""Evaluate a checkpoint on sequences with ground truth: per-sequence and mean ATE / RTE / PDE.
+"""Evaluate a checkpoint on sequences with ground truth: every registered metric per sequence and mean.
 
 Each sequence goes through exactly the inference path users get (``ftin.infer``), and the metrics
 follow one stated convention (``ftin.metrics``, RoNIN's by default). The mean weighs every sequence
@@ -9,11 +9,14 @@ every result carries its path-length ratio (predicted / true horizontal path).
 
 ``score(prediction)`` is the one scoring step (evo's ``ape(traj_ref, traj_est)``: outside the
 estimator): the CLI, the evaluation, the report and the app call it on what inference returned.
-It compares the trajectory with the prepared ground truth (``Prediction.prepared``) under the rules
-of ``ftin.metrics.align``: the given alignment, else, under RoNIN's convention, the sequence's
+It compares the trajectory with the prepared ground truth (``Prediction.truth``) under the rules
+of ``ftin.metrics.alignment_modes``: the given alignment, else, under RoNIN's convention, the sequence's
 default (``start`` where the ground truth may be in another world frame, else ``none``); an
 alignment that cannot be fitted falls back to the unaligned metrics with a warning, and a ground
-truth that cannot be scored at all (one that never moves has no PDE) gives no metrics and a warning.
+truth that cannot be scored at all (one that never moves has no drift ratio) gives no metrics and a warning.
+The result stands beside the prediction (``Scored``), which it never changes, as evo's ``ape()``
+returns a result and leaves the reference alone. Path lengths are compared over the model's window
+(``ftin.metrics.definitions``).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from typing import Any
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
-from ftin.data.types import ImuSequence
+from ftin.data.types import ImuSequence, Trajectory
 from ftin.infer import Prediction, predict_trajectory
 from ftin.metrics import (
     Alignment,
@@ -36,6 +39,7 @@ from ftin.metrics import (
     describe,
     evaluate_aligned,
     evaluate_trajectory,
+    list_metrics,
     mean_metrics,
     stand_still,
 )
@@ -48,6 +52,16 @@ class SequenceResult:
     duration_s: float
     warnings: list[str] = field(default_factory=list)
     stand_still: TrajectoryMetrics | None = None  # the predictor that never moves, same ground truth
+
+
+def _values(m: TrajectoryMetrics | None) -> dict[str, Any] | None:
+    """Every registered metric by name, and the alignment and fitted heading where one was fitted."""
+    if m is None:
+        return None
+    values: dict[str, Any] = dict(m.values)
+    if m.alignment is not None:  # ftin.metrics.alignment_modes: which alignment, and the fitted heading
+        values.update(alignment=m.alignment, heading_deg=m.heading_deg)
+    return values
 
 
 @dataclass(frozen=True)
@@ -64,41 +78,43 @@ class EvaluationReport:
         return describe(self.convention, self.rte_window_s)
 
     def to_json(self) -> dict[str, Any]:
-        def values(m: TrajectoryMetrics | None) -> dict[str, float | None] | None:
-            if m is None:
-                return None
-            values = {"ate": m.ate, "rte": m.rte, "pde": m.pde, "path_length_ratio": m.path_length_ratio}
-            if m.alignment is not None:  # ftin.metrics.align: which alignment, and the fitted heading
-                values.update(alignment=m.alignment, heading_deg=m.heading_deg)
-            return values
-
         return {
             "checkpoint": self.checkpoint,
             "sequences": [
                 {
                     "name": r.name,
-                    **values(r.metrics),
+                    **_values(r.metrics),
                     "duration_s": r.duration_s,
-                    "stand_still": values(r.stand_still),
+                    "stand_still": _values(r.stand_still),
                 }
                 for r in self.sequences
             ],
-            "mean": values(self.mean),
-            "stand_still": values(self.stand_still),
+            "mean": _values(self.mean),
+            "stand_still": _values(self.stand_still),
             "convention": self.convention.value,
             "rte_window_s": self.rte_window_s,
             "description": self.describe(),
+            "metrics": [m.as_dict() for m in list_metrics()],
         }
 
 
 @dataclass(frozen=True)
 class Scored:
-    """What ``score`` found: the metrics (None when the ground truth cannot be scored), the fitted
-    alignment (None when none was fitted), and warnings for the result."""
+    """What ``score`` found, beside the prediction it scored (which it never changes): the metrics
+    (None when the ground truth cannot be scored), the fitted alignment (None when none was fitted),
+    the standing-still baseline under the same convention, and warnings for the result."""
 
     metrics: TrajectoryMetrics | None
     fit: AlignmentFit | None
     warnings: list[str] = field(default_factory=list)
+    stand_still: TrajectoryMetrics | None = None
+
+    def truth_in_estimate_frame(self, truth: Trajectory) -> Trajectory:
+        """``truth`` drawn where the prediction was scored against it: moved by the inverse of the
+        fitted alignment (as given when nothing was fitted). ``truth`` itself is not changed."""
+        if self.fit is None or self.fit.alignment is Alignment.NONE:
+            return truth
+        return self.fit.gt_in_estimate_frame(truth)
 
 
 def score(
@@ -112,27 +128,38 @@ def score(
     """The prediction's trajectory scored against its prepared ground truth (module docstring); None
     without ground truth. ``alignment`` sets the convention it implies; ``default_alignment_rule=False``
     scores without alignment when none is given (the report's raw tables)."""
-    prepared = prediction.prepared.seq if prediction.prepared is not None else None
-    if prepared is None or prepared.gt is None:
+    gt = prediction.truth
+    if gt is None:
         return None
-    trajectory, gt = prediction.trajectory, prepared.gt
+    trajectory, smooth_s = prediction.trajectory, prediction.window_s
     if alignment is not None:
         convention = convention_for(alignment)
     convention = Convention(convention)
     chosen = None if alignment is None else Alignment(alignment)
     if chosen is None and convention is Convention.RONIN and default_alignment_rule:
-        chosen = default_alignment(prepared.meta.get("gt_frame"))
+        chosen = default_alignment(prediction.truth_frame)
+    still = _stand_still(gt, convention, rte_window_s, smooth_s)
     warnings: list[str] = []
     if chosen is not None:
         try:
-            metrics, fit = evaluate_aligned(trajectory, gt, chosen, rte_window_s)
-            return Scored(metrics, fit)
+            metrics, fit = evaluate_aligned(trajectory, gt, chosen, rte_window_s, smooth_s=smooth_s)
+            return Scored(metrics, fit, [], still)
         except ValueError as exc:  # e.g. a ground truth that never moves
             warnings.append(f"alignment {chosen.value} not possible ({exc}); metrics without it")
     try:
-        return Scored(evaluate_trajectory(trajectory, gt, convention, rte_window_s), None, warnings)
+        metrics = evaluate_trajectory(trajectory, gt, convention, rte_window_s, smooth_s)
+        return Scored(metrics, None, warnings, still)
     except ValueError as exc:  # then the alignment's failure says nothing more
-        return Scored(None, None, [f"metrics unavailable: {exc}"])
+        return Scored(None, None, [f"metrics unavailable: {exc}"], still)
+
+
+def _stand_still(
+    gt: Trajectory, convention: Convention, rte_window_s: float, smooth_s: float | None
+) -> TrajectoryMetrics | None:
+    try:
+        return evaluate_trajectory(stand_still(gt), gt, convention, rte_window_s, smooth_s)
+    except ValueError:  # a truth that never moves has no baseline either
+        return None
 
 
 def evaluate_checkpoint(
@@ -147,9 +174,9 @@ def evaluate_checkpoint(
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
 
-    ``alignment`` (``ftin.metrics.align``) sets the convention it implies; ``None`` with the RoNIN
-    convention picks each sequence's default (``start`` where the ground truth may be in another world
-    frame than the device's, else ``none``); ``None`` with another convention scores as before.
+    ``alignment`` (``ftin.metrics.alignment_modes``) sets the convention it implies; ``None`` with the
+    RoNIN convention picks each sequence's default (``start`` where the ground truth may be in another
+    world frame than the device's, else ``none``); ``None`` with another convention scores as before.
     """
     if alignment is not None:
         convention = convention_for(alignment)
@@ -160,22 +187,21 @@ def evaluate_checkpoint(
             raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
         if on_sequence is not None:
             on_sequence(seq.name)
-        prediction = predict_trajectory(loaded, seq, stride=stride)
+        prediction = predict_trajectory(loaded, seq, stride=stride, keep_prepared=False)
         scored = score(prediction, alignment, convention, rte_window_s)
-        prediction.warnings.extend(scored.warnings)
         if scored.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(scored.warnings[-1:])}")
-        prepared = prediction.prepared.seq
-        still = evaluate_trajectory(stand_still(prepared.gt), prepared.gt, convention, rte_window_s)
-        result = SequenceResult(seq.name, scored.metrics, prepared.duration_s, prediction.warnings, still)
-        results.append(result)
+        duration_s = prediction.trajectory.duration_s  # the prepared recording's span
+        warnings = [*prediction.warnings, *scored.warnings]
+        results.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings, scored.stand_still))
     if not results:
         raise ValueError("evaluate_checkpoint needs at least one sequence")
+    stills = [r.stand_still for r in results if r.stand_still is not None]
     return EvaluationReport(
         checkpoint=loaded.name,
         convention=convention,
         rte_window_s=float(rte_window_s),
         sequences=results,
         mean=mean_metrics([r.metrics for r in results]),
-        stand_still=mean_metrics([r.stand_still for r in results]),
+        stand_still=mean_metrics(stills) if stills else None,
     )

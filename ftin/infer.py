@@ -36,27 +36,30 @@ call. Steps and decisions:
    height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
    (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
-   with the device world frame at the start, design §2); without it, the estimate is in the
+   with the device world frame at the start: ``docs/design.md``, "Frames"); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).
 6. Scoring is not inference: ``ftin.evaluate.score(prediction)`` compares the trajectory with the
-   prepared ground truth under the alignment rules of ``ftin.metrics.align``, for the CLI, the
-   evaluation and the app alike. ``Prediction.metrics`` stays ``None`` until a caller scores.
+   prepared ground truth (``Prediction.truth``) under the alignment rules of
+   ``ftin.metrics.alignment_modes``, for the CLI, the evaluation and the app alike, and returns a
+   result of its own: a prediction is never written after it is returned.
+7. ``keep_prepared=False`` keeps only the model's input (``imu_world``, ``starts``: 24 bytes a sample)
+   instead of the whole prepared copy of the recording, for a server that keeps many results.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
+from ftin.data.gaps import holes_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
-from ftin.metrics import TrajectoryMetrics
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
@@ -70,11 +73,19 @@ class Prediction:
     velocity_m_s: np.ndarray  # (M, D) world-frame mean velocity over each span
     orientation_source: str  # "device", "ground_truth" or "estimated"
     frame: str  # "ground_truth" or "device_world"
-    warnings: list[str]
-    metrics: TrajectoryMetrics | None  # None from inference; set by a caller that scores (ftin.evaluate)
+    warnings: list[str]  # what may be wrong with the result
     features: dict | None  # name -> (windows, ...) float32 feature taps, when asked (window models)
     span_t_s: np.ndarray | None = None  # (M, 2) start and end time of each prediction's span
-    prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare)
+    prepared: PreparedSequence | None = None  # what the model saw (ftin.data.prepare); see step 7
+    # What scoring reads (ftin.evaluate.score): the ground truth on the prediction's grid, whether its
+    # world frame is known to be the device's ("gt_frame"), and the model's window in seconds.
+    truth: Trajectory | None = None
+    truth_frame: str | None = None
+    window_s: float | None = None
+    orientation_filter: str | None = None  # which attitude filter ran (VQF 6-D or 9-D), when one did
+    imu_world: np.ndarray | None = None  # (N, 6) float32 world-frame IMU the model read
+    starts: np.ndarray | None = None  # (M,) first sample of each of the model's windows
+    notes: list[str] = field(default_factory=list)  # how the input was read (gaps bridged, ...)
 
 
 def predict_trajectory(
@@ -85,9 +96,11 @@ def predict_trajectory(
     batch_size: int = 1024,
     progress: Callable[[int, int], None] | None = None,
     return_features: bool = False,
+    keep_prepared: bool = True,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
-    carries the prepared sequence (``Prediction.prepared``) and no metrics."""
+    carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
+    what scoring reads, never metrics."""
     if batch_size < 1:
         raise ValueError(f"batch_size must be >= 1, got {batch_size}")
     stride = loaded.stride if stride is None else stride
@@ -112,7 +125,8 @@ def predict_trajectory(
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     gt = prepared.seq.gt
     start_m = gt.p_world_m[0] if gt is not None else np.zeros(3)
-    p_world_m = integrate_spans(t_s, span_start, span_end, velocity, start_m)
+    holes = holes_of(prepared.seq)
+    p_world_m = integrate_spans(t_s, *outside_holes(t_s, span_start, span_end, velocity, holes), start_m)
     return Prediction(
         trajectory=Trajectory(t_s.copy(), p_world_m, prepared.seq.q_world_device_wxyz),
         window_t_s=0.5 * (t_s[span_start] + t_s[span_end]),
@@ -120,10 +134,16 @@ def predict_trajectory(
         orientation_source=str(prepared.seq.meta.get("orientation_source", "device")),
         frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
         warnings=[*prepared.seq.meta.get("warnings", []), *notes],
-        metrics=None,
         features=features,
         span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
-        prepared=prepared,
+        prepared=prepared if keep_prepared else None,
+        truth=gt,
+        truth_frame=prepared.seq.meta.get("gt_frame"),
+        window_s=loaded.window / float(loaded.imu_rate_hz),
+        orientation_filter=prepared.seq.meta.get("orientation_filter"),
+        imu_world=prepared.imu_world,
+        starts=prepared.starts,
+        notes=list(prepared.seq.meta.get("notes", [])),
     )
 
 
@@ -170,6 +190,34 @@ def select_parts(
     span_start = np.concatenate([first_start, later_start]).astype(np.int64)
     velocity = np.concatenate([part_velocity[0], part_velocity[1:, parts - later :].reshape(-1, dim)])
     return span_start, span_start + part, velocity
+
+
+def outside_holes(
+    t_s: np.ndarray,
+    span_start: np.ndarray,
+    span_end: np.ndarray,
+    velocity_m_s: np.ndarray,
+    holes_s: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The spans that see no hole in the recording (``ftin.data.gaps``: the data there is invented
+    by interpolation), plus a zero-velocity span over each stretch no remaining span covers, so the
+    trajectory holds its position across a hole instead of carrying the last velocity on."""
+    if not len(holes_s):
+        return span_start, span_end, velocity_m_s
+    a, b = t_s[span_start], t_s[span_end]
+    blind = ((a[:, None] < holes_s[None, :, 1]) & (b[:, None] > holes_s[None, :, 0])).any(axis=1)
+    keep = ~blind
+    covered = np.zeros(len(t_s) - 1, dtype=bool)
+    for s, e in zip(span_start[keep], span_end[keep], strict=True):
+        covered[s:e] = True
+    last_end = int(span_end.max())
+    fill_start = np.flatnonzero(~covered[:last_end])
+    zero = np.zeros((len(fill_start), velocity_m_s.shape[1]))
+    order = np.argsort(np.concatenate([span_start[keep], fill_start]), kind="stable")
+    starts = np.concatenate([span_start[keep], fill_start])[order]
+    ends = np.concatenate([span_end[keep], fill_start + 1])[order]
+    velocity = np.concatenate([velocity_m_s[keep], zero])[order]
+    return starts, ends, velocity
 
 
 def integrate_windows(

@@ -1,10 +1,11 @@
 """The evaluation protocol: fixed splits per dataset and the training jobs of the campaign.
 
-One place for what docs/results/protocol.md states, read by the campaign runner
-(``scripts/campaign.py``), the report (``ftin table --campaign``) and the model cards.
+One place for what docs/results/protocol.md states, read by the campaign (``ftin campaign``), the
+report (``ftin table --campaign``) and the model cards: the splits, the walker-wise folds, the jobs
+and the campaign's policy (which FTIN variant, which run may ship, the simulator's job).
 
 Splits (fixed before any training, by whole recording, every carry mode in each part where the
-data allows; paths relative to the dataset's root folder):
+data allows; paths relative to the dataset's folder, ``DATA_FOLDERS``):
 - ``train``: the optimiser sees these;
 - ``val``: early stopping, the learning-rate schedule, the best epoch, the seed that ships and the
   FTIN variant: every choice;
@@ -12,6 +13,12 @@ data allows; paths relative to the dataset's root folder):
 
 RIDI's test part holds two users who appear nowhere else (huayi, shali): the closest we get to the
 "unseen user" a phone app meets. OxIOD has two handheld users only, so its test part mixes them.
+Inria's test part is every iPhone 4S walk: a phone no training or validation walk comes from.
+
+Walker-wise folds (``WALKER_FOLDS``, fixed before any training): the recordings outside the test
+parts, grouped by walker (``walker``); in fold k the walkers of ``WALKER_FOLDS[dataset][k]`` are
+validation and every other walker trains, so validation asks the question the test scores (walkers
+the model has never seen). Inria has two walkers, hence two folds for every dataset.
 
 Training settings, the same for every model (``COMMON``): Adam lr 1e-3, plateau decay (factor 0.3,
 patience 3 epochs on the validation 1 s-velocity MSE), early stopping after 8 epochs without a new
@@ -27,14 +34,43 @@ the reference never switches to the NLL within its epochs).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 OXIOD = "oxiod"
 RIDI = "ridi"
-PEDESTRIAN = "pedestrian"  # OxIOD and RIDI together, at 100 Hz
+INRIA = "inria"  # the Inria smartphone attitude benchmark (walks with Qualisys ground truth)
+PEDESTRIAN = "pedestrian"  # OxIOD and RIDI together, at 100 Hz (the first campaign's app default)
+WALKING = "walking"  # every walking dataset together (OxIOD, RIDI, Inria), at 100 Hz
 SIM = "sim"
+COMBINED = {PEDESTRIAN: (OXIOD, RIDI), WALKING: (OXIOD, RIDI, INRIA)}
+# Where each dataset lives under the data root (the Inria reader reads ``<platform>/<walk>`` folders).
+DATA_FOLDERS = {OXIOD: "oxiod", RIDI: "ridi", INRIA: "inria_attitude/datasets"}
+# Orientation sources a dataset's test and validation parts are scored with.
+EVAL_ORIENTATIONS = {d: ("ground_truth", "device") for d in DATA_FOLDERS}
+
+_INRIA_MOTIONS = (
+    *(f"{dist}_{m}" for dist in ("Dist", "NoDist") for m in ("AR", "BackPocket", "FrontPocket")),
+    *(f"{dist}_{m}" for dist in ("Dist", "NoDist") for m in ("Phoning", "Swinging", "Texting")),
+    "NoDist_RunningHand",
+    "NoDist_RunningPocket",
+)
+_INRIA_PHONES = {"Nexus5": "android", "iPhone5": "ios", "iPhone4S": "ios"}
+INRIA_WALKERS = ("Guillaume", "Thibaud")
+INRIA_TEST_PHONE = "iPhone4S"
+
+
+def _inria_walks(phones: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(
+        f"{_INRIA_PHONES[phone]}/{walker}_{phone}_{motion}"
+        for phone in phones
+        for walker in INRIA_WALKERS
+        for motion in _INRIA_MOTIONS
+    )
+
 
 SPLITS: dict[str, dict[str, tuple[str, ...]]] = {
     OXIOD: {
@@ -72,7 +108,50 @@ SPLITS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 
-RATE_HZ = {OXIOD: 100.0, RIDI: 200.0, PEDESTRIAN: 100.0, SIM: 100.0}
+
+def walker(dataset: str, recording: str) -> str:
+    """Who walked a recording (a path relative to the dataset's folder). OxIOD: the handheld folders
+    are users 1 and 2; each trolley folder is its own group. RIDI and Inria: the name's first word."""
+    if dataset == OXIOD:
+        top, folder = recording.split("/")[:2]
+        return {"handheld": "user1", "multi users": "user2"}.get(top, f"{top}-{folder}")
+    if dataset in (RIDI, INRIA):
+        return Path(recording).name.split("_")[0]
+    raise ValueError(f"no walkers known for dataset {dataset!r}")
+
+
+# Validation walkers of fold 0 and fold 1 (everyone else outside the test part trains). Balanced by
+# recordings and carry modes: OxIOD a handheld user and a trolley group each (4 / 6 recordings),
+# RIDI dan (8: bag, body, handheld, leg) against hang, hao and ma (9: bag, body, handheld), Inria
+# one walker each (28 walks on the Nexus 5 and the iPhone 5).
+WALKER_FOLDS: dict[str, tuple[tuple[str, ...], ...]] = {
+    OXIOD: (("user1", "trolley-data1"), ("user2", "trolley-data2")),
+    RIDI: (("dan",), ("hang", "hao", "ma")),
+    INRIA: (("Guillaume",), ("Thibaud",)),
+}
+FOLDS = (0, 1)
+
+
+def fold_parts(dataset: str, fold: int) -> dict[str, tuple[str, ...]]:
+    """Train, validation and (untouched) test recordings of walker fold ``fold``."""
+    if dataset not in WALKER_FOLDS or fold not in FOLDS:
+        raise ValueError(f"no walker fold {fold!r} for dataset {dataset!r}; folds: {FOLDS}")
+    if dataset == INRIA:
+        pool, test = _inria_walks(("Nexus5", "iPhone5")), _inria_walks((INRIA_TEST_PHONE,))
+    else:
+        pool, test = (*SPLITS[dataset]["train"], *SPLITS[dataset]["val"]), SPLITS[dataset]["test"]
+    held = set(WALKER_FOLDS[dataset][fold])
+    return {
+        "train": tuple(sorted(r for r in pool if walker(dataset, r) not in held)),
+        "val": tuple(sorted(r for r in pool if walker(dataset, r) in held)),
+        "test": test,
+    }
+
+
+# Inria has no split by recording: its fixed split is walker fold 0, its test part the iPhone 4S.
+SPLITS[INRIA] = fold_parts(INRIA, 0)
+
+RATE_HZ = {OXIOD: 100.0, RIDI: 200.0, INRIA: 100.0, PEDESTRIAN: 100.0, WALKING: 100.0, SIM: 100.0}
 
 # Models of the paper's comparison, in Table 1's column order, then the ablations.
 COMPARED = ("ronin_resnet", "ronin_lstm", "ronin_tcn", "rnin", "imunet", "tlio", "ftin")
@@ -98,16 +177,37 @@ COMMON: dict[str, Any] = {
 PASSES_PER_EPOCH = 5  # each sample appears in about this many training windows per epoch
 
 
+# Training recipes beside ``COMMON``: ours (the budget this machine allows) and the paper's optimiser
+# settings (Adam lr 1e-4, batch 512, at most 100 epochs). A recipe is options; so is any variant.
+RECIPES: dict[str, dict[str, Any]] = {"ours": {}, "paper": {"lr": 1e-4, "batch_size": 512, "max_epochs": 100}}
+SIM_TRAIN_WALKS = 48  # simulated two-minute walks for the simulator model (seeds disjoint from the samples)
+SIM_VAL_WALKS = 4
+
+
 @dataclass(frozen=True)
 class Job:
-    """One training run of the campaign: a model (variant), a dataset and a seed."""
+    """One training run of a campaign: a model (variant), a dataset (walker fold) and a seed.
+
+    ``options`` are ``TrainConfig`` options beyond ``COMMON``: the model's window and batch
+    (``model_options``), then whatever a variant changes (a recipe, an augmentation set, the input
+    orientation source), so a variant is data. ``parts`` names the recordings of a dataset outside
+    the protocol (``{"train": [...], "val": [...], "test": [...]}``, paths under the data root)."""
 
     name: str  # run folder name, e.g. "oxiod/ftin-mixed-s0"
     model: str
     dataset: str
     seed: int
-    variant: str | None = None  # FTIN's TDL variant
-    options: dict[str, Any] = field(default_factory=dict)  # TrainConfig options beyond COMMON
+    variant: str | None = None  # FTIN's TDL variant, or a variant's label
+    options: dict[str, Any] = field(default_factory=dict)
+    fold: int | None = None  # walker fold (``WALKER_FOLDS``); None: the fixed split
+    parts: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def paths(self, data_root: Path, part: str, dataset: str | None = None) -> list[Path]:
+        """A part's recordings: the job's own ``parts``, else the protocol's (one member of a
+        combined dataset with ``dataset``)."""
+        if self.parts:
+            return [Path(data_root) / rel for rel in self.parts.get(part, ())]
+        return split_paths(data_root, dataset or self.dataset, part, self.fold)
 
     def config(self, data_root: Path) -> dict[str, Any]:
         """``TrainConfig`` options (without ``out_dir``) with the split's paths under ``data_root``."""
@@ -117,22 +217,69 @@ class Job:
             "model": self.model,
             "seed": self.seed,
             "name": self.checkpoint_stem,
-            "data": [str(p) for p in split_paths(data_root, self.dataset, "train")],
-            "val": [str(p) for p in split_paths(data_root, self.dataset, "val")],
+            "data": [str(p) for p in self.paths(data_root, "train")],
+            "val": [str(p) for p in self.paths(data_root, "val")],
         }
+
+    def evaluation_sets(self) -> list[tuple[str, str, tuple[str | None, ...]]]:
+        """``(dataset, part, orientation sources)`` the finished job is scored on: validation and test
+        of its dataset (each member of a combined one); reader default for data outside the protocol."""
+        members = COMBINED.get(self.dataset, (self.dataset,))
+        return [
+            (d, part, EVAL_ORIENTATIONS.get(d, (None,)) if not self.parts else (None,))
+            for d in members
+            for part in ("val", "test")
+        ]
 
     @property
     def checkpoint_stem(self) -> str:
         return f"{self.model}-{self.dataset}"
 
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "model": self.model,
+            "dataset": self.dataset,
+            "seed": self.seed,
+            "variant": self.variant,
+            "options": self.options,
+            "fold": self.fold,
+            "parts": {k: list(v) for k, v in self.parts.items()},
+        }
 
-def split_paths(data_root: Path, dataset: str, part: str) -> list[Path]:
-    """Absolute paths of a split part; ``pedestrian`` joins OxIOD's and RIDI's."""
-    if dataset == PEDESTRIAN:
-        return [*split_paths(data_root, OXIOD, part), *split_paths(data_root, RIDI, part)]
+    @classmethod
+    def from_json(cls, spec: Mapping[str, Any]) -> Job:
+        """A job from its JSON form; ``options`` go over the model's ``model_options`` when the
+        dataset has a rate in the protocol."""
+        unknown = sorted(
+            set(spec) - {"name", "model", "dataset", "seed", "variant", "options", "fold", "parts"}
+        )
+        missing = [key for key in ("name", "model", "dataset") if key not in spec]
+        if unknown or missing:
+            raise ValueError(f"job {spec.get('name')!r}: unknown key(s) {unknown}, missing {missing}")
+        base = model_options(spec["model"], spec["dataset"]) if spec["dataset"] in RATE_HZ else {}
+        return cls(
+            name=str(spec["name"]),
+            model=str(spec["model"]),
+            dataset=str(spec["dataset"]),
+            seed=int(spec.get("seed", 0)),
+            variant=spec.get("variant"),
+            options={**base, **dict(spec.get("options") or {})},
+            fold=spec.get("fold"),
+            parts={k: tuple(v) for k, v in (spec.get("parts") or {}).items()},
+        )
+
+
+def split_paths(data_root: Path, dataset: str, part: str, fold: int | None = None) -> list[Path]:
+    """Absolute paths of a part of the fixed split (``fold`` None) or of a walker fold; a combined
+    dataset (``COMBINED``) joins its members'."""
+    if dataset in COMBINED:
+        return [p for d in COMBINED[dataset] for p in split_paths(data_root, d, part, fold)]
     if dataset not in SPLITS:
-        raise ValueError(f"no split for dataset {dataset!r}; known: {', '.join(SPLITS)}, {PEDESTRIAN}")
-    return [Path(data_root) / dataset / rel for rel in SPLITS[dataset][part]]
+        known = ", ".join([*SPLITS, *COMBINED])
+        raise ValueError(f"no split for dataset {dataset!r}; known: {known}")
+    rels = SPLITS[dataset][part] if fold is None else fold_parts(dataset, fold)[part]
+    return [Path(data_root) / DATA_FOLDERS[dataset] / rel for rel in rels]
 
 
 def model_options(model: str, dataset: str) -> dict[str, Any]:
@@ -176,8 +323,9 @@ def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
         for variant in FTIN_VARIANTS:
             add("ftin", dataset, 0, variant)
         add("ronin_resnet", dataset, 0)
-    if ftin_variant is not None:  # the app's default model, as soon as the variant is known
+    if ftin_variant is not None:  # the app's default model and the samples' one, once the variant is known
         add("ftin", PEDESTRIAN, 0, ftin_variant)
+        jobs.append(sim_job(ftin_variant))
     for dataset in (OXIOD, RIDI):
         for model in ("resnet_fdl", "resnet_tdl", "ronin_lstm", "ronin_tcn", "rnin", "imunet", "tlio"):
             add(model, dataset, 0)
@@ -188,3 +336,61 @@ def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
             if ftin_variant is not None:
                 add("ftin", dataset, seed, ftin_variant)
     return jobs
+
+
+CAMPAIGNS = {"table1": campaign_jobs}  # job lists by name (``ftin campaign plan --jobs``)
+
+
+# --- the campaign's policy -------------------------------------------------------------------------
+
+
+def sim_job(variant: str) -> Job:
+    """FTIN on simulated walks (``SIM_TRAIN_WALKS`` / ``SIM_VAL_WALKS`` under the campaign folder's
+    ``sim-data``), tested on the app's bundled samples (never trained or chosen on)."""
+    options = {
+        **model_options("ftin", SIM),
+        "model_kwargs": dict(FTIN_VARIANTS[variant]),
+        "orientation": None,
+    }
+    samples = Path(__file__).resolve().parent / "sim" / "samples"
+    parts = {"train": ("sim-data/train",), "val": ("sim-data/val",), "test": (str(samples),)}
+    return Job(f"sim/ftin-{variant}-s0", "ftin", SIM, 0, variant, options, parts=parts)
+
+
+def choose_variant(val_mse: Mapping[str, Mapping[str, float]]) -> tuple[str | None, dict[str, float]]:
+    """FTIN's TDL variant: the one with the lower geometric-mean best validation MSE over OxIOD and
+    RIDI (``val_mse[variant][dataset]`` of the seed-0 runs). ``(None, {})`` until all four are known."""
+    scores: dict[str, float] = {}
+    for variant in FTIN_VARIANTS:
+        values = [val_mse.get(variant, {}).get(d) for d in (OXIOD, RIDI)]
+        if any(v is None for v in values):
+            return None, {}
+        scores[variant] = math.exp(sum(math.log(v) for v in values) / len(values))
+    return min(scores, key=scores.__getitem__), scores
+
+
+def validation_gate(record: Mapping[str, Any]) -> dict[str, Any]:
+    """Whether a run may be hosted, from its validation recordings (ground-truth orientation): it must
+    walk about the right distance (mean path ratio 0.8-1.25) and beat a predictor that never moves
+    (mean ATE below the stand-still ATE). ``refused`` names the rule it broke, else None."""
+    rows = [
+        row
+        for key, part in record["evaluation"]["parts"].items()
+        if key.split("/")[1] == "val" and key.endswith("ground_truth")
+        for row in part
+    ]
+    ratios = [row["path_length_ratio"] for row in rows if row["path_length_ratio"] is not None]
+    ratio = sum(ratios) / len(ratios) if ratios else None
+    ate = sum(row["ate"] for row in rows) / len(rows) if rows else None
+    still = sum(row["stand_still"]["ate"] for row in rows) / len(rows) if rows else None
+    refused = None
+    if ratio is None or not 0.8 <= ratio <= 1.25:
+        refused = "validation path ratio outside 0.8-1.25"
+    elif ate is None or still is None or ate >= still:
+        refused = "validation ATE not below standing still"
+    return {
+        "val_path_length_ratio": ratio,
+        "val_ate_m": ate,
+        "val_stand_still_ate_m": still,
+        "refused": refused,
+    }

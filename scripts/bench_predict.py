@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/bench_predict.py                # real uvicorn + viser, in-process
     .venv/bin/python scripts/bench_predict.py --runs 30 --testclient --no-viser
-    .venv/bin/python scripts/bench_predict.py --duration-s 1200 --runs 3 --warmup 1   # issue 10's 20 min
+    .venv/bin/python scripts/bench_predict.py --duration-s 1200 --runs 3 --warmup 1   # a 20 min recording
 
 Starts nothing external: the app runs in this process (uvicorn on a free 127.0.0.1 port, or
 FastAPI's TestClient), on the checkpoint folder the app would use (``FTIN_CHECKPOINT_DIR`` or

@@ -1,6 +1,6 @@
 """Time the 3D scene with many runs: drawing a run, one slider move, a dragged slider, and the REST
-call made while the scene holds the runs (issue 11: "the scene stays responsive with 10 models on
-a 4-minute recording"; "7.6 s per API call"; "spectra take 2-4 s per slider move").
+call made while the scene holds the runs (the scene must stay responsive with 10 models on a
+4-minute recording; slow spots seen before: 7.6 s per API call, 2-4 s of spectra per slider move).
 
     .venv/bin/python scripts/bench_scene.py [--minutes 4] [--repeats 2] [--chromium /usr/bin/chromium]
 

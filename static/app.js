@@ -10,6 +10,7 @@ const $ = (id) => document.getElementById(id);
 
 const state = {
   file: null, sceneUrl: null, polling: null, maxUploadMb: null, models: [],
+  metrics: [], // the registered metrics (GET /metrics): every table and row below iterates over them
   result: null, // the shown prediction (the page's own model)
   compared: [], // further predictions on the same file, from "Compare all models"
 };
@@ -49,10 +50,12 @@ function sceneHref(sceneUrl) {
 }
 
 async function loadModels() {
-  const [health, models] = await Promise.all([
+  const [health, models, metrics] = await Promise.all([
     fetch("/health").then((r) => r.json()),
     fetch("/models").then((r) => r.json()),
+    fetch("/metrics").then((r) => r.json()),
   ]);
+  state.metrics = metrics;
   state.sceneUrl = sceneHref(health.scene_url);
   state.maxUploadMb = health.max_upload_mb;
   if (state.sceneUrl) {
@@ -194,13 +197,22 @@ const FRAME_WORDS = {
   device_world: "trajectory in the phone's own world frame (no ground truth)",
 };
 
-function pathText(m) {
-  if (m.path_length_ratio === null || m.path_length_ratio === undefined) return "–";
-  return `${m.path_length_ratio.toFixed(2)} (${fmt(m.predicted_path_m, 1)} m of ${fmt(m.true_path_m, 1)} m)`;
+// A registered metric's value as shown: scaled, at its digits, with its unit ("1.23 m", "2.10 %").
+function metricText(def, value) {
+  const text = fmt(value, def.digits, def.scale);
+  return text === "–" || !def.display_unit ? text : `${text} ${def.display_unit}`;
 }
 
+const tableMetrics = () => state.metrics.filter((d) => d.in_tables);
+const headlineMetric = () => state.metrics.find((d) => d.headline) || state.metrics[0];
+// The path ratio: the metric whose best is 1 (a model that barely moves reads near 0).
+const ratioMetric = () => state.metrics.find((d) => d.better === "closer to 1");
+// The path lengths behind the ratio: the registered figures that are no score.
+const pathFigures = () => state.metrics.filter((d) => d.better === "neither");
+
 function isPathWarning(m) {
-  const r = m && m.path_length_ratio;
+  const def = ratioMetric();
+  const r = m && def && m[def.name];
   return r !== null && r !== undefined && (r < 0.5 || r > 2);
 }
 
@@ -216,18 +228,25 @@ function renderPlot() {
   FtinPlot.render($("plot"), series, $("plot-legend"));
 }
 
+// One row per registered metric with a value; the path ratio's row names the lengths it compares.
 function metricsRows(result) {
   const m = result.metrics;
-  if (!m) return [["Metrics", "no ground truth in the file", ""]];
-  const window = m.rte_window_s || 60;
-  const rows = [
-    ["ATE", `${fmt(m.ate, 2)} m`, "absolute trajectory error: RMSE of the position"],
-    ["RTE", `${fmt(m.rte, 2)} m`, `relative trajectory error: RMSE of the drift over ${window} s`],
-    ["PDE", `${fmt(m.pde, 1, 100)} %`, "final position error / true path length"],
-    ["Path", pathText(m), "predicted / true horizontal path length (1 is right)"],
-  ];
-  if (m.stand_still) {
-    rows.push(["Standing still", `ATE ${fmt(m.stand_still.ate, 2)} m`, "what a model that never moves scores"]);
+  if (!m) return [["Metrics", "no ground truth in the file", "", false]];
+  const ratio = ratioMetric();
+  const figures = pathFigures();
+  const rows = [];
+  for (const def of state.metrics) {
+    if (figures.includes(def)) continue; // shown inside the path ratio's row
+    let text = metricText(def, m[def.name]);
+    if (def === ratio && m[def.name] !== null && figures.length === 2) {
+      text += ` (${metricText(figures[0], m[figures[0].name])} of ${metricText(figures[1], m[figures[1].name])})`;
+    }
+    rows.push([def.label, text, def.description, def === ratio && isPathWarning(m)]);
+  }
+  const headline = headlineMetric();
+  if (m.stand_still && headline) {
+    const still = metricText(headline, m.stand_still[headline.name]);
+    rows.push(["Standing still", `${headline.label} ${still}`, "what a model that never moves scores", false]);
   }
   return rows;
 }
@@ -244,21 +263,22 @@ function showResult(result, fileName) {
   const rows = metricsRows(result);
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];
-  rows.push(["Duration", `${duration.toFixed(1)} s`, ""]);
-  for (const [name, value, title] of rows) {
+  rows.push(["Duration", `${duration.toFixed(1)} s`, "", false]);
+  for (const [name, value, title, flagged] of rows) {
     const tr = table.insertRow();
     tr.insertCell().textContent = name;
     const td = tr.insertCell();
     td.textContent = value;
     td.className = "value";
     if (title) tr.title = title;
-    if (name === "Path" && isPathWarning(result.metrics)) tr.className = "flagged";
+    if (flagged) tr.className = "flagged";
   }
   const m = result.metrics;
   let convention = "";
   if (m) {
     const aligned = m.alignment && m.alignment !== "none"; // alignmentText() states how
-    const units = "Horizontal errors; ATE and RTE in metres, PDE in %.";
+    const units = "Horizontal errors. Headline ATE: RoNIN's RMS over every coordinate; " +
+      "ATE evo: evo's Euclidean RMSE (√2 × ATE); hover a row for its definition.";
     if (aligned) convention = units;
     else if (m.convention === "ronin") {
       convention = `No alignment: the prediction starts at the true start (RoNIN convention). ${units}`;
@@ -353,7 +373,9 @@ function renderCompareTable() {
   table.hidden = rows.length < 2 && !state.comparing;
   table.textContent = "";
   const head = table.createTHead().insertRow();
-  for (const h of ["model", "ATE m", "RTE m", "PDE %", "path", "time s"]) {
+  const shown = tableMetrics();
+  const header = (d) => (d.display_unit ? `${d.label} ${d.display_unit}` : d.label);
+  for (const h of ["model", ...shown.map(header), "time s"]) {
     const th = document.createElement("th");
     th.textContent = h;
     head.appendChild(th);
@@ -366,8 +388,8 @@ function renderCompareTable() {
     const swatch = `<span class="swatch" style="background:${modelColor(r.model)}"></span>`;
     tr.insertCell().innerHTML = swatch;
     tr.cells[0].append(r.model + (isPathWarning(r.metrics) ? " ⚠" : ""));
-    for (const v of [fmt(m.ate, 2), fmt(m.rte, 2), fmt(m.pde, 1, 100),
-      fmt(m.path_length_ratio, 2), r.elapsed_s === undefined ? "–" : r.elapsed_s.toFixed(1)]) {
+    const values = shown.map((d) => fmt(m[d.name], d.digits, d.scale));
+    for (const v of [...values, r.elapsed_s === undefined ? "–" : r.elapsed_s.toFixed(1)]) {
       const td = tr.insertCell();
       td.textContent = v;
       td.className = "value";
@@ -378,7 +400,7 @@ function renderCompareTable() {
   if (still && rows.length > 1) {
     const tr = body.insertRow();
     tr.className = "baseline";
-    for (const v of ["standing still", fmt(still.ate, 2), fmt(still.rte, 2), fmt(still.pde, 1, 100), "0.00", ""]) {
+    for (const v of ["standing still", ...shown.map((d) => fmt(still[d.name], d.digits, d.scale)), ""]) {
       const td = tr.insertCell();
       td.textContent = v;
     }
@@ -509,7 +531,7 @@ function setUp() {
 
 setUp();
 
-// --- alignment (issue 10): the align option of POST /predict, and what was fitted ---------------
+// --- alignment: the align option of POST /predict, and what was fitted -------------------------
 function alignParam() {
   const select = $("align-select");
   return select && select.value ? `&align=${encodeURIComponent(select.value)}` : "";

@@ -1,4 +1,5 @@
-"""The evaluation protocol: disjoint splits by whole recording, carry modes in every part, valid jobs."""
+"""The evaluation protocol: disjoint splits by whole recording, carry modes in every part, walker folds
+whose validation walkers never train, valid jobs, and the campaign's policy."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import pytest
 
 from ftin import protocol
 from ftin.train.config import TrainConfig
+
+INRIA_CARRY = {"AR": "handheld", "Texting": "handheld", "Phoning": "handheld", "RunningHand": "handheld"}
 
 
 @pytest.mark.parametrize("dataset", sorted(protocol.SPLITS))
@@ -20,6 +23,9 @@ def test_parts_are_disjoint_whole_recordings(dataset):
 
 
 def _carry(dataset: str, recording: str) -> str:
+    if dataset == protocol.INRIA:
+        motion = recording.rsplit("_", 1)[1]
+        return INRIA_CARRY.get(motion, "swinging" if motion == "Swinging" else "pocket")
     if dataset == protocol.OXIOD:
         return "trolley" if recording.startswith("trolley") else "handheld"
     return next(mode for mode in ("bag", "body", "handheld", "leg") if mode in recording)
@@ -67,3 +73,101 @@ def test_split_paths_exist_in_the_shared_data(shared_data):
         for part in ("train", "val", "test"):
             for path in protocol.split_paths(shared_data, dataset, part):
                 assert path.exists(), path
+
+
+def test_test_parts_are_the_first_campaigns_and_inrias_is_the_iphone_4s():
+    assert protocol.SPLITS[protocol.OXIOD]["test"] == (
+        "multi users/user2/syn/imu6.csv",
+        "trolley/data2/syn/imu5.csv",
+    )
+    assert protocol.SPLITS[protocol.RIDI]["test"] == (
+        "huayi_bag2",
+        "huayi_body_test1",
+        "shali_handheld1",
+        "hao_leg2",
+    )
+    inria = protocol.SPLITS[protocol.INRIA]
+    assert len(inria["test"]) == 28 and all("_iPhone4S_" in r for r in inria["test"])
+    assert not any("_iPhone4S_" in r for r in (*inria["train"], *inria["val"]))
+    assert len(inria["train"]) + len(inria["val"]) == 56
+
+
+@pytest.mark.parametrize("dataset", sorted(protocol.WALKER_FOLDS))
+def test_walker_folds_never_validate_on_a_training_walker(dataset):
+    pool = None
+    validated: list[str] = []
+    for fold in protocol.FOLDS:
+        parts = protocol.fold_parts(dataset, fold)
+        train = {protocol.walker(dataset, r) for r in parts["train"]}
+        val = {protocol.walker(dataset, r) for r in parts["val"]}
+        assert train and val and not train & val, (fold, train, val)
+        assert parts["test"] == protocol.SPLITS[dataset]["test"]  # the test part is untouched
+        assert not set(parts["test"]) & (set(parts["train"]) | set(parts["val"]))
+        everything = set(parts["train"]) | set(parts["val"])
+        assert pool is None or everything == pool  # every fold splits the same recordings
+        pool = everything
+        validated += sorted(val)
+    assert sorted(validated) == sorted({protocol.walker(dataset, r) for r in pool})  # each walker once
+
+
+def test_walkers_are_named_by_folder_and_first_word():
+    assert protocol.walker(protocol.OXIOD, "handheld/data1/syn/imu2.csv") == "user1"
+    assert protocol.walker(protocol.OXIOD, "multi users/user2/syn/imu4.csv") == "user2"
+    assert protocol.walker(protocol.OXIOD, "trolley/data2/syn/imu1.csv") == "trolley-data2"
+    assert protocol.walker(protocol.RIDI, "hang_body_fast1") == "hang"
+    assert protocol.walker(protocol.INRIA, "ios/Thibaud_iPhone5_NoDist_AR") == "Thibaud"
+
+
+def test_the_walking_dataset_joins_every_walking_dataset(tmp_path):
+    for part in ("train", "val", "test"):
+        for fold in (None, *protocol.FOLDS):
+            joined = protocol.split_paths(tmp_path, protocol.WALKING, part, fold)
+            members = [
+                protocol.split_paths(tmp_path, d, part, fold) for d in protocol.COMBINED[protocol.WALKING]
+            ]
+            assert joined == [p for paths in members for p in paths]
+    assert protocol.split_paths(tmp_path, protocol.INRIA, "test")[0].parent.parent == (
+        tmp_path / "inria_attitude" / "datasets"
+    )
+    with pytest.raises(ValueError, match="no walker fold 2"):
+        protocol.fold_parts(protocol.RIDI, 2)
+
+
+def test_a_job_is_data_and_a_variant_only_changes_its_options(tmp_path):
+    job = protocol.Job.from_json(
+        {"name": "f0/ridi/ftin-paper-s0", "model": "ftin", "dataset": "ridi", "seed": 0, "fold": 0,
+         "variant": "paper", "options": protocol.RECIPES["paper"]}
+    )  # fmt: skip
+    assert protocol.Job.from_json(job.to_json()) == job
+    config = TrainConfig(out_dir=str(tmp_path), **job.config(tmp_path))
+    assert (config.lr, config.batch_size, config.max_epochs) == (1e-4, 512, 100)
+    assert config.window == 200 and config.stride == 40  # the model's options at RIDI's rate stay
+    walkers = {protocol.walker(protocol.RIDI, Path(p).name) for p in config.val}
+    assert walkers == {"dan"}
+    with pytest.raises(ValueError, match="unknown key"):
+        protocol.Job.from_json({"name": "x", "model": "ftin", "dataset": "ridi", "epochs": 3})
+
+
+def test_the_variant_is_chosen_on_both_datasets_validation_only():
+    assert protocol.choose_variant({"mixed": {"oxiod": 1.0, "ridi": 1.0}}) == (None, {})
+    chosen, scores = protocol.choose_variant(
+        {"mixed": {"oxiod": 0.004, "ridi": 0.04}, "ordered": {"oxiod": 0.005, "ridi": 0.02}}
+    )
+    assert chosen == "ordered" and scores["mixed"] == pytest.approx(0.004**0.5 * 0.04**0.5)
+    assert protocol.sim_job(chosen).options["model_kwargs"] == {"fdl_output": "ordered"}
+    assert [j.name for j in protocol.campaign_jobs(chosen)].count("sim/ftin-ordered-s0") == 1
+
+
+def _record(ratio: float, ate: float, still: float) -> dict:
+    row = {"path_length_ratio": ratio, "ate": ate, "stand_still": {"ate": still}}
+    return {
+        "evaluation": {
+            "parts": {"ridi/val/ground_truth": [row], "ridi/test/ground_truth": [row | {"ate": 0}]}
+        }
+    }
+
+
+def test_the_gate_refuses_what_has_not_learned_to_walk():
+    assert protocol.validation_gate(_record(1.0, 1.0, 2.0))["refused"] is None
+    assert "path ratio" in protocol.validation_gate(_record(0.7, 1.0, 2.0))["refused"]
+    assert "standing still" in protocol.validation_gate(_record(1.0, 2.5, 2.0))["refused"]

@@ -11,15 +11,18 @@ own heading drifts ~30 degrees against Vicon, which no network sees (the model c
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import pytest
 
 from ftin.checkpoint import load_model
-from ftin.data.readers import read_sequence
+from ftin.data.discovery import read_sequence
 from ftin.evaluate import evaluate_checkpoint
 from ftin.protocol import OXIOD, RIDI, SPLITS
 from ftin.sim.samples import SAMPLES, load_sample
+from ftin.train.provenance import absolute_paths_in
 from tests.utils.paths import CHECKPOINTS
 
 HELD_OUT = {OXIOD: "multi users/user2/syn/imu6.csv", RIDI: "shali_handheld1"}
@@ -40,6 +43,22 @@ def test_every_shipped_checkpoint_names_what_it_was_trained_on() -> None:
     assert _shipped(), f"no checkpoints in {CHECKPOINTS}"
     for stem in _shipped():
         assert stem.rsplit("-", 1)[-1] in TRAINED_ON, f"{stem}: no dataset suffix (-oxiod, -ridi, ...)"
+
+
+def test_every_shipped_card_names_its_datasets_and_holds_no_absolute_path() -> None:
+    """The card records datasets by name and recordings relative to the data folder
+    (``ftin.train.provenance``); neither the JSON nor the Markdown card publishes a machine's path."""
+    expected = {"oxiod": ["oxiod"], "ridi": ["ridi"], "pedestrian": ["oxiod", "ridi"], "sim": ["sim"]}
+    for stem in _shipped():
+        meta = json.loads((CHECKPOINTS / f"{stem}.json").read_text())
+        data = meta["training_data"]
+        assert data["datasets"] == expected[stem.rsplit("-", 1)[-1]], stem
+        assert data["recordings"] and all(
+            r.split("/")[0] in ("sim-data", *data["datasets"]) for r in data["recordings"]
+        )
+        assert "paths" not in data and absolute_paths_in(meta) == [], (stem, absolute_paths_in(meta)[:3])
+        card = (CHECKPOINTS / f"{stem}.md").read_text()
+        assert not re.findall(r"(?:^|[\s`(])(?:/|~/|[A-Za-z]:\\)[\w.-]+[/\\]", card), stem  # no absolute path
 
 
 @pytest.mark.slow

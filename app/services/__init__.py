@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from app.services.catalog import SequenceCatalog
-from app.services.models import ModelStore
+from app.services.checkpoint_store import ModelStore
 from app.services.prediction import PredictionService
 from app.services.runs import RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, Settings

@@ -1,4 +1,4 @@
-"""The sequences ``GET /sequences`` lists: whatever ``ftin.data.readers`` finds in the data folders.
+"""The sequences ``GET /sequences`` lists: whatever ``ftin.data.discovery`` finds in the data folders.
 
 Security decision: a sequence id is only ever a key into the table built here at start-up. No
 request string is joined to a path, and a reference whose resolved path leaves its data folder
@@ -23,7 +23,7 @@ from typing import Any
 from app.services.errors import InvalidInputError, NotFoundError
 from app.services.kinds import SIMULATED, kind_of, label
 from ftin.data import DataFormatError, ImuSequence
-from ftin.data.readers import list_sequences, read_sequence
+from ftin.data.discovery import list_sequences, read_sequence
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +49,7 @@ class SequenceEntry:
     name: str
     dataset: str  # the reader format, e.g. "oxiod", "csv"
     folder: Path
-    ref: Any  # ftin.data.readers.SequenceRef
+    ref: Any  # ftin.data.discovery.SequenceRef
     kind: str | None = None  # app.services.kinds: "simulated", "oxiod", ... or None
     dataset_label: str = ""  # the folder in words, for menus ("Simulated walks (bundled samples)")
 

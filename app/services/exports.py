@@ -23,7 +23,7 @@ import numpy as np
 from app.services.runs import Run
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.data.types import Trajectory
-from ftin.metrics import describe, describe_alignment
+from ftin.metrics import describe, describe_alignment, list_metrics
 
 
 class Timestamps(str, Enum):
@@ -56,27 +56,28 @@ def trajectory_tum(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) ->
 
 
 def ground_truth_tum(run: Run) -> str | None:
-    gt = run.sequence.gt
+    gt = run.truth
     if gt is None:
         return None
-    m = run.prediction.metrics
+    m = run.metrics
     how = "" if m is None or m.alignment is None else f", alignment {m.alignment} applied"
     return tum_text(gt, f"FTIN Studio: ground truth of {run.sequence.name} in the prediction's frame{how}")
 
 
 def metrics_json(run: Run) -> dict[str, Any]:
-    m = run.prediction.metrics
+    m = run.metrics
     out: dict[str, Any] = {
         "run_id": run.run_id,
         "model": run.model_name,
         "sequence": run.sequence.name,
         "orientation_source": run.prediction.orientation_source,
-        "orientation_filter": run.sequence.meta.get("orientation_filter"),
+        "orientation_filter": run.prediction.orientation_filter,
         "frame": run.prediction.frame,
         "metrics": None,
     }
     if m is not None:
         out["metrics"] = m.as_dict()
+        out["metric_definitions"] = [metric.as_dict() for metric in list_metrics()]
         out["convention_text"] = describe(m.convention, m.rte_window_s)
         if m.alignment is not None:
             out["alignment_text"] = describe_alignment(m.alignment)

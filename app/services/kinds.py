@@ -1,10 +1,11 @@
 """Kinds of data, in words: which checkpoint was trained on what, and which suits a sequence.
 
-Decisions (issue 11, items 8 and 10):
+Decisions:
 - A checkpoint's training data and a sequence's folder are named by what they are ("OxIOD",
   "simulated walks"), never by a developer's path (``../shared/data/oxiod``) or a reader id (``csv``).
-- The kind is recognised from the words in the paths and sequence names a checkpoint records
-  (``ftin train`` writes ``{"paths": [...], "sequences": [...]}``) and, for a sequence, from its
+- A checkpoint's kinds are the datasets its card names (``ftin train`` records them,
+  ``ftin.train.provenance``); older cards are read by the words of their paths. A sequence's kind
+  comes from its
   reader format, its folder and its name: ``oxiod``, ``ronin``, ``ridi``, ``tlio``, ``rnin``,
   ``imunet``, ``euroc``, ``inria`` (the ``inria_attitude`` reader and folder), and ``simulated``
   (the ``sim`` folder or ``sim_*`` names of ``ftin sim``, and the bundled samples). Anything else has no kind.
@@ -52,8 +53,22 @@ def kind_of(texts: Iterable[str]) -> str | None:
 
 
 def training_kinds(training_data: object) -> tuple[str, ...]:
-    """The kinds of a checkpoint's recorded ``training_data`` (a dict of paths/sequences, or words),
-    each once, in the order the paths name them: ``("oxiod", "ridi")`` for a model trained on both."""
+    """The kinds of a checkpoint's recorded ``training_data``, each once, in order: ``("oxiod", "ridi")``
+    for a model trained on both.
+
+    The datasets it names (``ftin.train.provenance``: ``{"datasets": [...], "recordings": [...]}``)
+    decide; a generic CSV names no kind, so then the sequences' own names may (``sim_*`` of ``ftin
+    sim``). A checkpoint from before datasets were recorded (``{"paths": [...]}``) is read by the
+    words of its paths, and a plain string by its words.
+    """
+    if isinstance(training_data, dict) and "datasets" in training_data:
+        datasets = [str(d) for d in training_data.get("datasets") or []]
+        kinds = [kind for kind in (kind_of([name]) for name in datasets) if kind is not None]
+        if kinds:
+            return tuple(dict.fromkeys(kinds))
+        sequences = training_data.get("sequences")
+        kind = kind_of([str(s) for s in sequences]) if isinstance(sequences, list) else None
+        return () if kind is None else (kind,)
     if isinstance(training_data, dict):
         paths = [str(p) for p in training_data.get("paths", []) or []]
         kinds = [kind for kind in (kind_of([path]) for path in paths) if kind is not None]

@@ -1,4 +1,4 @@
-"""Bounds on one prediction: how long it may take and how many may run at once (issue 6).
+"""Bounds on one prediction: how long it may take and how many may run at once.
 
 Decisions:
 - The time limit is a deadline carried into the worker thread and checked between batches of

@@ -5,15 +5,15 @@ Decisions:
 - At most ``max_concurrent_inferences`` predictions run at once (``InferenceSlots``), and each must
   finish before its ``Deadline`` (``limits``): checked while waiting for a slot and between batches
   of windows. Callers run this off the event loop.
-- The sample limit (``FTIN_MAX_SAMPLES``) is checked on the input as read, and for a CSV upload
-  already from its line count, before parsing. The upload size limit is checked on the file.
-- Uploads are detected from their bytes (``ftin.data.readers.uploads``): a gzip body is unpacked
-  (at most ``max_uncompressed_bytes``) and looked at again, a ZIP is a phone app's export (Sensor
-  Logger, phyphox) or holds one CSV, anything else is a CSV: decoded as UTF-8 (a BOM is accepted)
-  first, so that a binary file gets a plain "not a UTF-8 text file" message instead of a parser error.
-- Alignment (``ftin.metrics.align``): with ground truth, the metrics follow the request's ``align``
-  or the reader's default, and the run keeps the ground truth in the prediction's frame, so that
-  the page, the scene and the TUM export draw what was scored.
+- Uploads are read by ``ftin.data.from_bytes.read_bytes`` (detection by content, gzip, ZIP exports,
+  the uncompressed-size and sample limits, a CSV's line count checked before parsing); this service
+  adds what is HTTP's: the client's file name as a label only, the upload size limit on the body,
+  and the status codes (413 for too large, 422 for a bad format). The sample limit
+  (``FTIN_MAX_SAMPLES``) holds for every door.
+- Alignment (``ftin.metrics.alignment_modes``): with ground truth, the metrics follow the request's ``align``
+  or the reader's default. The run keeps the sequence untouched and the scored result beside it
+  (``ftin.evaluate.score``), whose truth in the prediction's frame the page, the scene and the TUM
+  export draw: what was scored.
 - Windows go through the model in batches of ``BATCH_WINDOWS``: small enough for frequent progress
   and deadline checks, large enough to cost nothing in speed.
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
@@ -22,7 +22,6 @@ Decisions:
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from collections.abc import Sequence
 from pathlib import PurePath
@@ -31,36 +30,23 @@ from typing import Any
 import numpy as np
 
 from app.services.catalog import SequenceCatalog
+from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
-from app.services.models import ModelEntry, ModelStore
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
-from ftin.data.readers import exports
-from ftin.data.readers.uploads import gunzip, read_bytes
+from ftin.data.errors import TooManySamplesError
+from ftin.data.from_bytes import read_bytes
 from ftin.data.validate import validate
 from ftin.evaluate import score
-from ftin.infer import Prediction
 from ftin.metrics import Alignment
 
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
-GT_AS_GIVEN = "gt_as_given"  # meta key: the ground truth before a run aligned it for drawing
-
-
-def decode_upload(data: bytes, filename: str) -> str:
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InvalidInputError(
-            f"{filename}: not a UTF-8 text file (byte {exc.start} is 0x{data[exc.start]:02x}); "
-            "upload a CSV in the generic schema, a gzip-compressed CSV, or a phone app's ZIP export "
-            "(Sensor Logger, phyphox)"
-        ) from None
 
 
 def _rows(field_name: str, value: Sequence[Any], width: int | None, n: int | None) -> np.ndarray:
@@ -84,6 +70,7 @@ def sequence_from_arrays(
     acc_m_s2: Sequence[Sequence[float]],
     q_world_device_wxyz: Sequence[Sequence[float]] | None = None,
     gt_p_world_m: Sequence[Sequence[float]] | None = None,
+    mag_uT: Sequence[Sequence[float]] | None = None,
 ) -> ImuSequence:
     """Build a sequence from plain arrays (the JSON body of ``POST /predict``), checked by
     ``ftin.data.validate`` as every reader's output is; rows are named ``sample i`` (0-based)."""
@@ -96,10 +83,13 @@ def sequence_from_arrays(
     gt_p = None if gt_p_world_m is None else _rows("gt_p_world_m", gt_p_world_m, 3, len(t))
     gt = None if gt_p is None else Trajectory(t, gt_p)
     meta: dict[str, Any] = {"dataset": "json", "source": "request body"}
-    if gt is not None:  # as the generic CSV's gt_x: possibly another world frame (ftin.metrics.align)
+    if gt is not None:  # as the generic CSV's gt_x: maybe another world frame (ftin.metrics.alignment_modes)
         meta["gt_frame"] = "unknown"
+    mag = None if mag_uT is None else _rows("mag_uT", mag_uT, 3, len(t))
+    if mag is not None and not np.isfinite(mag).all():
+        raise InvalidInputError("mag_uT: every value must be a finite number (µT)")
     try:
-        return validate(ImuSequence(name, t, gyro, acc, q, gt, meta))
+        return validate(ImuSequence(name, t, gyro, acc, q, gt, meta, mag))
     except DataFormatError as exc:
         raise InvalidInputError(str(exc)) from None
 
@@ -120,12 +110,15 @@ class PredictionService:
 
     def check_sample_count(self, n: int, what: str) -> None:
         """413 when ``what`` holds more samples than one prediction may read."""
+        if n > self.settings.max_samples:
+            raise self._too_many_samples(n, what)
+
+    def _too_many_samples(self, n: int, what: str) -> PayloadTooLargeError:
         limit = self.settings.max_samples
-        if n > limit:
-            raise PayloadTooLargeError(
-                f"{what} has {n} samples; one prediction reads at most {limit} "
-                f"(FTIN_MAX_SAMPLES, {limit / 200 / 60:.1f} min at 200 Hz); split the recording"
-            )
+        return PayloadTooLargeError(
+            f"{what} has {n} samples; one prediction reads at most {limit} "
+            f"(FTIN_MAX_SAMPLES, {limit / 200 / 60:.1f} min at 200 Hz); split the recording"
+        )
 
     def predict_csv(
         self,
@@ -139,7 +132,7 @@ class PredictionService:
         align: str | None = None,
     ) -> Run:
         """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
-        Sensor Logger / phyphox export as a ZIP (``ftin.data.readers.uploads``, detected by content)."""
+        Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content)."""
         entry = self.models.get(model)
         run_id = self.runs.new_id(run_id)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
@@ -153,28 +146,21 @@ class PredictionService:
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
-        self.check_sample_count(len(seq), filename)
         return self.run(seq, entry, run_id, source, deadline=deadline, align=align)
 
     def read_upload(self, data: bytes, filename: str) -> ImuSequence:
         """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
-        if not data.strip():
-            raise InvalidInputError(
-                f"{filename} is empty; upload a CSV in the generic schema or a phone app's ZIP export"
-            )
         try:
-            if data[:2] == exports.GZIP_MAGIC:
-                data = gunzip(data, filename, self.settings.max_uncompressed_bytes)
-            if not exports.is_zip(data):
-                # Lines bound the samples from above (one header, maybe comments): refuse before parsing.
-                lines = data.count(b"\n") + (not data.endswith(b"\n"))
-                if lines - 1 > self.settings.max_samples:
-                    self.check_sample_count(lines - 1, filename)
-                decode_upload(data, filename)  # a binary file: say so in plain words
-            seq = read_bytes(data, filename, max_uncompressed_bytes=self.settings.max_uncompressed_bytes)
+            return read_bytes(
+                data,
+                filename,
+                max_uncompressed_bytes=self.settings.max_uncompressed_bytes,
+                max_samples=self.settings.max_samples,
+            )
+        except TooManySamplesError as exc:
+            raise self._too_many_samples(exc.samples, filename) from None
         except DataFormatError as exc:
             raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
-        return seq
 
     def predict_sequence(
         self,
@@ -220,16 +206,14 @@ class PredictionService:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
 
         With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
-        where the truth may live in another world frame, else ``none``) and the run keeps the ground truth
-        moved into the prediction's frame by the fitted alignment: what is drawn is what was scored.
+        where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
+        the scored result beside it (``Run.score``; ``Run.truth`` is the truth moved into the prediction's
+        frame by the fitted alignment: what is drawn is what was scored).
         """
         deadline = deadline or self.new_deadline()
         if align is not None and align not in {a.value for a in Alignment}:
             choices = ", ".join(a.value for a in Alignment)
             raise InvalidInputError(f"align must be one of {choices}; got {align!r}")
-        if GT_AS_GIVEN in seq.meta:  # a finished run's sequence, its truth drawn aligned: start over
-            meta = {k: v for k, v in seq.meta.items() if k != GT_AS_GIVEN}
-            seq = seq.with_(gt=seq.meta[GT_AS_GIVEN], meta=meta)
         what = f"running {entry.name} on {seq.name}"
 
         def progress(done: int, total: int) -> None:
@@ -242,7 +226,7 @@ class PredictionService:
                 deadline.check(what)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
-                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress
+                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress, keep_prepared=False
                 )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))
@@ -253,29 +237,10 @@ class PredictionService:
         except Exception as exc:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
-        prepared = prediction.prepared
-        if "orientation_filter" in prepared.seq.meta:  # which filter ran (VQF 6-D or 9-D): for metrics.json
-            seq = seq.with_(meta={**seq.meta, "orientation_filter": prepared.seq.meta["orientation_filter"]})
-        seq = _aligned(seq, prediction, align)
-        starts = prepared.starts  # the model's own windows (a streaming model's too: the scene's spectra)
-        model_input = ModelInput(prepared.imu_world, starts, entry.loaded.window)
-        # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording.
-        prediction = dataclasses.replace(prediction, prepared=None)
-        run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input)
+        scored = score(prediction, align)  # beside the prediction and the sequence, both left as they are
+        # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
+        # the scene recomputes the spectra of the window it shows from it (a streaming model's too).
+        model_input = ModelInput(prediction.imu_world, prediction.starts, entry.loaded.window)
+        run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input, scored)
         self.runs.finish(run)
         return run
-
-
-def _aligned(seq: ImuSequence, prediction: Prediction, align: str | None) -> ImuSequence:
-    """Score ``prediction`` (``ftin.evaluate.score``: ``align``, else the sequence's default); ``seq``
-    with its ground truth in the prediction's frame (unchanged without ground truth or a fit)."""
-    scored = score(prediction, align)
-    if seq.gt is None or scored is None:
-        return seq
-    prediction.warnings.extend(scored.warnings)
-    prediction.metrics = scored.metrics
-    if scored.fit is None or scored.fit.alignment is Alignment.NONE:
-        return seq
-    # The run draws the aligned truth; the truth as given stays in meta, so that running another model
-    # on this sequence (the scene's "compare") starts from the file's own frames again.
-    return seq.with_(gt=scored.fit.gt_in_estimate_frame(seq.gt), meta={**seq.meta, GT_AS_GIVEN: seq.gt})

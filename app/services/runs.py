@@ -20,6 +20,7 @@ from app.services.errors import ConflictError, InvalidInputError, NotFoundError,
 from app.services.features import ModelInput
 from app.services.verdict import judge
 from ftin.data import ImuSequence
+from ftin.metrics.plausibility import Plausibility, assess
 
 log = logging.getLogger(__name__)
 
@@ -35,24 +36,40 @@ class RunState(str, enum.Enum):
 
 @dataclass(frozen=True)
 class Run:
-    """A finished prediction and the sequence it came from (kept for the scene and the CSV)."""
+    """A finished prediction, the sequence it came from as given, and the scored result beside them
+    (kept for the scene and the exports); nothing here is written after the run is made."""
 
     run_id: str
     model_name: str
-    sequence: ImuSequence
+    sequence: ImuSequence  # as read: never replaced by an aligned copy
     prediction: Any  # ftin.infer.Prediction
     source: str  # "upload", "json", "sequence", "viser"
     sequence_id: str | None = None
     model_input: ModelInput | None = None  # what the model saw, for the scene's feature plots
+    score: Any = None  # ftin.evaluate.Scored: metrics, fitted alignment, baseline (None: no ground truth)
     created_s: float = field(default_factory=time.time)
 
     @property
     def n_samples(self) -> int:
         return len(self.sequence)
 
+    @property
+    def metrics(self) -> Any:  # ftin.metrics.TrajectoryMetrics | None
+        return None if self.score is None else self.score.metrics
+
+    @cached_property
+    def truth(self) -> Any:  # ftin.data.Trajectory | None
+        """The ground truth where the prediction was scored against it: in the prediction's frame."""
+        gt = self.sequence.gt
+        return gt if gt is None or self.score is None else self.score.truth_in_estimate_frame(gt)
+
+    @cached_property
+    def plausibility(self) -> Plausibility:  # figures without ground truth, GPS when the export has it
+        return assess(self.prediction.trajectory, self.sequence)
+
     @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures
-        return judge(self.prediction, self.sequence.gt)
+        return judge(self.prediction, self.score, self.truth, self.plausibility.warnings)
 
 
 @dataclass

@@ -15,8 +15,8 @@ from app.services.runs import Run
 from app.viz.drawing import GridNodes, PathNodes, draw_grid, draw_path, extent_of
 from app.viz.palette import TRUTH_COLOR, ColorBook
 from app.viz.panels import NO_RUN, ErrorPanel, SpectraPanel
+from app.viz.run_scene_data import RunView
 from app.viz.summary import legend_html, metrics_markdown
-from app.viz.views import RunView
 from ftin.data import ImuSequence
 
 TRUTH_PREFIX = "/truth"
@@ -123,14 +123,14 @@ class SceneOverlay:
 
     def _frame(self, run: Run, view: RunView) -> None:
         """New sequence: grid, ground truth, timeline range and camera, sized to this recording."""
-        seq = run.sequence
-        shown = [view.trajectory] + ([seq.gt] if seq.gt is not None else [])
+        seq, truth = run.sequence, view.truth  # the truth where this run was scored against it
+        shown = [view.trajectory] + ([truth] if truth is not None else [])
         centre, size = extent_of(shown)
         self._marker_radius = max(0.01 * size, 0.05)
         self._place_grid_and_camera(centre, size)
-        if seq.gt is not None:
+        if truth is not None:
             self._truth = draw_path(
-                self.server.scene, TRUTH_PREFIX, "path", seq.gt, TRUTH_COLOR, self._marker_radius
+                self.server.scene, TRUTH_PREFIX, "path", truth, TRUTH_COLOR, self._marker_radius
             )
         duration = max(float(seq.t_s[-1] - seq.t_s[0]), 0.05)
         step = 0.05 if duration < 600 else 0.5
@@ -164,8 +164,8 @@ class SceneOverlay:
         shown = [v.trajectory for v in self._views.values()]
         if self._views:
             first = next(iter(self._views.values()))
-            if first.sequence.gt is not None:
-                shown.append(first.sequence.gt)
+            if first.truth is not None:
+                shown.append(first.truth)
         self._place_grid_and_camera(*extent_of(shown))
 
     def _clear(self) -> None:

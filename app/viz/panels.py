@@ -3,7 +3,7 @@
 uPlot (built into viser, works offline) draws the line plots; the FDL spectra are heatmap images
 drawn by matplotlib with their axes and a colour bar.
 
-Decisions (issue 11):
+Decisions:
 - Every plot names the run it shows; the panels clear themselves when the scene is cleared, and
   the FDL plots are hidden (not left showing another model's spectra) for a model without FDL.
 - The raw IMU spectrum is in decibels (20 log10 of the amplitude, re 1 rad/s and 1 m/s²): gyro
@@ -23,8 +23,8 @@ import numpy as np
 import viser
 
 from app.viz.palette import hex_color
+from app.viz.run_scene_data import RAW_CHANNELS, RunView
 from app.viz.spectra import common_time_grid, with_cursor
-from app.viz.views import RAW_CHANNELS, RunView
 
 NO_RUN = "(no run)"
 _BLANK = np.full((8, 8, 3), 255, dtype=np.uint8)

@@ -8,7 +8,7 @@ Modules, one job each: ``controls`` (GUI folders, their callbacks and actions), 
 Layout (shared by every connected browser, so everyone sees every result):
 - control panel folders "Data" (dataset -> sequence), "Models" (one checkbox per checkpoint: several
   models run and overlay at once), "Run" (Run button, progress, CSV upload, status), "Timeline"
-  (play / pause, speed, time slider), "Runs" (legend, ATE / RTE / PDE / path table, clear);
+  (play / pause, speed, time slider), "Runs" (legend, the registered metrics per run, clear);
 - a panel docked on the right with the spectra of the current window and the errors of every run.
 
 The scene shows the runs of one sequence at a time: a run on another sequence (from the GUI, the
@@ -21,7 +21,7 @@ A finished (or focused) run is drawn by the scene's own drawing thread, in arriv
 prediction's HTTP response never waits for the scene. ``flush()`` waits until everything queued is
 drawn; ``stop()`` ends the thread.
 
-Decisions (issue 11):
+Decisions:
 - No stale state: the Sequence menu always shows the recording on screen (an uploaded one is
   added to the menu as "<name> (uploaded)", and Run works on it); the status line names what is
   shown; "Clear scene" empties the plots and the timeline too.
@@ -53,8 +53,8 @@ from app.viz.controls import SceneControls
 from app.viz.drawing import GridNodes, PathNodes
 from app.viz.overlay import SceneOverlay
 from app.viz.palette import ColorBook
+from app.viz.run_scene_data import RunView
 from app.viz.timeline import SceneTimeline
-from app.viz.views import RunView
 from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)

@@ -3,10 +3,9 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from app.viz.palette import START_COLOR, TRUTH_COLOR, WINDOW_COLOR, hex_color
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
+from ftin.metrics import HEADLINE, Better, list_metrics
 
 
 def legend_html(views: list[RunView], truth_shown: bool, grid_caption: str | None) -> str:
@@ -35,26 +34,25 @@ def legend_html(views: list[RunView], truth_shown: bool, grid_caption: str | Non
 
 
 def metrics_markdown(views: list[RunView]) -> str:
-    """The "Runs" folder's table: ATE / RTE / PDE / path ratio per run, with the convention in words."""
+    """The "Runs" folder's table: every table metric of the registry per run (``ftin.metrics``), with
+    the convention in words."""
     if not views:
         return ""
+    shown = list_metrics(in_tables=True)
     if all(v.metrics is None for v in views):
-        return "No ground truth in this recording: ATE / RTE / PDE need it."
-
-    def num(value: float | None, digits: int, scale: float = 1.0) -> str:
-        return "–" if value is None or not np.isfinite(value) else f"{value * scale:.{digits}f}"
-
-    lines = ["| model | ATE m | RTE m | PDE % | path |", "|---|---|---|---|---|"]
+        return f"No ground truth in this recording: {', '.join(m.label for m in shown)} need it."
+    header = ["model", *(m.header for m in shown)]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    ratio_metric = next((m for m in shown if m.better is Better.ONE), None)  # flagged by a path warning
     for v in views:
         if v.metrics is None:
-            lines.append(f"| {v.model_name} | – | – | – | – |")
+            lines.append(f"| {v.model_name} |" + " – |" * len(shown))
             continue
-        m = v.metrics
-        ratio = num(m.get("path_length_ratio"), 2) + (" ⚠" if v.path_warning else "")
-        lines.append(
-            f"| {v.model_name} | {num(m['ate'], 2)} | {num(m['rte'], 2)} | "
-            f"{num(m['pde'], 1, 100.0)} | {ratio} |"
-        )
+        cells = []
+        for m in shown:
+            cell = m.format(v.metrics.get(m.name), "–")
+            cells.append(cell + (" ⚠" if m is ratio_metric and v.path_warning else ""))
+        lines.append(f"| {v.model_name} | " + " | ".join(cells) + " |")
     first = views[0]
     duration = float(first.sequence.t_s[-1] - first.sequence.t_s[0])
     rte_note = (
@@ -65,7 +63,7 @@ def metrics_markdown(views: list[RunView]) -> str:
     warned = [v.model_name for v in views if v.path_warning]
     warning = (
         f"\n\n**⚠ Path:** {', '.join(warned)} walk far less (or more) than the ground truth; "
-        "their ATE / RTE / PDE mean little."
+        "their errors mean little."
         if warned
         else ""
     )
@@ -76,10 +74,12 @@ def metrics_markdown(views: list[RunView]) -> str:
         else f"Convention: {convention} (see the API's metrics.convention_text)"
     )
     aligned = [f"{v.model_name}: {v.alignment}" for v in views if v.alignment and v.alignment != "none"]
-    if aligned:  # the ground truth drawn is the aligned one (issue 10)
+    if aligned:  # the ground truth drawn is the aligned one
         alignment = "Aligned to the ground truth, which is drawn aligned: " + "; ".join(aligned)
+    definitions = "; ".join(f"{m.label} = {m.description}" for m in shown)
     return (
         "\n".join(lines)
-        + f"\n\n{alignment}; horizontal errors. ATE and RTE (over 60 s) in metres; PDE = final "
-        "error / true path length; path = predicted / true path length (1 is right)." + rte_note + warning
+        + f"\n\n{alignment}; horizontal errors. {HEADLINE} {definitions}."
+        + rte_note
+        + warning
     )

@@ -15,7 +15,7 @@ import viser
 
 from app.viz.drawing import PathNodes, set_window
 from app.viz.panels import ErrorPanel, SpectraPanel
-from app.viz.views import RunView
+from app.viz.run_scene_data import RunView
 
 PLAY_TICK_S = 0.1
 
@@ -100,8 +100,8 @@ class SceneTimeline:
                     nodes.marker.position = view.position_at(t)
                     index = view.window_at(t)
                     set_window(self.server.scene, nodes, view.window_points(index))
-                if self._truth is not None and first.sequence.gt is not None:
-                    gt = first.sequence.gt
+                if self._truth is not None and first.truth is not None:
+                    gt = first.truth
                     self._truth.marker.position = np.array(
                         [np.interp(t, gt.t_s, gt.p_world_m[:, k]) for k in range(3)]
                     )

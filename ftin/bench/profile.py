@@ -30,7 +30,7 @@ from torch.utils.flop_counter import FlopCounterMode
 from ftin.models.registry import check_known_models, create_model, list_models
 
 IN_CHANNELS = 6
-DEFAULT_WINDOW = 200  # design §3: the reference parameter counts are for 6 x 200 inputs (``ftin models``)
+DEFAULT_WINDOW = 200  # the reference parameter counts are for 6 x 200 inputs (``ftin models``)
 aten = torch.ops.aten
 
 

@@ -49,7 +49,7 @@ from typing import Any
 import torch
 
 from ftin.bench.profile import count_parameters, torch_threads, windows_per_second
-from ftin.checkpoint import to_json_safe
+from ftin.files import to_json_safe
 from ftin.models.registry import check_known_models, create_model, list_models
 from ftin.train.config import TrainConfig
 from ftin.train.losses import velocity_loss

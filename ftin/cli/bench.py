@@ -14,8 +14,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ftin.bench import MEMORY_METHOD, BenchConfig, bench_json, bench_models
-from ftin.checkpoint import atomic_write_text
 from ftin.cli.common import REPORT_ERRORS, app, config_options, out_console, progress_bar, user_errors
+from ftin.files import atomic_write_text
 from ftin.models import list_models
 
 _BENCH = BenchConfig()  # the library's defaults are the command's defaults

@@ -22,6 +22,7 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
+from ftin.campaign import CampaignError
 from ftin.checkpoint import CheckpointError
 from ftin.data.errors import DataFormatError
 from ftin.metrics import Alignment, Convention
@@ -48,8 +49,17 @@ def out_console() -> Console:
     return Console(width=PIPED_WIDTH)
 
 
-# What ``train``, ``evaluate`` and ``predict`` report as one ``error:`` line (exit status 2).
-MODEL_ERRORS = (DataFormatError, ConfigError, CheckpointError, UnknownModelError, FloatingPointError, OSError)
+# What ``train``, ``evaluate`` and ``predict`` report as one ``error:`` line (exit status 2)
+# (``CampaignError``: the Ray extra missing or a cluster unreachable, for ``--workers`` / ``--address``).
+MODEL_ERRORS = (
+    DataFormatError,
+    ConfigError,
+    CheckpointError,
+    UnknownModelError,
+    FloatingPointError,
+    OSError,
+    CampaignError,
+)
 # The same for ``table`` and ``bench``.
 REPORT_ERRORS = (DataFormatError, CheckpointError, UnknownModelError, ValueError, OSError)
 
@@ -69,6 +79,17 @@ AlignOption = Annotated[
 ]
 StrideOption = Annotated[
     int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(
+        "--workers",
+        min=1,
+        help='Spread the work over N one-thread Ray workers (pip install -e ".\\[cluster]").',
+    ),
+]
+AddressOption = Annotated[
+    str | None, typer.Option("--address", help="Spread the work over this Ray cluster (e.g. HOST:6379).")
 ]
 ThreadsOption = Annotated[
     int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")

@@ -1,6 +1,6 @@
 """``ftin data``: inspect recordings (``info``) and convert them to the generic CSV (``convert``).
 
-Thin callers of ``ftin.data.readers``: every supported layout is found with ``list_sequences`` and
+Thin callers of ``ftin.data.discovery``: every supported layout is found with ``list_sequences`` and
 read with ``read_sequence``. Expected failures (bad path, unreadable or malformed file) print one
 ``error:`` line per problem on stderr and exit with status 2; the sequences that did read are still
 reported / converted.
@@ -18,8 +18,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ftin.cli.common import app, err_console, out_console, progress_bar, user_errors
+from ftin.data.discovery import SequenceRef, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import SequenceRef, list_sequences, read_sequence
 from ftin.data.readers.generic_csv import write_csv
 from ftin.data.types import ImuSequence
 

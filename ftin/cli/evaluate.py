@@ -11,13 +11,15 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.checkpoint import atomic_write_text, load_model
+from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
+    AddressOption,
     AlignOption,
     CheckpointOption,
     ConventionOption,
     RteWindowOption,
+    WorkersOption,
     app,
     out_console,
     progress_bar,
@@ -25,7 +27,8 @@ from ftin.cli.common import (
 )
 from ftin.data.loading import load_sequences
 from ftin.evaluate import evaluate_checkpoint
-from ftin.metrics import Convention
+from ftin.files import atomic_write_text
+from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
 
 
 @app.command("evaluate")
@@ -38,8 +41,11 @@ def evaluate_command(
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
     align: AlignOption = None,
+    workers: WorkersOption = None,
+    address: AddressOption = None,
 ) -> None:
-    """ATE / RTE / PDE of a checkpoint per sequence and their mean, under a stated convention."""
+    """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
+    sequence and their mean, under a stated convention."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
         sequences = load_sequences(data, "--data")
@@ -49,26 +55,38 @@ def evaluate_command(
             def advance(name: str) -> None:
                 bar.update(task, description=f"evaluating {escape(name)}", advance=1)
 
-            report = evaluate_checkpoint(
-                loaded, sequences, convention, rte_window_s=rte_window_s, on_sequence=advance, alignment=align
-            )
+            options = {"convention": convention, "rte_window_s": rte_window_s, "alignment": align}
+            if workers is not None or address is not None:  # one Ray task per recording
+                from ftin.campaign.scoring import evaluate_checkpoint_on_ray
+
+                report = evaluate_checkpoint_on_ray(
+                    checkpoint,
+                    sequences,
+                    workers=workers,
+                    address=address,
+                    on_done=lambda i: advance(sequences[i].name),
+                    **options,
+                )
+            else:
+                report = evaluate_checkpoint(loaded, sequences, on_sequence=advance, **options)
         if json_out is not None:
             atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
     table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
     table.add_column("sequence", overflow="fold")
-    for header in ("duration", "ATE (m)", "RTE (m)", "PDE", "path ratio", "stand-still ATE"):
-        table.add_column(header, justify="right", no_wrap=True)
+    shown, headline = list_metrics(in_tables=True), get_metric(HEADLINE_METRIC)
+    for header in ("duration", *(m.header for m in shown), f"stand-still {headline.header}"):
+        table.add_column(escape(header), justify="right", no_wrap=True)
 
     def cells(m: Any) -> list[str]:
-        ratio = "-" if m.path_length_ratio is None else f"{m.path_length_ratio:.2f}"
-        return [f"{m.ate:.3f}", f"{m.rte:.3f}", f"{m.pde:.4f}", ratio]
+        return [metric.format(m.values.get(metric.name), "-") for metric in shown]
+
+    def still(m: Any) -> str:
+        return "-" if m is None else headline.format(m.values.get(headline.name), "-")
 
     for r in report.sequences:
-        still = "-" if r.stand_still is None else f"{r.stand_still.ate:.3f}"
-        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", *cells(r.metrics), still)
+        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", *cells(r.metrics), still(r.stand_still))
     table.add_section()
-    still = "-" if report.stand_still is None else f"{report.stand_still.ate:.3f}"
-    table.add_row("mean", "", *cells(report.mean), still)
+    table.add_row("mean", "", *cells(report.mean), still(report.stand_still))
     if report.stand_still is not None:
         table.add_row("[dim]stand still (never moves)[/]", "", *cells(report.stand_still), "")
     console = out_console()
@@ -83,7 +101,6 @@ def evaluate_command(
         )
         console.print(f"alignment: {escape(shown)}", highlight=False, soft_wrap=True)
     console.print(
-        "path ratio = predicted / true horizontal path length (1 = the right distance); "
         "stand still = a predictor that never moves, scored the same way: a useful model is well below it.",
         highlight=False,
         soft_wrap=True,

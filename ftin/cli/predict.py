@@ -10,7 +10,7 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from ftin.checkpoint import atomic_write_text, load_model
+from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
     AlignOption,
@@ -21,11 +21,15 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
+from ftin.data.discovery import read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import read_sequence
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
+from ftin.files import atomic_write_text
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
+from ftin.metrics import list_metrics
+from ftin.metrics.plausibility import FigureValue, assess
+from ftin.metrics.verdicts import confinement_note, still_verdict
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -71,13 +75,9 @@ def predict_command(
                 bar.update(task, completed=done)
 
             prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
-        shown_gt = seq.gt
         scored = score(prediction, align)
-        if scored is not None:
-            prediction.metrics = scored.metrics
-            prediction.warnings.extend(scored.warnings)
-            if scored.fit is not None and seq.gt is not None:
-                shown_gt = scored.fit.gt_in_estimate_frame(seq.gt)
+        shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
+        warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
         trajectory = prediction.trajectory
         if timestamps == "input":
             trajectory = at_times(trajectory, seq.t_s)
@@ -99,16 +99,35 @@ def predict_command(
                 raise DataFormatError(f"{input_path}: no ground truth to write to {gt_out}")
             note = f"ground truth of {input_path}, in {out.name}'s frame"
             atomic_write_text(gt_out, tum_text(shown_gt, note))
-    for warning in prediction.warnings:
+    plausibility = assess(prediction.trajectory, seq)
+    for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
-    if prediction.metrics is not None:
-        m = prediction.metrics
+    if scored is not None and scored.metrics is not None:
+        m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"
-        typer.echo(
-            f"ATE {m.ate:.3f} m, RTE {m.rte:.3f} m, PDE {m.pde:.4f} ({m.convention.value} convention, "
-            f"alignment {m.alignment}{heading})"
-        )
+        values = ", ".join(f"{x.label} {x.text(m.values.get(x.name))}" for x in list_metrics(in_tables=True))
+        typer.echo(f"{values} ({m.convention.value} convention, alignment {m.alignment}{heading})")
+        if shown_gt is not None:
+            verdict = still_verdict(m, scored.stand_still)
+            for line in (verdict.text if verdict else None, confinement_note(shown_gt)):
+                if line:
+                    typer.echo(line)
+    typer.echo("plausibility: " + "; ".join(figure_text(f) for f in plausibility.figures))
+    if plausibility.gps is not None:
+        typer.echo("GPS: " + "; ".join(figure_text(f) for f in plausibility.gps_figures))
+
+
+def figure_text(figure: FigureValue) -> str:
+    """``step length 0.62 m``: a plausibility figure for the terminal (``-`` where undefined)."""
+    if figure.value is None:
+        value = "-"
+    elif figure.unit in ("steps", "fixes"):
+        value = f"{figure.value:.0f} {figure.unit}"
+    else:
+        digits = 2 if figure.unit in ("m/s",) or abs(figure.value) < 10 else 0
+        value = f"{figure.value:.{digits}f} {figure.unit}"
+    return f"{figure.name.replace('_', ' ')} {value}"
 
 
 def trajectory_csv(t_s: np.ndarray, p_world_m: np.ndarray, header: list[str]) -> str:

@@ -6,11 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from tqdm import tqdm
 
-from ftin.cli.common import app, user_errors
-from ftin.data.readers.generic_csv import write_csv
-from ftin.sim import CarryMode, SimConfig, simulate
+from ftin.cli.common import app, err_console, user_errors
+from ftin.sim.samples import write_walks
 
 
 @app.command("sim")
@@ -22,16 +20,5 @@ def sim_command(
     seed: Annotated[int, typer.Option(help="Seed of the first sequence; the others follow.")] = 0,
 ) -> None:
     """Simulate COUNT walks, cycling through the carry modes, each seeded and reproducible."""
-    with user_errors(ValueError, OSError):
-        out.mkdir(parents=True, exist_ok=True)
-        carries = list(CarryMode)
-        for i in tqdm(range(count), desc="simulating", unit="seq"):
-            carry = carries[i % len(carries)]
-            config = SimConfig(
-                duration_s=duration_s,
-                rate_hz=rate_hz,
-                carry=carry,
-                seed=seed + i,
-                name=f"sim_{seed + i:04d}_{carry.value}",
-            )
-            write_csv(simulate(config), out / f"{config.name}.csv")
+    with user_errors(ValueError, OSError), err_console.status(f"simulating {count} walk(s)"):
+        write_walks(out, count, duration_s, rate_hz, seed)

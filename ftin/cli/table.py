@@ -15,17 +15,19 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from ftin.checkpoint import atomic_write_text
 from ftin.cli.common import (
     REPORT_ERRORS,
+    AddressOption,
     ConventionOption,
     RteWindowOption,
     StrideOption,
+    WorkersOption,
     app,
     out_console,
     progress_bar,
     user_errors,
 )
+from ftin.files import atomic_write_text
 from ftin.metrics import Convention
 from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
 from ftin.report.campaign import ate_figure, load_results, render
@@ -54,7 +56,7 @@ def table_command(
         typer.Option(
             "--campaign",
             help="Instead of evaluating checkpoints: the training campaign's collected results "
-            "(scripts/campaign.py collect), tabled per the protocol with seeds and the stand-still row; "
+            "(ftin campaign collect), tabled per the protocol with seeds and the stand-still row; "
             "with --checkpoints and --dataset also a zero-shot transfer section (full report in "
             "OUT/transfer).",
         ),
@@ -70,11 +72,13 @@ def table_command(
     convention: ConventionOption = Convention.RONIN,
     rte_window_s: RteWindowOption = 60.0,
     stride: StrideOption = None,
+    workers: WorkersOption = None,
+    address: AddressOption = None,
 ) -> None:
-    """The paper's Table 1 (ATE / RTE per dataset, FTIN vs RoNIN ResNet, ablation) plus PDE and
-    trajectory figures, for every checkpoint in a folder on every dataset. With --campaign: the
-    campaign's Table 1, and --checkpoints/--dataset add a zero-shot transfer section (its full report
-    in OUT/transfer)."""
+    """The paper's Table 1 (every registered metric per dataset: ATE in both conventions, RTE, drift,
+    path ratio; FTIN vs RoNIN ResNet, ablation) plus the drift-error and trajectory figures, for every
+    checkpoint in a folder on every dataset. With --campaign: the campaign's Table 1, and
+    --checkpoints/--dataset add a zero-shot transfer section (its full report in OUT/transfer)."""
     with user_errors(*REPORT_ERRORS):
         if campaign is None and (checkpoints is None or not dataset):
             raise ValueError("--checkpoints and --dataset are required (or --campaign DIR)")
@@ -82,9 +86,11 @@ def table_command(
             raise ValueError("a transfer section needs both --checkpoints and --dataset")
         evaluated = None
         if checkpoints is not None:
-            evaluated = _evaluate(checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride)
+            evaluated = _evaluate(
+                checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride, workers, address
+            )
         if campaign is not None:
-            written = _campaign_table(campaign, out, transfer=evaluated)
+            written = campaign_table(campaign, out, transfer=evaluated)
         else:
             written = write_report(evaluated, out).paths()
     out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
@@ -99,13 +105,33 @@ def _evaluate(
     convention: Convention,
     rte_window_s: float,
     stride: int | None,
+    workers: int | None = None,
+    address: str | None = None,
 ) -> ReportResults:
     specs = parse_dataset_options(dataset)
-    loaded = load_checkpoints(find_checkpoints(checkpoints, pattern))
+    stems = find_checkpoints(checkpoints, pattern)
+    loaded = load_checkpoints(stems)
     datasets = load_datasets(specs)
-    total = len(loaded) * sum(len(d.sequences) for d in datasets)
+    per_checkpoint = sum(len(d.sequences) for d in datasets)
+    total = len(loaded) * per_checkpoint
     with progress_bar() as bar:
         task = bar.add_task("evaluating", total=total)
+        if workers is not None or address is not None:  # one Ray task per checkpoint
+            from ftin.campaign.scoring import evaluate_checkpoints_on_ray
+
+            by_name = {stem.name: stem for stem in stems}
+            return evaluate_checkpoints_on_ray(
+                [by_name[model.name] for model in loaded],
+                datasets,
+                workers=workers,
+                address=address,
+                on_done=lambda i: bar.update(
+                    task, description=escape(loaded[i].name), advance=per_checkpoint
+                ),
+                convention=convention,
+                rte_window_s=rte_window_s,
+                stride=stride,
+            )
 
         def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
             bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)
@@ -129,7 +155,7 @@ def parse_dataset_options(values: Sequence[str], option: str = "--dataset") -> l
     return [DatasetSpec(name, tuple(p)) for name, p in paths.items()]
 
 
-def _campaign_table(folder: Path, out: Path, transfer: ReportResults | None = None) -> list[Path]:
+def campaign_table(folder: Path, out: Path, transfer: ReportResults | None = None) -> list[Path]:
     """The campaign's files (table.md first), then the transfer report's."""
     results, manifest = load_results(folder)
     table_md, table_csv, summary = render(results, manifest)

@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from ftin.data.discovery import detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import READERS, detect_format, list_sequences, read_sequence
+from ftin.data.readers import READERS
 from ftin.data.types import ImuSequence
 
 

@@ -212,7 +212,7 @@ def estimate_orientation(
         )
     updates: dict[str, Any] = {"orientation_source": "estimated", "orientation_filter": filter_name}
     if gt is not None and seq.q_world_device_wxyz is None:
-        updates["gt_frame"] = "unknown"  # nothing related the two world frames (ftin.metrics.align)
+        updates["gt_frame"] = "unknown"  # nothing related the two world frames (ftin.metrics.alignment_modes)
     meta = _meta_with_warning(seq.meta, *warnings, **updates)
     return seq.with_(q_world_device_wxyz=q, gt=gt, meta=meta)
 

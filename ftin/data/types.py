@@ -1,4 +1,4 @@
-"""The sequence and trajectory types that flow through every layer (design §1).
+"""The sequence and trajectory types that flow through every layer (``docs/design.md``, "The flow of data").
 
 Frames and units live in the field names: ``_s`` seconds, ``_m`` metres, ``_rad_s`` rad/s,
 ``_m_s2`` m/s². Quaternions are scalar-first ``wxyz`` everywhere (viser's order); convert to

@@ -1,8 +1,9 @@
 """Validation of an ``ImuSequence``: the checks every reader and the app's JSON request path share.
 
-``validate(seq)`` is the one entry point: finite values, strictly increasing time, a rate within
-``MIN_RATE_HZ``-``MAX_RATE_HZ``, no recording gaps, per-sample physical limits, accelerations and
-angular rates that do not look like g or deg/s, unit quaternions that put gravity on +z. Every
+``validate(seq)`` is the one entry point: finite values, strictly increasing time (exact repeated
+rows dropped), a rate within ``MIN_RATE_HZ``-``MAX_RATE_HZ``, gaps bridged or held
+(``ftin.data.gaps``), per-sample physical limits, accelerations and angular rates that do not look
+like g or deg/s, unit quaternions that put gravity on +z. Every
 violation raises ``DataFormatError`` naming the column and the row and saying how to fix it; the
 names come from ``ColumnNames`` (a file's own headers, or the JSON fields) and ``row_label`` (file
 lines, or ``sample i``). Shapes are checked by ``ImuSequence`` itself.
@@ -30,13 +31,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ftin.data import frames
+from ftin.data import frames, gaps
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
 
 MIN_RATE_HZ = 20.0
 MAX_RATE_HZ = 1000.0
-MAX_GAP_FACTOR = 5.0  # an interval above 5x the median is a gap, not jitter
+MAX_GAP_FACTOR = gaps.GAP_FACTOR
 STANDARD_GRAVITY_M_S2 = 9.80665
 GYRO_FULL_SCALE_RAD_S = 35.0  # 2000 deg/s, the usual phone full scale: more is not rad/s
 # Per-sample plausibility limits, 10x beyond what IMUs measure (2000 deg/s, 16 g) and beyond any
@@ -75,10 +76,10 @@ def validate(
 ) -> ImuSequence:
     """``seq`` checked (module docstring), with normalised quaternions and any warning in its meta.
 
-    ``source`` starts every message (default: the sequence's ``meta["source"]`` or its name). Dataset
-    readers that handle gaps themselves (dropped samples, split sessions) pass ``max_gap_factor=None``;
-    readers that already normalised their quaternions pass ``normalize_quaternions=False`` (the
-    values stay bit for bit, the norms are still checked).
+    ``source`` starts every message (default: the sequence's ``meta["source"]`` or its name). Readers
+    whose clock is already uniform (phone exports merged by ``sensor_clock``) may pass
+    ``max_gap_factor=None``; readers that already normalised their quaternions pass
+    ``normalize_quaternions=False`` (the values stay bit for bit, the norms are still checked).
     """
     source = source or str(seq.meta.get("source", seq.name))
     row_label = row_label or sample_row_label
@@ -98,10 +99,20 @@ def validate(
         if values is not None:
             check_finite(values, names, source, row_label)
     check_min_samples(len(seq), min_samples, source)
-    check_increasing(t, source, row_label, column=columns.t)
-    check_rate(float(1.0 / np.median(np.diff(t))), source)
+    repeated = 0
     if max_gap_factor is not None:
-        check_gaps(t, source, row_label, max_gap_factor)
+        # Exact repeats first (a logger writing a batch twice); rows keep their labels from the input.
+        n_read = len(seq)
+        seq, kept = gaps.drop_repeated_rows(seq)
+        if kept is not None:
+            row_label, repeated = _relabelled(row_label, kept), n_read - len(kept)
+            q = seq.q_world_device_wxyz
+    check_increasing(seq.t_s, source, row_label, column=columns.t)
+    check_rate(float(1.0 / np.median(np.diff(seq.t_s))), source)
+    if max_gap_factor is not None:
+        seq = gaps.mend_clock(
+            seq, source=source, row_label=row_label, factor=max_gap_factor, repeated=repeated
+        )
     check_imu_units(gyro, acc, source)
     if q is None:
         return seq
@@ -117,9 +128,14 @@ def validate(
 
 
 def validate_read(seq: ImuSequence) -> ImuSequence:
-    """``validate`` as a dataset reader ends: its own gap rule (dropped samples, split sessions) and its
-    quaternions as read (already checked and normalised by the reader, kept bit for bit)."""
-    return validate(seq, max_gap_factor=None, normalize_quaternions=False)
+    """``validate`` as a dataset reader ends: its quaternions as read (already checked and normalised
+    by the reader, kept bit for bit); gaps bridged or held as for every input (``ftin.data.gaps``)."""
+    return validate(seq, normalize_quaternions=False)
+
+
+def _relabelled(row_label: RowLabel, kept: np.ndarray) -> RowLabel:
+    """Labels for the rows left after dropping some: row ``i`` was row ``kept[i]`` of the input."""
+    return lambda i: row_label(int(kept[i]))
 
 
 def csv_row_label(first_line: int = 2) -> RowLabel:
@@ -170,23 +186,6 @@ def check_rate(rate_hz: float, source: str) -> None:
     if not MIN_RATE_HZ <= rate_hz <= MAX_RATE_HZ:
         raise DataFormatError(
             f"{source}: sample rate {rate_hz:.4g} Hz is outside {MIN_RATE_HZ:g}–{MAX_RATE_HZ:g} Hz"
-        )
-
-
-def check_gaps(
-    t_s: np.ndarray, source: str, row_label: RowLabel, max_gap_factor: float = MAX_GAP_FACTOR
-) -> None:
-    """Raise when an interval exceeds ``max_gap_factor`` times the median (a recording gap)."""
-    dt = np.diff(t_s)
-    median = float(np.median(dt))
-    gaps = np.flatnonzero(dt > max_gap_factor * median)
-    if gaps.size:
-        i = int(gaps[0])
-        raise DataFormatError(
-            f"{source}: gap of {dt[i]:.4g} s between {row_label(i)} (t={t_s[i]:.6f} s) and "
-            f"{row_label(i + 1)} (t={t_s[i + 1]:.6f} s), more than {max_gap_factor:g}x the median "
-            f"interval {median:.4g} s "
-            f"({gaps.size} gaps in all); split the recording at the gaps"
         )
 
 

@@ -1,6 +1,6 @@
 """World-frame IMU windows, velocity targets, input normalisation and the training Dataset.
 
-Decisions (design §2):
+Decisions (``docs/design.md``, "Frames"):
 - Window ``k`` starts at sample ``s = k * stride``; its input is samples ``s .. s + L - 1`` and its
   target is the mean velocity over the same ``L`` sample intervals,
   ``(p[s + L] - p[s]) / (t[s + L] - t[s])``. A window therefore needs sample ``s + L`` and starts run
@@ -42,6 +42,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.gaps import starts_outside_holes
 from ftin.data.types import ImuSequence
 
 N_CHANNELS = 6  # gyro xyz, acc xyz
@@ -250,6 +251,7 @@ class WindowDataset(torch.utils.data.Dataset):
             _check_training_sequence(seq, window)
             imu = world_imu(seq)
             starts = measured_starts(window_starts(len(seq), window, stride), seq.gt.tracked, window, parts)
+            starts = starts_outside_holes(seq, starts, window)
             imu_parts.append(imu)
             t_parts.append(np.asarray(seq.t_s, dtype=np.float64))
             p_parts.append(np.asarray(seq.gt.p_world_m[:, :out_dim], dtype=np.float64))

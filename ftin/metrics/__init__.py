@@ -1,6 +1,7 @@
-"""Trajectory metrics (ATE, RTE, PDE) under an explicit convention, and rigid alignment."""
+"""Trajectory metrics, registered once (``registry``, ``definitions``), under an explicit convention,
+and the alignment choices (``alignment_modes``) with their rigid fits (``umeyama``)."""
 
-from ftin.metrics.align import (
+from ftin.metrics.alignment_modes import (
     Alignment,
     AlignmentFit,
     convention_for,
@@ -9,7 +10,8 @@ from ftin.metrics.align import (
     evaluate_aligned,
     fit_alignment,
 )
-from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
+from ftin.metrics.definitions import HEADLINE, HEADLINE_METRIC
+from ftin.metrics.registry import Better, Comparison, Metric, get_metric, list_metrics, metric_names, register
 from ftin.metrics.trajectory import (
     Convention,
     TrajectoryMetrics,
@@ -23,15 +25,25 @@ from ftin.metrics.trajectory import (
     rte,
     stand_still,
 )
+from ftin.metrics.umeyama import RigidAlignment, fit_se2, fit_se3
 
 __all__ = [
+    "HEADLINE",
+    "HEADLINE_METRIC",
     "Alignment",
     "AlignmentFit",
+    "Better",
+    "Comparison",
+    "Metric",
     "convention_for",
     "default_alignment",
     "describe_alignment",
     "evaluate_aligned",
     "fit_alignment",
+    "get_metric",
+    "list_metrics",
+    "metric_names",
+    "register",
     "Convention",
     "RigidAlignment",
     "TrajectoryMetrics",

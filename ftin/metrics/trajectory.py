@@ -1,8 +1,11 @@
-"""Trajectory error metrics: ATE, RTE and PDE under a stated convention (design §4).
+"""Trajectory error metrics under a stated convention: the array functions and ``evaluate_trajectory``,
+which scores every registered metric (``ftin.metrics.registry``, defined in ``ftin.metrics.definitions``).
 
-A convention fixes three things, and every metric of one evaluation follows the same three:
+A convention fixes the axes and the alignment of the estimate; the array functions ``ate`` / ``rte``
+also follow its aggregate, while ``evaluate_trajectory`` reports both ATE conventions by name (the
+headline RoNIN per-axis RMS as ``ate``, evo's Euclidean RMSE as ``ate_euclidean``):
 
-| convention    | axes          | alignment of the estimate       | ATE / RTE aggregate                |
+| convention    | axes          | alignment of the estimate       | ``ate()`` / ``rte()`` aggregate    |
 |---------------|---------------|---------------------------------|------------------------------------|
 | ``RONIN``     | x, y          | none                            | RMSE over all N x 2 coordinates    |
 | ``EUCLIDEAN`` | all given     | none                            | RMSE of per-sample Euclidean norms |
@@ -39,7 +42,18 @@ from typing import Any
 import numpy as np
 
 from ftin.data.types import Trajectory
-from ftin.metrics.alignment import fit_se2, fit_se3
+from ftin.metrics.definitions import (
+    HEADLINE,
+    MIN_PATH_FOR_RATIO_M,
+    compared_path_m,
+    drift_ratio,
+    euclidean_rmse,
+    horizontal_length_m,
+    per_axis_rms,
+    relative_error,
+)
+from ftin.metrics.registry import Comparison, get_metric, list_metrics, metric_names
+from ftin.metrics.umeyama import fit_se2, fit_se3
 
 # Timestamps closer than this are the same instant (float noise from readers and resampling).
 _SAME_TIME_TOL_S = 1e-6
@@ -59,30 +73,34 @@ _HORIZONTAL = (Convention.RONIN, Convention.SE2)
 
 @dataclass(frozen=True)
 class TrajectoryMetrics:
-    """Errors of one estimate (or the mean over sequences): ``ate`` and ``rte`` in metres, ``pde``
-    a ratio of final error to ground-truth path length."""
+    """A scored comparison: every registered metric by name (``ftin.metrics.registry``; None where
+    undefined), and how it was scored. ``m.ate`` / ``m["ate"]`` read one value."""
 
-    ate: float
-    rte: float
-    pde: float
+    values: dict[str, float | None]
     convention: Convention
     rte_window_s: float = 60.0
-    # predicted / true horizontal path length; None where the truth does not move (no ratio exists)
-    path_length_ratio: float | None = None
-    # Set by ``ftin.metrics.align.evaluate_aligned``: the alignment (``Alignment`` value), the fitted
-    # heading of the estimate into the ground-truth frame (deg; None when nothing was fitted) and, for
-    # "start", the seconds of the start it was fitted on.
+    smooth_s: float | None = None  # seconds the paths were smoothed over before their lengths
+    # Set by ``ftin.metrics.alignment_modes.evaluate_aligned``: the alignment (``Alignment`` value), the
+    # fitted heading of the estimate into the ground-truth frame (deg; None when nothing was fitted)
+    # and, for "start", the seconds of the start it was fitted on.
     alignment: str | None = None
     heading_deg: float | None = None
     align_window_s: float | None = None
 
+    def __getattr__(self, name: str) -> float | None:
+        values = self.__dict__.get("values")
+        if values is not None and name in metric_names():
+            return values.get(name)
+        raise AttributeError(f"{type(self).__name__} has no attribute or metric {name!r}")
+
+    def __getitem__(self, name: str) -> float | None:
+        get_metric(name)  # a clear KeyError for a name that is no metric
+        return self.values.get(name)
+
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready values; the convention as its string value."""
-        out = {
-            "ate": self.ate,
-            "rte": self.rte,
-            "pde": self.pde,
-            "path_length_ratio": self.path_length_ratio,
+        """JSON-ready values: every metric by name, then the convention as its string value."""
+        out: dict[str, Any] = {
+            **self.values,
             "convention": self.convention.value,
             "rte_window_s": self.rte_window_s,
         }
@@ -122,24 +140,26 @@ def pde(est_m: np.ndarray, gt_m: np.ndarray, convention: Convention = Convention
 
 def horizontal_path_length(p_m: np.ndarray) -> float:
     """Length in metres of the horizontal (x, y) polyline through ``(N, 2|3)`` positions."""
-    p = _check_positions("p_m", p_m)
-    return float(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1).sum())
+    return horizontal_length_m(_check_positions("p_m", p_m))
 
 
-# Below this much ground-truth path a ratio means nothing (a recording of someone standing still).
-_MIN_PATH_FOR_RATIO_M = 0.5
-
-
-def path_length_ratio(est_m: np.ndarray, gt_m: np.ndarray) -> float | None:
+def path_length_ratio(
+    est_m: np.ndarray, gt_m: np.ndarray, t_s: np.ndarray | None = None, smooth_s: float | None = None
+) -> float | None:
     """Predicted / true horizontal path length; ``None`` when the truth walks less than 0.5 m.
 
-    Alignment cannot change it (rigid motions keep lengths), so it reads the same under every
-    convention: 1 is the right distance, 0 a predictor that never moves.
+    With ``t_s`` and ``smooth_s`` both paths are first smoothed over ``smooth_s`` seconds, the
+    model's window (``ftin.metrics.definitions``). Alignment cannot change it (rigid motions keep
+    lengths), so it reads the same under every convention: 1 is the right distance, 0 a predictor
+    that never moves.
     """
-    true_length = horizontal_path_length(gt_m)
-    if true_length < _MIN_PATH_FOR_RATIO_M:
+    est, gt = _check_positions("est_m", est_m), _check_positions("gt_m", gt_m)
+    if t_s is None:
+        t_s, smooth_s = np.arange(len(gt), dtype=np.float64), None
+    true_length = compared_path_m(gt, t_s, smooth_s)
+    if true_length < MIN_PATH_FOR_RATIO_M:
         return None
-    return horizontal_path_length(est_m) / true_length
+    return compared_path_m(est, t_s, smooth_s) / true_length
 
 
 def stand_still(gt: Trajectory) -> Trajectory:
@@ -153,23 +173,25 @@ def evaluate_trajectory(
     gt: Trajectory,
     convention: Convention = Convention.RONIN,
     rte_window_s: float = 60.0,
+    smooth_s: float | None = None,
 ) -> TrajectoryMetrics:
-    """ATE, RTE and PDE of ``est`` against ``gt`` at the ground-truth timestamps they share."""
+    """Every registered metric of ``est`` against ``gt`` at the ground-truth timestamps they share;
+    ``smooth_s`` (the model's window, s) smooths both paths before their lengths are compared."""
     convention = Convention(convention)
     t_s, est_m, gt_m = _common_samples(est, gt)
     est_p, gt_p = _prepare(est_m, gt_m, convention)
-    return TrajectoryMetrics(
-        ate=_rmse(est_p - gt_p, convention),
-        rte=_relative_error(est_p, gt_p, t_s, rte_window_s, convention),
-        pde=_drift_ratio(est_p, gt_p),
-        convention=convention,
-        rte_window_s=float(rte_window_s),
-        path_length_ratio=path_length_ratio(est_m, gt_m),
-    )
+    comparison = Comparison(t_s, est_p, gt_p, est_m, gt_m, float(rte_window_s), smooth_s)
+    values = {m.name: _value(m.compute(comparison)) for m in list_metrics()}
+    return TrajectoryMetrics(values, convention, float(rte_window_s), smooth_s)
+
+
+def _value(value: float | None) -> float | None:
+    return None if value is None else float(value)
 
 
 def mean_metrics(metrics: Sequence[TrajectoryMetrics]) -> TrajectoryMetrics:
-    """Mean of each metric over sequences (each sequence weighs the same, as the paper's tables)."""
+    """Mean of each metric over sequences (each sequence weighs the same, as the paper's tables);
+    a metric undefined for some sequences is the mean of the others (None if undefined for all)."""
     if len(metrics) == 0:
         raise ValueError("mean_metrics needs at least one TrajectoryMetrics, got an empty list")
     first = metrics[0]
@@ -180,13 +202,12 @@ def mean_metrics(metrics: Sequence[TrajectoryMetrics]) -> TrajectoryMetrics:
                 f"window but metrics[0] uses {first.convention.value!r} with {first.rte_window_s:g} s; "
                 "only metrics of one convention and window can be averaged"
             )
+    names = [n for n in metric_names() if any(n in m.values for m in metrics)]
     return TrajectoryMetrics(
-        ate=float(np.mean([m.ate for m in metrics])),
-        rte=float(np.mean([m.rte for m in metrics])),
-        pde=float(np.mean([m.pde for m in metrics])),
-        convention=first.convention,
-        rte_window_s=first.rte_window_s,
-        path_length_ratio=_mean_or_none([m.path_length_ratio for m in metrics]),
+        {n: _mean_or_none([m.values.get(n) for m in metrics]) for n in names},
+        first.convention,
+        first.rte_window_s,
+        first.smooth_s,
         alignment=first.alignment if all(m.alignment == first.alignment for m in metrics) else None,
     )
 
@@ -197,37 +218,32 @@ def _mean_or_none(values: Sequence[float | None]) -> float | None:
 
 
 def describe(convention: Convention = Convention.RONIN, rte_window_s: float = 60.0) -> str:
-    """One sentence stating the convention, for the header or footer of every table."""
+    """The sentence stating the convention, for the header or footer of every table: which axes,
+    which alignment, the headline convention (once) and the RTE window."""
     convention = Convention(convention)
     w = f"{rte_window_s:g} s"
-    lead, axes, ate_text = {
+    lead, axes = {
         Convention.RONIN: (
             "RoNIN convention: no alignment (the estimate starts at the ground-truth start)",
             "horizontal x, y",
-            "ATE = RMSE over all x and y coordinates (Euclidean RMSE / √2)",
         ),
-        Convention.EUCLIDEAN: (
-            "Euclidean convention: no alignment",
-            "x, y, z",
-            "ATE = RMSE of the Euclidean position errors",
-        ),
+        Convention.EUCLIDEAN: ("Euclidean convention: no alignment", "x, y, z"),
         Convention.SE2: (
             "SE(2)-aligned convention: the estimate is first rotated about z and shifted "
             "(Umeyama, no scale) to best fit the ground truth",
             "horizontal x, y",
-            "ATE = RMSE of the Euclidean position errors",
         ),
         Convention.SE3: (
             "SE(3)-aligned convention: the estimate is first rotated and shifted "
             "(Umeyama, no scale) to best fit the ground truth",
             "x, y, z",
-            "ATE = RMSE of the Euclidean position errors",
         ),
     }[convention]
     return (
-        f"{lead}; errors over {axes} in metres; {ate_text}; RTE = the same RMSE of displacement "
-        f"differences over every {w} window (sequences shorter than {w}: whole-sequence drift scaled "
-        f"by {w} / duration); PDE = final position error / ground-truth path length (ratio)."
+        f"{lead}; errors over {axes} in metres. {HEADLINE} RTE over every {w} window (sequences "
+        f"shorter than {w}: whole-sequence drift scaled by {w} / duration); PDE = final position error "
+        "/ ground-truth path length; path ratio = predicted / true horizontal path, both smoothed over "
+        "the model's window."
     )
 
 
@@ -277,34 +293,18 @@ def _check_times(t_s: Any, n: int, name: str = "t_s") -> np.ndarray:
 
 
 def _rmse(err: np.ndarray, convention: Convention) -> float:
-    """RoNIN averages squared coordinates; the other conventions average squared distances."""
-    if convention is Convention.RONIN:
-        return float(np.sqrt(np.mean(err**2)))
-    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+    """The array functions' aggregate: RoNIN averages squared coordinates, the others squared distances."""
+    return per_axis_rms(err) if convention is Convention.RONIN else euclidean_rmse(err)
 
 
 def _relative_error(
     est: np.ndarray, gt: np.ndarray, t_s: np.ndarray, window_s: float, convention: Convention
 ) -> float:
-    if not np.isfinite(window_s) or window_s <= 0:
-        raise ValueError(f"rte window_s must be a positive number of seconds, got {window_s}")
-    rate_hz = 1.0 / float(np.median(np.diff(t_s)))
-    k = int(round(window_s * rate_hz))
-    if k < 1:
-        raise ValueError(f"rte window_s = {window_s} s is shorter than one sample interval at {rate_hz:g} Hz")
-    if k <= len(est) - 1:
-        err = (est[k:] - est[:-k]) - (gt[k:] - gt[:-k])
-        return _rmse(err, convention)
-    # Shorter than one window: scale the whole-sequence drift to the window length.
-    err = (est[-1:] - est[:1]) - (gt[-1:] - gt[:1])
-    return _rmse(err, convention) * window_s / float(t_s[-1] - t_s[0])
+    return relative_error(est, gt, t_s, window_s, lambda err: _rmse(err, convention))
 
 
 def _drift_ratio(est: np.ndarray, gt: np.ndarray) -> float:
-    path_m = float(np.linalg.norm(np.diff(gt, axis=0), axis=1).sum())
-    if path_m <= 0.0:
-        raise ValueError("PDE is undefined: the ground-truth path has zero length (it never moves)")
-    return float(np.linalg.norm(est[-1] - gt[-1])) / path_m
+    return drift_ratio(est, gt)
 
 
 def _common_samples(est: Trajectory, gt: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

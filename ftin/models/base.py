@@ -1,4 +1,4 @@
-"""The one interface every model implements (design §3).
+"""The one interface every model implements (``docs/design.md``, "Models").
 
 ``forward(x, features=None) -> VelocityOutput``
 

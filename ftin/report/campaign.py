@@ -1,4 +1,4 @@
-"""Table 1 from the training campaign's per-job results (``scripts/campaign.py collect``).
+"""Table 1 from the training campaign's per-job results (``ftin campaign collect``).
 
 Input: a folder of ``<dataset>__<job>.json`` records (training summary, history, per-sequence
 metrics of the job's best checkpoint on the validation and test parts, ground-truth and device
@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from ftin.protocol import ABLATIONS, COMPARED, OXIOD, PEDESTRIAN, RIDI
+from ftin.metrics import HEADLINE, HEADLINE_METRIC, Better, get_metric, list_metrics
+from ftin.protocol import ABLATIONS, COMBINED, COMPARED, OXIOD, RIDI
 from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
@@ -49,9 +50,10 @@ LABELS = {
     "resnet_tdl": "+TDL",
     "ftin_other": "FTIN, other TDL variant (seed 0)",
     "ftin-pedestrian": "FTIN-pedestrian (both datasets)",
+    "ftin-walking": "FTIN-walking (every walking dataset)",
 }
-METRICS = ("ate", "rte", "pde", "path_length_ratio")
-METRIC_LABELS = {"ate": "ATE [m]", "rte": "RTE [m]", "pde": "PDE [%]", "path_length_ratio": "path ratio"}
+# The registered table metrics (ftin.metrics): a record written before a metric existed shows "—".
+METRICS = tuple(m.name for m in list_metrics(in_tables=True))
 ORIENTATIONS = {
     "ground_truth": "ground-truth orientation (the network alone)",
     "device": "device orientation (what the phone gives)",
@@ -75,7 +77,7 @@ def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
     folder = Path(folder)
     manifest_path = folder / "manifest.json"
     if not manifest_path.exists():
-        raise ValueError(f"{folder}: no manifest.json (run `scripts/campaign.py collect` first)")
+        raise ValueError(f"{folder}: no manifest.json (run `ftin campaign collect` first)")
     manifest = json.loads(manifest_path.read_text())
     variant = manifest.get("ftin_variant")
     results = []
@@ -83,8 +85,8 @@ def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
         record = json.loads(path.read_text())
         training = record["training"]
         model = training["model"]
-        if training["dataset"] == PEDESTRIAN:
-            model = "ftin-pedestrian"
+        if training["dataset"] in COMBINED:  # e.g. ftin-pedestrian: a row of its own
+            model = f"{model}-{training['dataset']}"
         elif model == "ftin" and training.get("variant") != variant:
             model = "ftin_other"
         results.append(JobResult(training["job"], model, training["dataset"], training["seed"], record))
@@ -97,14 +99,15 @@ def per_seed_means(results: Sequence[JobResult], dataset: str, part: str, orient
     """``{model: {seed: {metric: mean over recordings}}}`` plus ``stand_still`` (seed -1)."""
     table: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
     for result in results:
-        if result.dataset not in (dataset, PEDESTRIAN):
+        if dataset not in COMBINED.get(result.dataset, (result.dataset,)):
             continue
         rows = result.rows(dataset, part, orientation)
         if not rows:
             continue
         table[result.model][result.seed] = _mean_rows(rows)
         if "stand_still" not in table:
-            still = [{**row["stand_still"], "path_length_ratio": 0.0} for row in rows]
+            never_moves = {m.name: 0.0 for m in list_metrics(in_tables=True) if m.better is Better.ONE}
+            still = [{**never_moves, **row["stand_still"]} for row in rows]
             table["stand_still"][-1] = _mean_rows(still)
     return dict(table)
 
@@ -114,7 +117,7 @@ def paired_difference(
     dataset: str,
     part: str,
     orientation: str,
-    metric: str = "ate",
+    metric: str = HEADLINE_METRIC,
     a: str = "ftin",
     b: str = "ronin_resnet",
     resamples: int = 10_000,
@@ -147,7 +150,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
         *COMPARED,
         *[m for m in ABLATIONS if m != "ftin"],
         "ftin_other",
-        "ftin-pedestrian",
+        *sorted({r.model for r in results if r.dataset in COMBINED}),
     ]
     md = io.StringIO()
     rows_csv: list[list[Any]] = []
@@ -164,7 +167,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
                     f"{dataset.upper() if dataset == OXIOD else 'RIDI'}, {part}, {ORIENTATIONS[orientation]}"
                 )
                 md.write(f"### {title.replace('OXIOD', 'OxIOD')}\n\n")
-                md.write("| model | n | " + " | ".join(METRIC_LABELS[m] for m in METRICS) + " |\n")
+                md.write("| model | n | " + " | ".join(get_metric(m).header for m in METRICS) + " |\n")
                 md.write("|---|---|" + "---|" * len(METRICS) + "\n")
                 key = f"{part}/{orientation}"
                 summary["datasets"][dataset][key] = {}
@@ -175,7 +178,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
                     cells, stats = [], {}
                     for metric in METRICS:
                         values = [s[metric] for s in seeds.values() if s.get(metric) is not None]
-                        stats[metric] = _stats(values, scale=100.0 if metric == "pde" else 1.0)
+                        stats[metric] = _stats(values, scale=get_metric(metric).scale)
                         cells.append(_cell(stats[metric], metric))
                     n = len(seeds) if model != "stand_still" else "—"
                     md.write(f"| {LABELS.get(model, model)} | {n} | " + " | ".join(cells) + " |\n")
@@ -187,9 +190,10 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
                     )
                 diff = paired_difference(results, dataset, part, orientation)
                 if diff is not None:
-                    summary["datasets"][dataset][key]["ftin_minus_resnet_ate"] = diff
+                    summary["datasets"][dataset][key][f"ftin_minus_resnet_{HEADLINE_METRIC}"] = diff
                     md.write(
-                        "\nFTIN − RoNIN ResNet, ATE, paired by seed and recording: "
+                        f"\nFTIN − RoNIN ResNet, {get_metric(HEADLINE_METRIC).label}, paired by seed and "
+                        "recording: "
                         f"**{diff['mean']:+.3f} m** "
                         f"(95 % bootstrap interval {diff['ci95'][0]:+.3f} … {diff['ci95'][1]:+.3f}; "
                         f"{diff['pairs']} pairs, seeds {diff['seeds']}; negative = FTIN better)\n"
@@ -213,14 +217,12 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
         "# Table 1 on our data (per the protocol in docs/results/protocol.md)\n\n"
         f"FTIN's TDL variant, chosen on validation: **{manifest.get('ftin_variant')}**. Each cell: mean ± sd "
         "over seeds (n = seeds) of the mean over the part's recordings. RoNIN convention (no alignment, "
-        "horizontal; RTE over 60 s or scaled drift); PDE in % of the path; path ratio = predicted / true "
-        "horizontal path. Stand still = the predictor that never moves.\n\n"
+        f"horizontal; RTE over 60 s or scaled drift). {HEADLINE} "
+        + " ".join(f"{m.header}: {m.description}." for m in list_metrics(in_tables=True))
+        + " Stand still = the predictor that never moves.\n\n"
     )
     refused = set(manifest.get("not_shipped", {}))
     return head + paper_layout_markdown(summary, refused) + md.getvalue(), out.getvalue(), summary
-
-
-LAYOUT_METRICS = {"ATE": "ate", "RTE": "rte", "Path ratio": "path_length_ratio"}
 
 
 def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()) -> str:
@@ -239,14 +241,14 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
             cells = summary["datasets"].get(dataset, {}).get(f"test/{orientation}")
             if not cells:
                 continue
-            for i, (label, metric) in enumerate(LAYOUT_METRICS.items()):
+            for i, definition in enumerate(list_metrics(in_tables=True)):
+                label, metric = definition.label, definition.name
                 stats = [_column_stats(cells, column, metric) for column in PAPER_COLUMNS]
                 means = [None if stat is None else stat["mean"] for stat in stats]
-                bold = (
-                    best_flags(PAPER_COLUMNS, means)
-                    if metric != "path_length_ratio"
-                    else [False] * len(stats)
-                )
+                if definition.better is Better.LOWER:
+                    bold = best_flags(PAPER_COLUMNS, means, definition.digits)
+                else:
+                    bold = [False] * len(stats)
                 texts = []
                 for column, column_stats, is_bold in zip(PAPER_COLUMNS, stats, bold, strict=True):
                     if column.group is ColumnGroup.IMPROVEMENT:
@@ -275,7 +277,7 @@ def _column_stats(cells: dict[str, Any], column: Column, metric: str) -> dict[st
 
 def _improvement_text(cells: dict[str, Any], metric: str) -> str:
     """(ResNet − FTIN) / ResNet of the seed means; none for the path ratio (closer to 1 is not lower)."""
-    if metric == "path_length_ratio":
+    if get_metric(metric).better is not Better.LOWER:
         return MISSING
     resnet, ftin = ((cells.get(model) or {}).get(metric) for model in ("ronin_resnet", "ftin"))
     percent = improvement_percent(resnet and resnet["mean"], ftin and ftin["mean"])
@@ -300,7 +302,7 @@ def _stats(values: Sequence[float], scale: float = 1.0) -> dict[str, Any] | None
 def _cell(stats: dict[str, Any] | None, metric: str) -> str:
     if stats is None:
         return "—"
-    digits = 2 if metric in ("pde", "path_length_ratio") else 3
+    digits = get_metric(metric).digits
     text = f"{stats['mean']:.{digits}f}"
     if stats["sd"] is not None:
         text += f" ± {stats['sd']:.{digits}f}"
@@ -308,17 +310,18 @@ def _cell(stats: dict[str, Any] | None, metric: str) -> str:
 
 
 def ate_figure(summary: dict[str, Any]) -> Any:
-    """Test ATE per model (ground-truth orientation), mean ± sd over seeds, stand still as a line."""
+    """Test headline ATE per model (ground-truth orientation), mean ± sd over seeds, stand still as a line."""
+    ate = HEADLINE_METRIC
     datasets = [d for d in (OXIOD, RIDI) if "test/ground_truth" in summary["datasets"].get(d, {})]
     fig = Figure(figsize=(5.2 * max(len(datasets), 1), 4.2))
     for i, dataset in enumerate(datasets):
         ax = fig.add_subplot(1, len(datasets), i + 1)
         cells = summary["datasets"][dataset]["test/ground_truth"]
         models = [
-            m for m in (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other") if m in cells and cells[m]["ate"]
+            m for m in (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other") if m in cells and cells[m][ate]
         ]
-        means = [cells[m]["ate"]["mean"] for m in models]
-        sds = [cells[m]["ate"]["sd"] or 0.0 for m in models]
+        means = [cells[m][ate]["mean"] for m in models]
+        sds = [cells[m][ate]["sd"] or 0.0 for m in models]
         colors = ["#1f77b4" if m == "ftin" else "#9aa7b4" for m in models]
         ax.bar(range(len(models)), means, yerr=sds, color=colors, capsize=3)
         ax.set_xticks(
@@ -328,7 +331,7 @@ def ate_figure(summary: dict[str, Any]) -> Any:
             ha="right",
             fontsize=8,
         )
-        still = cells.get("stand_still", {}).get("ate")
+        still = cells.get("stand_still", {}).get(ate)
         if still:
             ax.axhline(still["mean"], color="#d62728", linestyle="--", linewidth=1.2)
             ax.text(
@@ -340,7 +343,7 @@ def ate_figure(summary: dict[str, Any]) -> Any:
                 ha="right",
                 fontsize=8,
             )
-        ax.set_ylabel("test ATE [m] (RoNIN convention)")
+        ax.set_ylabel(f"test {get_metric(ate).header} (RoNIN convention)")
         ax.set_title(f"{'OxIOD' if dataset == OXIOD else 'RIDI'} test, ground-truth orientation", fontsize=10)
         ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()

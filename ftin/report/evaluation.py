@@ -7,7 +7,7 @@ Decisions:
 - Two checkpoints for one column are an error (which one would the table show?): a folder holding
   e.g. ``ftin-oxiod`` and ``ftin-sim`` is narrowed with name globs (``find_checkpoints(patterns=...)``,
   ``ftin table --pattern '*-oxiod'``). Checkpoints of models outside the layout (e.g. ``resnet1d``)
-  are evaluated too: they appear in the PDE chart and ``results.json`` and are named in a note.
+  are evaluated too: they appear in the metric chart and ``results.json`` and are named in a note.
 - The representative sequence of a dataset (trajectory figure) is the one whose FTIN ATE is the
   median (lower middle for an even count; RoNIN ResNet's ATE without an FTIN checkpoint): neither the
   best nor the worst case, so the figure does not cherry-pick.
@@ -141,17 +141,15 @@ def evaluate_checkpoints(
             for seq in dataset.sequences:
                 if on_evaluation is not None:
                     on_evaluation(loaded.name, dataset.name, seq.name)
-                prediction = predict_trajectory(loaded, seq, stride=stride)
+                prediction = predict_trajectory(loaded, seq, stride=stride, keep_prepared=False)
                 scored = score(prediction, None, convention, rte_window_s, default_alignment_rule=False)
-                prediction.warnings.extend(scored.warnings)
                 if scored.metrics is None:
                     reason = "; ".join(scored.warnings[-1:])
                     raise DataFormatError(f"--dataset {dataset.name}, sequence {seq.name!r}: {reason}")
-                prepared = prediction.prepared.seq
-                sequences.append(
-                    SequenceResult(seq.name, scored.metrics, prepared.duration_s, prediction.warnings)
-                )
-                ground_truth[dataset.name].setdefault(seq.name, prepared.gt)
+                warnings = [*prediction.warnings, *scored.warnings]
+                duration_s = prediction.trajectory.duration_s
+                sequences.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings))
+                ground_truth[dataset.name].setdefault(seq.name, prediction.truth)
                 if loaded.model_name in FIGURE_MODELS:
                     result.trajectories.setdefault(dataset.name, {})[seq.name] = prediction.trajectory
             result.reports[dataset.name] = EvaluationReport(

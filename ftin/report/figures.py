@@ -1,4 +1,5 @@
-"""The report's figures: PDE per dataset and model (paper Fig. 3), trajectories (paper Fig. 4).
+"""The report's figures: one registered metric per dataset and model (paper Fig. 3 charts the drift
+error, ``ftin.report.results.FIGURE_METRIC``), trajectories (paper Fig. 4).
 
 Decisions:
 - Figures are built on ``matplotlib.figure.Figure`` and rendered by the Agg canvas, never through
@@ -6,8 +7,8 @@ Decisions:
   server thread or a test, and nothing needs closing.
 - A model keeps one colour in both figures (the order of the paper's columns, then other models);
   ground truth is black.
-- The PDE chart shows the mean over each dataset's sequences as a bar, with every sequence's PDE as
-  a dot on it, so a mean carried by one bad sequence is visible.
+- The metric chart shows the mean over each dataset's sequences as a bar, with every sequence's value
+  as a dot on it, so a mean carried by one bad sequence is visible.
 - Trajectories are drawn in the x-y plane of the ground-truth world frame with equal axis scales;
   each dataset gets one panel with its representative sequence (``ftin.report.evaluation``).
 """
@@ -22,7 +23,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ftin.checkpoint import atomic_write_bytes
+from ftin.files import atomic_write_bytes
+from ftin.metrics import HEADLINE_METRIC, Metric, get_metric
 from ftin.report.results import (
     CONVENTION_LABELS,
     FIGURE_MODELS,
@@ -44,8 +46,8 @@ def display_label(checkpoint: CheckpointResult) -> str:
     return MODEL_LABELS.get(checkpoint.model_name, checkpoint.name)
 
 
-def pde_figure(results: ReportResults) -> Figure:
-    """One panel per dataset: a bar per model (mean PDE) with its per-sequence PDEs as dots."""
+def metric_figure(results: ReportResults, metric: Metric) -> Figure:
+    """One panel per dataset: a bar per model (mean of ``metric``) with its per-sequence values as dots."""
     checkpoints = results.checkpoints
     colors = model_colors(results)
     n = len(results.datasets)
@@ -55,26 +57,34 @@ def pde_figure(results: ReportResults) -> Figure:
     axes = fig.subplots(1, n, squeeze=False)[0]
     x = np.arange(len(checkpoints))
     for ax, spec in zip(axes, results.datasets, strict=True):
-        means = [c.reports[spec.name].mean.pde for c in checkpoints]
+        means = [_shown(c.reports[spec.name].mean.values.get(metric.name), metric) for c in checkpoints]
         ax.bar(x, means, color=[colors[c.name] for c in checkpoints], width=0.7, zorder=2)
         for i, c in enumerate(checkpoints):
-            per_sequence = [r.metrics.pde for r in c.reports[spec.name].sequences]
+            per_sequence = [
+                _shown(r.metrics.values.get(metric.name), metric) for r in c.reports[spec.name].sequences
+            ]
             offsets = np.linspace(-0.18, 0.18, len(per_sequence)) if len(per_sequence) > 1 else [0.0]
             ax.scatter(i + np.asarray(offsets), per_sequence, s=10, color="0.2", zorder=3)
         ax.set_xticks(x, [display_label(c) for c in checkpoints], rotation=45, ha="right")
         ax.set_title(spec.name)
         ax.grid(axis="y", alpha=0.3, zorder=0)
         ax.set_ylim(bottom=0.0)
-    axes[0].set_ylabel("PDE (final position error / path length)")
+    axes[0].set_ylabel(f"{metric.header}: {metric.description}", wrap=True)
     convention = CONVENTION_LABELS[results.convention]
-    _suptitle(fig, f"Position drift error, {convention} convention (bar: mean, dots: sequences)", width_in)
+    _suptitle(fig, f"{metric.label}, {convention} convention (bar: mean, dots: sequences)", width_in)
     return fig
+
+
+def _shown(value: float | None, metric: Metric) -> float:
+    """The value on the chart's scale (NaN where undefined: no bar, no dot)."""
+    return float("nan") if value is None else value * metric.scale
 
 
 def trajectory_figure(results: ReportResults, representative: dict[str, str]) -> Figure:
     """One x-y panel per dataset: ground truth and the FTIN / RoNIN ResNet estimates."""
     colors = model_colors(results)
     shown = [c for c in results.checkpoints if c.model_name in FIGURE_MODELS]
+    headline = get_metric(HEADLINE_METRIC)
     n = len(results.datasets)
     width_in = 4.6 * n
     fig = Figure(figsize=(width_in, 4.8), layout="constrained")
@@ -87,10 +97,11 @@ def trajectory_figure(results: ReportResults, representative: dict[str, str]) ->
         ax.plot(gt[0, 0], gt[0, 1], "o", color=GROUND_TRUTH_COLOR, ms=5)
         for c in shown:
             p = c.trajectories[spec.name][sequence].p_world_m
-            ate = next(r.metrics.ate for r in c.reports[spec.name].sequences if r.name == sequence)
-            ax.plot(
-                p[:, 0], p[:, 1], color=colors[c.name], lw=1.2, label=f"{display_label(c)} (ATE {ate:.2f} m)"
+            value = next(
+                r.metrics[headline.name] for r in c.reports[spec.name].sequences if r.name == sequence
             )
+            label = f"{display_label(c)} ({headline.label} {headline.text(value)})"
+            ax.plot(p[:, 0], p[:, 1], color=colors[c.name], lw=1.2, label=label)
         if not shown:
             ax.text(0.5, 0.02, "no FTIN or RoNIN ResNet checkpoint", transform=ax.transAxes, ha="center")
         ax.set_aspect("equal", adjustable="datalim")

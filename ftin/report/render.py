@@ -20,17 +20,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ftin.checkpoint import atomic_write_text, to_json_safe
-from ftin.metrics import TrajectoryMetrics
+from ftin.files import atomic_write_text, to_json_safe
+from ftin.metrics import Better, Metric, get_metric, list_metrics
 from ftin.report.evaluation import representative_sequence
-from ftin.report.figures import pde_figure, trajectory_figure, write_png
+from ftin.report.figures import metric_figure, trajectory_figure, write_png
 from ftin.report.results import (
+    FIGURE_METRIC,
     FTIN_MODEL,
     IMPROVEMENT_LABEL,
-    METRICS,
     MISSING,
     PAPER_COLUMNS,
-    PATH_RATIO,
     RESNET_MODEL,
     TABLE_MODELS,
     Column,
@@ -42,8 +41,9 @@ from ftin.report.results import (
 @dataclass(frozen=True)
 class TableRow:
     dataset: str
-    metric: str  # "ATE" or "RTE"
+    metric: str  # the registered metric's label ("ATE", "ATE evo", ...)
     cells: tuple[float | None, ...]  # one per PAPER_COLUMNS entry; None = no checkpoint
+    name: str = ""  # the registered metric's name ("ate"): ``get_metric(name)`` formats the cells
 
 
 @dataclass(frozen=True)
@@ -61,16 +61,13 @@ def improvement_percent(resnet: float | None, ftin: float | None) -> float | Non
     return 100.0 * (resnet - ftin) / resnet
 
 
-def _metric(m: TrajectoryMetrics, metric: str) -> float | None:
-    return {"ATE": m.ate, "RTE": m.rte, "Path ratio": m.path_length_ratio}[metric]
-
-
 def paper_table(results: ReportResults) -> PaperTable:
+    """One row per dataset and registered table metric (``ftin.metrics.list_metrics``)."""
     rows = []
     for spec in results.datasets:
-        for metric in METRICS:
+        for metric in list_metrics(in_tables=True):
             by_model = {
-                c.model_name: _metric(c.reports[spec.name].mean, metric)
+                c.model_name: c.reports[spec.name].mean.values.get(metric.name)
                 for c in results.checkpoints
                 if c.model_name in TABLE_MODELS
             }
@@ -78,15 +75,15 @@ def paper_table(results: ReportResults) -> PaperTable:
             for column in PAPER_COLUMNS:
                 if column.group is ColumnGroup.BASELINE:
                     still = results.stand_still.get(spec.name)
-                    cells.append(None if still is None else _metric(still, metric))
+                    cells.append(None if still is None else still.values.get(metric.name))
                 elif column.group is ColumnGroup.IMPROVEMENT:
-                    # a ratio of path ratios says nothing: "closer to 1" is not "lower"
-                    is_error = metric != PATH_RATIO
+                    # only an error improves by going down: a ratio of path ratios says nothing
                     resnet, ftin = by_model.get(RESNET_MODEL), by_model.get(FTIN_MODEL)
-                    cells.append(improvement_percent(resnet, ftin) if is_error else None)
+                    lower = metric.better is Better.LOWER
+                    cells.append(improvement_percent(resnet, ftin) if lower else None)
                 else:
                     cells.append(by_model.get(column.model_name))
-            rows.append(TableRow(spec.name, metric, tuple(cells)))
+            rows.append(TableRow(spec.name, metric.label, tuple(cells), metric.name))
     present = {c.model_name for c in results.checkpoints}
     missing = tuple(c for c in PAPER_COLUMNS if c.model_name is not None and c.model_name not in present)
     extra = tuple(
@@ -95,20 +92,20 @@ def paper_table(results: ReportResults) -> PaperTable:
     return PaperTable(PAPER_COLUMNS, tuple(rows), missing, extra)
 
 
-def _format_value(value: float | None) -> str:
-    return MISSING if value is None else f"{value:.3f}"
+def _format_value(value: float | None, metric: Metric) -> str:
+    return metric.format(value, MISSING)
 
 
 def _format_percent(value: float | None) -> str:
     return MISSING if value is None else f"{value:.1f}%"
 
 
-def best_flags(columns: Sequence[Column], cells: Sequence[float | None]) -> list[bool]:
+def best_flags(columns: Sequence[Column], cells: Sequence[float | None], digits: int = 3) -> list[bool]:
     """Best (lowest) displayed value per group of compared / ablation columns, ties included."""
     flags = [False] * len(cells)
     for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION):
         shown = {
-            i: round(v, 3)
+            i: round(v, digits)
             for i, (c, v) in enumerate(zip(columns, cells, strict=True))
             if c.group is group and v is not None
         }
@@ -124,14 +121,22 @@ def table_markdown(table: PaperTable) -> str:
     header = ["Dataset", "Metric", *(c.label for c in table.columns)]
     align = [":--", ":--", *("--:" for _ in table.columns)]
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
+    first_label = list_metrics(in_tables=True)[0].label
     for row in table.rows:
+        metric = get_metric(row.name)
         # lowest is best for errors; for the path ratio, 1 is (no bold)
-        bold = best_flags(table.columns, row.cells) if row.metric != PATH_RATIO else [False] * len(row.cells)
+        if metric.better is Better.LOWER:
+            bold = best_flags(
+                table.columns, [None if v is None else v * metric.scale for v in row.cells], metric.digits
+            )
+        else:
+            bold = [False] * len(row.cells)
         texts = []
         for column, value, is_bold in zip(table.columns, row.cells, bold, strict=True):
-            text = _format_percent(value) if column.group is ColumnGroup.IMPROVEMENT else _format_value(value)
+            improvement = column.group is ColumnGroup.IMPROVEMENT
+            text = _format_percent(value) if improvement else _format_value(value, metric)
             texts.append(f"**{text}**" if is_bold else text)
-        dataset = _escape_md(row.dataset) if row.metric == METRICS[0] else ""
+        dataset = _escape_md(row.dataset) if row.metric == first_label else ""
         lines.append("| " + " | ".join([dataset, row.metric, *texts]) + " |")
     return "\n".join(lines) + "\n"
 
@@ -150,12 +155,18 @@ def table_csv(table: PaperTable) -> str:
     )
     for row in table.rows:
         writer.writerow([row.dataset, row.metric] + ["" if v is None else repr(float(v)) for v in row.cells])
+    # the values as computed (a ratio, not a percentage); the units are the metrics' own
     return buffer.getvalue()
 
 
 def _training_data(meta: dict[str, Any]) -> str:
-    paths = (meta.get("training_data") or {}).get("paths")
-    return "trained on " + ", ".join(str(p) for p in paths) if paths else "training data not recorded"
+    data = meta.get("training_data") or {}
+    datasets = data.get("datasets") if isinstance(data, dict) else None
+    if not datasets:
+        return "training data not recorded"
+    count = len(data.get("recordings") or data.get("sequences") or [])
+    recordings = f" ({count} recording{'s' if count != 1 else ''})" if count else ""
+    return f"trained on {' and '.join(datasets)}{recordings}"
 
 
 def _model_and_input(meta: dict[str, Any], model_name: str) -> str:
@@ -174,12 +185,12 @@ def report_markdown(results: ReportResults, table: PaperTable, title: str = TABL
     lines = [
         f"# {title}",
         "",
-        f"{results.describe()} All ATE / RTE values in metres, mean over each dataset's sequences; "
+        f"{results.describe()} Each value is the mean over the dataset's sequences; "
         f"best values in **bold** (among the compared models and, separately, among the ablation columns); "
         f'"{IMPROVEMENT_LABEL}" = (RoNIN ResNet − FTIN) / RoNIN ResNet. '
         "+FDL, +TDL and +FDL&TDL are the ablation study (+FDL&TDL is FTIN). "
         '"Stand still" is the predictor that never moves, scored the same way: a useful model is well '
-        'below it. "Path ratio" = predicted / true horizontal path length (1 is the right distance).',
+        "below it. " + " ".join(f"{m.header}: {m.description}." for m in list_metrics(in_tables=True)),
         "",
     ]
     training = {_training_data(c.meta) for c in results.checkpoints}
@@ -204,7 +215,8 @@ def report_markdown(results: ReportResults, table: PaperTable, title: str = TABL
         notes.append(f"No checkpoint for: {shown}; their cells show {MISSING}.")
     if table.extra:
         notes.append(
-            f"Evaluated but outside the paper's layout (see pde.png, results.json): {', '.join(table.extra)}."
+            f"Evaluated but outside the paper's layout (see {FIGURE_METRIC}.png, results.json): "
+            f"{', '.join(table.extra)}."
         )
     if not shared:
         notes.append("The checkpoints were not all trained on the same data (see the list above).")
@@ -232,7 +244,7 @@ def results_json(results: ReportResults, table: PaperTable, representative: dict
                 {
                     "name": c.name,
                     "model_name": c.model_name,
-                    "training_data": (c.meta.get("training_data") or {}).get("paths"),
+                    "training_data": _recorded_training_data(c.meta),
                     "results": {name: report.to_json() for name, report in c.reports.items()},
                 }
                 for c in results.checkpoints
@@ -241,15 +253,25 @@ def results_json(results: ReportResults, table: PaperTable, representative: dict
                 "columns": [c.label for c in table.columns],
                 "column_models": [c.model_name for c in table.columns],
                 "rows": [
-                    {"dataset": r.dataset, "metric": r.metric, "values": list(r.cells)} for r in table.rows
+                    {"dataset": r.dataset, "metric": r.metric, "name": r.name, "values": list(r.cells)}
+                    for r in table.rows
                 ],
                 "missing_columns": [c.label for c in table.missing],
                 "outside_layout": list(table.extra),
             },
             "representative_sequences": representative,
             "stand_still": {name: m.as_dict() for name, m in results.stand_still.items()},
+            "metrics": [m.as_dict() for m in list_metrics()],
         }
     )
+
+
+def _recorded_training_data(meta: dict[str, Any]) -> dict[str, Any] | None:
+    """The datasets and recordings a checkpoint records (names and data-folder paths, never a machine's)."""
+    data = meta.get("training_data")
+    if not isinstance(data, dict):
+        return None
+    return {key: data[key] for key in ("datasets", "recordings") if key in data}
 
 
 @dataclass(frozen=True)
@@ -257,11 +279,11 @@ class ReportFiles:
     table_md: Path
     table_csv: Path
     results_json: Path
-    pde_png: Path
+    metric_png: Path  # the paper's Fig. 3: one metric per dataset and model (``FIGURE_METRIC``)
     trajectories_png: Path
 
     def paths(self) -> list[Path]:
-        return [self.table_md, self.table_csv, self.results_json, self.pde_png, self.trajectories_png]
+        return [self.table_md, self.table_csv, self.results_json, self.metric_png, self.trajectories_png]
 
 
 def write_report(results: ReportResults, out_dir: str | Path, title: str = TABLE_TITLE) -> ReportFiles:
@@ -274,14 +296,14 @@ def write_report(results: ReportResults, out_dir: str | Path, title: str = TABLE
         out_dir / "table.md",
         out_dir / "table.csv",
         out_dir / "results.json",
-        out_dir / "pde.png",
+        out_dir / f"{FIGURE_METRIC}.png",
         out_dir / "trajectories.png",
     )
     atomic_write_text(files.table_md, report_markdown(results, table, title))
     atomic_write_text(files.table_csv, table_csv(table))
     data = results_json(results, table, representative)
     atomic_write_text(files.results_json, json.dumps(data, indent=2, allow_nan=False) + "\n")
-    write_png(pde_figure(results), files.pde_png)
+    write_png(metric_figure(results, get_metric(FIGURE_METRIC)), files.metric_png)
     write_png(trajectory_figure(results, representative), files.trajectories_png)
     return files
 

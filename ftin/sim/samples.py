@@ -26,6 +26,23 @@ from ftin.sim.simulator import simulate
 
 SAMPLES_DIR = Path(__file__).resolve().parent / "samples"
 
+
+def write_walks(
+    out: Path, count: int, duration_s: float = 120.0, rate_hz: float = 100.0, seed: int = 0
+) -> list[Path]:
+    """Simulate ``count`` walks cycling through the carry modes (walk i seeded ``seed + i``) as CSV
+    files in ``out`` (``ftin sim``, the campaign's simulator data)."""
+    out.mkdir(parents=True, exist_ok=True)
+    carries, written = list(CarryMode), []
+    for i in range(count):
+        carry = carries[i % len(carries)]
+        name = f"sim_{seed + i:04d}_{carry.value}"
+        config = SimConfig(duration_s=duration_s, rate_hz=rate_hz, carry=carry, seed=seed + i, name=name)
+        write_csv(simulate(config), out / f"{name}.csv")
+        written.append(out / f"{name}.csv")
+    return written
+
+
 SAMPLES: dict[str, SimConfig] = {
     "sim_handheld": SimConfig(duration_s=90.0, rate_hz=100.0, carry=CarryMode.HANDHELD, seed=11),
     "sim_pocket": SimConfig(duration_s=90.0, rate_hz=100.0, carry=CarryMode.POCKET, seed=12),

@@ -34,8 +34,8 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from ftin.checkpoint import atomic_write_text
 from ftin.data.windows import Normalization
+from ftin.files import atomic_write_text
 
 
 class ConfigError(ValueError):

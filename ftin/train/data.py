@@ -27,6 +27,7 @@ from ftin.models.base import VelocityModel
 from ftin.train.config import TrainConfig
 from ftin.train.distributed import Distributed
 from ftin.train.losses import block_means, validation_blocks
+from ftin.train.provenance import training_data_record
 
 
 @dataclass
@@ -96,5 +97,9 @@ def training_data(
         sampler=DistributedSampler(train, ddp.world, ddp.rank, shuffle=True, seed=config.seed),
         batch=math.ceil(config.batch_size / ddp.world),
         val_per_block=validation_blocks(window, parts, rate_hz),
-        info={"training_data": {"paths": list(config.data), "sequences": train.names}, "split": split},
+        # datasets by name, recordings relative to the data folder (ftin.train.provenance)
+        info={
+            "training_data": training_data_record(config.data, train_sequences, train.names),
+            "split": split,
+        },
     )

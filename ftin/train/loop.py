@@ -1,4 +1,4 @@
-"""One training loop for every registered model (design §3, "Training").
+"""One training loop for every registered model (``docs/design.md``, "Training").
 
 ``train(config, train_sequences, val_sequences)`` runs in one process or, under ``torchrun``, in
 several (``ftin.train.distributed``). ``run_training(config)`` first reads the data the config names

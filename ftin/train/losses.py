@@ -5,7 +5,7 @@ dataset's part targets ``(B, K, D)`` (``ftin.data.windows.part_velocity_targets`
 trains with is how its reference trains it:
 
 - ``"velocity"`` (window models, K = 1): ``velocity_loss``, MSE on the window's velocity, or a
-  Gaussian NLL for models with uncertainty (design §3, the paper's training).
+  Gaussian NLL for models with uncertainty (the paper's training).
 - ``"rnin_displacement"`` (RNIN, K sub-windows): the reference's
   ``mean(cat((d - d*)^2, 8 (cumsum(d)[:, 1:] - cumsum(d*)[:, 1:])^2))`` on per-sub-window
   displacements ``d = v * part duration`` (on the uniform grid a part lasts ``window / K / rate``

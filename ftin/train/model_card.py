@@ -11,6 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ftin.metrics import HEADLINE_METRIC, Better, get_metric, list_metrics
+
 _CITATION = {
     "oxiod": "OxIOD (Chen et al., 'OxIOD: The Dataset for Deep Inertial Odometry', 2018), research use",
     "ridi": "RIDI (Yan, Shan, Furukawa, 'RIDI: Robust IMU Double Integration', ECCV 2018), research use",
@@ -20,8 +22,11 @@ _CITATION = {
 
 
 def _dataset_of(meta: dict[str, Any]) -> str:
-    paths = " ".join(meta.get("training_data", {}).get("paths", []))
-    return "oxiod" if "oxiod" in paths else "sim" if "sim" in paths else "unknown"
+    """The citation key of the datasets the card records (``ftin.train.provenance``)."""
+    datasets = (meta.get("training_data") or {}).get("datasets") or []
+    if sorted(datasets) == ["oxiod", "ridi"]:
+        return "pedestrian"
+    return datasets[0] if len(datasets) == 1 else " and ".join(datasets) or "unknown"
 
 
 def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = None) -> str:
@@ -50,24 +55,25 @@ def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = 
         f"- **Weights:** {config.get('weights_dtype', 'float32')} safetensors, upcast to float32 at load",
     ]
     if evaluation is not None:
+        shown = list_metrics(in_tables=True)
         lines += [
             "",
             f"## Validation trajectories ({evaluation['description']})",
             "",
-            "| sequence | ATE [m] | RTE [m] | PDE |",
-            "|---|---|---|---|",
+            "| sequence | " + " | ".join(m.header for m in shown) + " |",
+            "|---|" + "---|" * len(shown),
         ]
         for row in evaluation["sequences"]:
-            lines.append(f"| {row['name']} | {row['ate']:.3f} | {row['rte']:.3f} | {row['pde']:.3f} |")
+            lines.append(f"| {row['name']} | " + " | ".join(m.format(row.get(m.name)) for m in shown) + " |")
         mean = evaluation["mean"]
-        lines.append(f"| **mean** | **{mean['ate']:.3f}** | **{mean['rte']:.3f}** | **{mean['pde']:.3f}** |")
+        lines.append("| **mean** | " + " | ".join(f"**{m.format(mean.get(m.name))}**" for m in shown) + " |")
     return "\n".join(lines) + "\n"
 
 
 def render_campaign_card(
     meta: dict[str, Any], record: dict[str, Any], seeds: list[dict[str, Any]], variant: str | None = None
 ) -> str:
-    """The card of a checkpoint shipped by the training campaign (``scripts/campaign.py collect``).
+    """The card of a checkpoint shipped by the training campaign (``ftin campaign ship``).
 
     ``record`` is the shipped job's (training summary, history, evaluation); ``seeds`` every seed's
     record of the same model and dataset, for the spread over seeds.
@@ -118,6 +124,8 @@ def render_campaign_card(
         "| lr | " + " | ".join(f"{h['lr']:.0e}" for h in history) + " |",
     ]
     parts = record["evaluation"]["parts"]
+    shown, headline = list_metrics(in_tables=True), get_metric(HEADLINE_METRIC)
+    ratio_metric = next(m for m in shown if m.better is Better.ONE)
     for key in sorted(parts, key=lambda k: (k.split("/")[1] != "test", k)):
         rows = parts[key]
         ds, part, orientation = key.split("/")
@@ -125,21 +133,19 @@ def render_campaign_card(
             "",
             f"## {ds} {part}, {orientation.replace('_', '-')} orientation (RoNIN convention)",
             "",
-            "| recording | ATE [m] | RTE [m] | PDE | path ratio | stand-still ATE [m] |",
-            "|---|---|---|---|---|---|",
+            "| recording | " + " | ".join(m.header for m in shown) + f" | stand-still {headline.header} |",
+            "|---|" + "---|" * (len(shown) + 1),
         ]
         for row in rows:
-            ratio = "—" if row["path_length_ratio"] is None else f"{row['path_length_ratio']:.2f}"
-            lines.append(
-                f"| {row['name']} | {row['ate']:.3f} | {row['rte']:.3f} | {row['pde']:.3f} | {ratio} | "
-                f"{row['stand_still']['ate']:.3f} |"
-            )
+            cells = [m.format(row.get(m.name)) for m in shown]
+            still = headline.format(row["stand_still"].get(headline.name))
+            lines.append(f"| {row['name']} | " + " | ".join(cells) + f" | {still} |")
     if len(seeds) > 1:
         lines += [
             "",
             "## Seeds (mean over the test recordings, ground-truth orientation)",
             "",
-            "| seed | best val MSE | test ATE [m] | test path ratio |",
+            f"| seed | best val MSE | test {headline.header} | test {ratio_metric.label.lower()} |",
             "|---|---|---|---|",
         ]
         for other in sorted(seeds, key=lambda r: r["training"]["seed"]):
@@ -149,12 +155,13 @@ def render_campaign_card(
                 if k.split("/")[1] == "test" and k.endswith("ground_truth")
                 for row in rows
             ]
-            ate = sum(r["ate"] for r in test) / max(len(test), 1)
-            ratios = [r["path_length_ratio"] for r in test if r["path_length_ratio"] is not None]
-            ratio = sum(ratios) / len(ratios) if ratios else float("nan")
+            errors = [r[headline.name] for r in test if r.get(headline.name) is not None]
+            ratios = [r[ratio_metric.name] for r in test if r.get(ratio_metric.name) is not None]
+            error = sum(errors) / len(errors) if errors else None
+            ratio = sum(ratios) / len(ratios) if ratios else None
             lines.append(
                 f"| {other['training']['seed']} | {other['training']['best_val_mse']:.5f} | "
-                f"{ate:.3f} | {ratio:.2f} |"
+                f"{headline.format(error)} | {ratio_metric.format(ratio)} |"
             )
     return "\n".join(lines) + "\n"
 

@@ -34,7 +34,8 @@ from safetensors import safe_open
 from safetensors.torch import save as save_safetensors
 from torch import nn
 
-from ftin.checkpoint import CheckpointError, atomic_write_bytes, atomic_write_text, to_json_safe
+from ftin.checkpoint import CheckpointError
+from ftin.files import atomic_write_bytes, to_json_safe, write_json
 from ftin.train.config import BUDGET_FIELDS, ConfigError, TrainConfig
 
 CONFIG_FILE = "config.json"
@@ -152,7 +153,7 @@ def checkpoint_meta(
 
 
 def write_history(out_dir: Path, history: list[dict[str, Any]]) -> None:
-    atomic_write_text(out_dir / HISTORY_FILE, json.dumps(to_json_safe(history), indent=2) + "\n")
+    write_json(out_dir / HISTORY_FILE, history)
 
 
 def _as_json(value: Any) -> Any:

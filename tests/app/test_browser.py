@@ -226,7 +226,7 @@ def test_missing_browser_skips_or_fails_as_the_environment_says(
         browser_missing(problem)
 
 
-# --- issue 11: items 1-4 and 10 in the browser ------------------------------------------------------
+# --- results that tell the truth, in the browser ----------------------------------------------------
 
 
 def test_item1_a_model_that_barely_moves_is_flagged_on_the_page(

@@ -1,4 +1,4 @@
-"""Issue 6 limits: sample count (413), inference time (504), concurrent inferences, kept runs, and the
+"""Limits: sample count (413), inference time (504), concurrent inferences, kept runs, and the
 JSON shape of unexpected errors. Each test builds its own app or services, so patched models and
 small limits never leak into other tests."""
 

@@ -194,7 +194,7 @@ def test_the_response_does_not_wait_for_the_drawing(scene: DashboardScene, monke
     assert scene.shown_run_ids() == [run.run_id]
 
 
-# --- issue 11: the scene tells the truth, keeps no stale state, does not pile up repeats ---------
+# --- the scene tells the truth, keeps no stale state, does not pile up repeats ---------------------
 
 
 def test_a_repeat_replaces_its_predecessor(scene: DashboardScene) -> None:
@@ -215,12 +215,13 @@ def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_move
     from dataclasses import replace
 
     from ftin.data import Trajectory
-    from ftin.metrics import evaluate_trajectory
+    from ftin.evaluate import score
 
     predictor = scene.services.predictor
     run = predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
     scene.flush()
-    assert "path" in scene.gui_metrics.content.splitlines()[0]
+    header = scene.gui_metrics.content.splitlines()[0]
+    assert "Path ratio" in header and "ATE [m]" in header and "ATE evo [m]" in header  # both conventions
     ratio = run.verdict.path_length_ratio
     assert f"{ratio:.2f}" in scene.gui_metrics.content and "No alignment" in scene.gui_metrics.content
     assert "shorter than 60 s" in scene.gui_metrics.content  # a 20 s walk: RTE explained
@@ -228,8 +229,8 @@ def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_move
     # The same run with a trajectory that stays at the start: flagged in the legend and the table.
     pred = run.prediction
     still = Trajectory(pred.trajectory.t_s, np.repeat(pred.trajectory.p_world_m[:1], len(pred.trajectory), 0))
-    metrics = evaluate_trajectory(still, run.sequence.gt)
-    frozen = replace(run, run_id="still-run", prediction=replace(pred, trajectory=still, metrics=metrics))
+    standing = replace(pred, trajectory=still)
+    frozen = replace(run, run_id="still-run", prediction=standing, score=score(standing))
     assert any("path" in w for w in frozen.verdict.warnings)
     scene.show_run(frozen)
     assert "⚠" in scene.gui_metrics.content and "**⚠ Path:**" in scene.gui_metrics.content

@@ -15,8 +15,8 @@ from fastapi.testclient import TestClient
 from app.main import create_app
 from app.services import Services
 from app.services.catalog import SequenceCatalog, make_sequence_id
+from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import ConflictError, InvalidInputError, NotFoundError, StartupError
-from app.services.models import ModelEntry, ModelStore
 from app.services.runs import RunListener, RunState, RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, DEFAULT_CHECKPOINT_DIR, Settings
 
@@ -312,7 +312,7 @@ def test_run_store_is_thread_safe() -> None:
 
 
 def test_training_data_is_summarised_in_words_not_listed() -> None:
-    """Issue 11: no developer paths in the UI; the kind of data, else the folder's name."""
+    """No developer paths in the UI; the kind of data, else the folder's name."""
 
     def trained_on(data: object) -> str | None:
         return ModelEntry(

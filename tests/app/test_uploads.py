@@ -86,6 +86,25 @@ def test_align_default_start_names_the_heading_and_draws_the_aligned_truth(
     assert bad.status_code == 422
 
 
+def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    data = turned_csv(sample_frame, 40.0)
+    predictor = client.app.state.services.predictor
+    seq = predictor.read_upload(data, "mocap.csv")
+    gt_before = seq.gt.p_world_m.copy()
+    first = predictor.predict_imu(seq, DEFAULT_MODEL)
+    # The sequence is the one given, its truth in the file's frame; the aligned truth is the result's.
+    assert first.sequence is seq and set(first.sequence.meta) == set(seq.meta)
+    np.testing.assert_array_equal(first.sequence.gt.p_world_m, gt_before)
+    assert first.score.fit.alignment.value == "start" and first.metrics is first.score.metrics
+    assert np.abs(first.truth.p_world_m - gt_before).max() > 1.0
+    # Running another model on the run's own sequence scores exactly as running on the file.
+    again = predictor.predict_imu(first.sequence, DEFAULT_MODEL)
+    assert again.metrics.values == first.metrics.values
+    np.testing.assert_allclose(again.truth.p_world_m, first.truth.p_world_m)
+
+
 def test_run_exports_tum_metrics_and_input_timestamps(client: TestClient, csv_with_gt: bytes) -> None:
     result = client.post(
         "/predict", params={"model": DEFAULT_MODEL}, files={"file": ("walk.csv", csv_with_gt, "text/csv")}
@@ -130,3 +149,35 @@ def test_metrics_json_names_the_orientation_filter(client: TestClient) -> None:
     result = client.post("/predict", files={"file": ("p.zip", body, "application/zip")}).json()
     assert client.get(result["metrics_url"]).json()["orientation_filter"] == "vqf-6d"
     assert client.get(f"/runs/{result['run_id']}/ground_truth.tum").status_code == 404
+
+
+def test_an_upload_with_a_phones_dropped_samples_predicts_with_a_note(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    # Six samples dropped at once, as a real phone does; and a 3 s hole that must not pass silently.
+    short_gap = sample_frame.drop(index=range(400, 406)).to_csv(index=False).encode()
+    body = client.post("/predict", files={"file": ("walk.csv", short_gap, "text/csv")}).json()
+    assert any(n.startswith("bridged 1 gap(s)") and "line 401 and line 402" in n for n in body["notes"])
+    rate = 1.0 / float(np.median(np.diff(sample_frame["t"])))
+    hole = sample_frame.drop(index=range(400, 400 + int(3 * rate))).to_csv(index=False).encode()
+    answer = client.post("/predict", files={"file": ("walk.csv", hole, "text/csv")})
+    assert answer.status_code == 200
+    assert any("no data for 3.0 s" in w and "holds its position" in w for w in answer.json()["warnings"])
+
+
+def test_a_json_body_with_a_magnetometer_runs_the_9d_filter(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    rows = len(sample_frame)
+    body = {
+        "t_s": sample_frame["t"].tolist(),
+        "gyro_rad_s": sample_frame[["gyro_x", "gyro_y", "gyro_z"]].to_numpy().tolist(),
+        "acc_m_s2": sample_frame[["acc_x", "acc_y", "acc_z"]].to_numpy().tolist(),
+        "mag_uT": np.tile([20.0, 0.0, -40.0], (rows, 1)).tolist(),
+    }
+    answer = client.post("/predict", json=body)
+    assert answer.status_code == 200
+    assert any("9-D" in m for m in answer.json()["warnings"] + answer.json()["notes"])
+    body["mag_uT"] = body["mag_uT"][:-1]
+    bad = client.post("/predict", json=body)
+    assert bad.status_code == 422 and "mag_uT has" in bad.json()["detail"]

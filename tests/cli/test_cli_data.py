@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ftin.cli import app
-from ftin.data.readers import read_sequence
+from ftin.data.discovery import read_sequence
 from ftin.data.readers.generic_csv import read_csv, write_csv
 from ftin.data.types import ImuSequence, Trajectory
 

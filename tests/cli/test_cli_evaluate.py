@@ -16,7 +16,12 @@ def test_evaluate_prints_a_table_and_writes_json(trained, data_dir, tmp_path):
     checkpoint = ["--checkpoint", str(trained / "ronin_tcn.safetensors")]
     result = runner.invoke(app, ["evaluate", *checkpoint, "--data", str(data_dir), "--json", str(out)])
     assert result.exit_code == 0, result.output
-    assert "mean" in result.stdout and "ATE (m)" in result.stdout and "RoNIN convention" in result.stdout
+    assert (
+        "mean" in result.stdout
+        and "ATE [m]" in result.stdout
+        and "ATE evo [m]" in result.stdout
+        and "RoNIN convention" in result.stdout
+    )
     report = json.loads(out.read_text())
     assert len(report["sequences"]) == 3 and report["convention"] == "ronin"
     assert report["mean"]["ate"] == pytest.approx(np.mean([s["ate"] for s in report["sequences"]]))

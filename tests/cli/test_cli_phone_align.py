@@ -1,4 +1,4 @@
-"""CLI options of issue 10: phone exports everywhere, ``--align``, TUM output, input timestamps and
+"""CLI options for phone recordings: phone exports everywhere, ``--align``, TUM output, input timestamps and
 near-miss messages."""
 
 from __future__ import annotations

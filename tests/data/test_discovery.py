@@ -5,6 +5,9 @@ from __future__ import annotations
 import json
 import logging
 import os
+import pkgutil
+import sys
+import types
 from pathlib import Path
 
 import h5py
@@ -13,8 +16,9 @@ import pandas as pd
 import pytest
 
 from ftin.data import readers
+from ftin.data.discovery import SequenceRef, detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import SequenceRef, detect_format, generic_csv, list_sequences, read_sequence
+from ftin.data.readers import generic_csv
 from ftin.data.types import ImuSequence, Trajectory
 
 G = 9.81
@@ -144,10 +148,35 @@ def test_mixed_folder_lists_every_sequence_once(mixed):
     assert len(refs) == len(EXPECTED)
     assert [ref.name for ref in refs] == sorted(ref.name for ref in refs)
     assert all(isinstance(ref, SequenceRef) and ref.path.exists() for ref in refs)
-    assert set(readers.READERS) == {
-        *("oxiod", "euroc", "csv", "ronin", "ridi", "tlio", "rnin", "imunet", "inria_attitude"),
-        *("sensorlogger", "phyphox"),
-    }
+
+
+def test_every_module_of_the_readers_package_registers_in_priority_order():
+    modules = {m.name for m in pkgutil.iter_modules(readers.__path__) if not m.name.startswith("_")}
+    assert {module.__name__.rsplit(".", 1)[1] for module in readers.READERS.values()} == modules
+    assert all(module.FORMAT == fmt for fmt, module in readers.READERS.items())
+    priorities = [readers.PRIORITY[fmt] for fmt in readers.READERS]
+    assert priorities == sorted(priorities, reverse=True)
+    assert list(readers.READERS)[-1] == generic_csv.FORMAT  # accepts the most: asked last
+
+
+def test_a_format_registers_once(monkeypatch):
+    monkeypatch.setattr(readers._registry, "READERS", dict(readers.READERS))
+    monkeypatch.setattr(readers._registry, "PRIORITY", dict(readers.PRIORITY))
+    module = types.ModuleType("another_csv_reader")
+    module.FORMAT = "csv"
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+
+    def read(path: Path) -> ImuSequence:
+        raise NotImplementedError
+
+    read.__module__ = module.__name__
+    with pytest.raises(
+        ValueError, match="format 'csv' is already registered by ftin.data.readers.generic_csv"
+    ):
+        readers.register_reader(priority=5)(read)
+    module.FORMAT = ""
+    with pytest.raises(TypeError, match="another_csv_reader: a reader module defines FORMAT"):
+        readers.register_reader(priority=5)(read)
 
 
 def test_generic_csv_never_claims_a_file_of_another_layout(mixed):
@@ -252,9 +281,9 @@ def test_failing_discovery_and_unreadable_folders_do_not_crash(mixed, monkeypatc
         raise PermissionError(13, "Permission denied", str(root))
 
     monkeypatch.setattr(readers.tlio, "discover", refuse)
-    with caplog.at_level(logging.WARNING, logger="ftin.data.readers"):
+    with caplog.at_level(logging.WARNING, logger="ftin.data.discovery"):
         refs = list_sequences(mixed)
-    assert {ref.format for ref in refs} == {"ronin", "ridi", "imunet", "rnin", "csv", "oxiod", "euroc"}
+    assert {ref.format for ref in refs} == {fmt for fmt, _name in EXPECTED} - {"tlio"}
     assert "tlio discovery" in caplog.text and "Permission denied" in caplog.text
 
 

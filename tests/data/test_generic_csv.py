@@ -93,7 +93,7 @@ def test_orientation_and_ground_truth_columns(data):
 
 
 def test_column_order_is_free_and_extra_columns_are_reported(data):
-    header = ["acc_z", "mag_x", "gyro_y", "t", "acc_x", "gyro_z", "gyro_x", "acc_y"]
+    header = ["acc_z", "pressure_hpa", "gyro_y", "t", "acc_x", "gyro_z", "gyro_x", "acc_y"]
     rows = np.column_stack(
         [data["acc"][:, 2], np.ones(len(data["t"])), data["gyro"][:, 1], data["t"], data["acc"][:, 0]]
         + [data["gyro"][:, 2], data["gyro"][:, 0], data["acc"][:, 1]]
@@ -101,7 +101,7 @@ def test_column_order_is_free_and_extra_columns_are_reported(data):
     seq = read_text(csv_text(header, rows))
     np.testing.assert_array_equal(seq.gyro_rad_s, data["gyro"])
     np.testing.assert_array_equal(seq.acc_m_s2, data["acc"])
-    assert any("ignored columns: mag_x" in w for w in seq.meta["warnings"])
+    assert any("ignored columns: pressure_hpa" in w for w in seq.meta["warnings"])
 
 
 def test_bom_windows_line_endings_and_whitespace_in_headers(data):
@@ -275,12 +275,21 @@ def test_decreasing_timestamp_names_the_line(data):
     assert "line 53" in message and "is earlier than the previous one" in message
 
 
-def test_gap_says_where_and_how_long(data):
+def test_a_short_gap_is_bridged_with_a_note_that_says_where(data):
     t = data["t"].copy()
     t[200:] += 0.5
+    seq = read_text(csv_text(CANONICAL, np.column_stack([t, data["gyro"], data["acc"]])))
+    (note,) = [n for n in seq.meta["notes"] if "bridged" in n]
+    assert "1 gap(s)" in note and "510 ms" in note and "between line 201 and line 202" in note
+    assert "holes_s" not in seq.meta
+
+
+def test_a_gap_of_two_recordings_names_the_lines_and_the_fix(data):
+    t = data["t"].copy()
+    t[200:] += 90.0
     message = error_of(csv_text(CANONICAL, np.column_stack([t, data["gyro"], data["acc"]])))
-    assert "gap of 0.51 s" in message
-    assert "between line 201" in message and "and line 202" in message
+    assert "no data for 90.01 s between line 201" in message and "and line 202" in message
+    assert "split the file there" in message
 
 
 def test_fewer_samples_than_one_window(data):
@@ -424,3 +433,21 @@ def test_discover_claims_only_files_with_the_canonical_header(tmp_path, data):
 def test_discover_does_not_claim_the_shared_oxiod_and_euroc_files(shared_data: Path):
     assert discover(shared_data / "oxiod") == []
     assert discover(shared_data / "euroc") == []
+
+
+def test_a_magnetometer_column_reaches_the_orientation_filter_in_microtesla(data):
+    field_ut = np.tile([20.0, 0.0, -40.0], (len(data["t"]), 1))
+    header = [*CANONICAL, "magnet_x [nT]", "magnet_y [nT]", "magnet_z [nT]"]
+    seq = read_text(csv_text(header, np.column_stack([imu_rows(data), field_ut * 1000.0])))
+    np.testing.assert_allclose(seq.mag_uT, field_ut)
+    assert "mag converted from nT (unit in header)" in seq.meta["warnings"]
+    for aliases in (["mx", "my", "mz"], ["magnetometer_x", "magnetometer_y", "magnetometer_z"]):
+        again = read_text(csv_text([*CANONICAL, *aliases], np.column_stack([imu_rows(data), field_ut])))
+        np.testing.assert_allclose(again.mag_uT, field_ut)
+    message = error_of(
+        csv_text([*CANONICAL, "mag_x", "mag_y"], np.column_stack([imu_rows(data), field_ut[:, :2]]))
+    )
+    assert "incomplete mag columns" in message and "mag_z" in message
+    out = io.StringIO()
+    write_csv(seq, out)
+    np.testing.assert_allclose(read_text(out.getvalue()).mag_uT, field_ut)

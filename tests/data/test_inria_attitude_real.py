@@ -14,8 +14,9 @@ from typer.testing import CliRunner
 
 from ftin.cli import app
 from ftin.data import frames
+from ftin.data.discovery import detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import detect_format, inria_attitude, list_sequences, read_sequence
+from ftin.data.readers import inria_attitude
 from ftin.data.windows import WindowDataset, window_starts
 
 GLITCHY = "android/Thibaud_Nexus5_Dist_FrontPocket"  # 6.9 % NaN frames, 170 frame pairs above 15 rad/s

@@ -18,10 +18,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
+from ftin.data.discovery import detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import detect_format, list_sequences, phyphox, read_sequence, sensorlogger
-from ftin.data.readers.exports import MAX_RATIO
-from ftin.data.readers.uploads import read_bytes
+from ftin.data.from_bytes import read_bytes
+from ftin.data.io import sensor_clock
+from ftin.data.io.phone_exports import MAX_RATIO
+from ftin.data.readers import phyphox, sensorlogger
 
 G = 9.80665
 T0_NS = 1_711_795_430_105_320_700
@@ -170,10 +172,38 @@ def test_android_gyroscope_at_500_hz_beside_a_100_hz_accelerometer():
     assert seq.meta["sensor_rates_hz"]["Gyroscope.csv"] == pytest.approx(500.0, rel=1e-3)
 
 
-def test_gyroscope_in_deg_s_is_detected_from_how_gravity_turns():
-    seq = read_bytes(zip_bytes(sensor_logger(gyro_deg=True)), "deg.zip")
-    check_against_truth(seq)
-    assert any("deg/s" in w for w in seq.meta["warnings"])
+def test_a_stated_gyroscope_unit_wins_over_the_gravity_turn_fit():
+    # Sensor Logger documents rad/s: rates that turn gravity 57x too fast are not silently rescaled;
+    # the fit only warns with both numbers, and the rates (above any phone's full scale) are refused.
+    with pytest.raises(DataFormatError, match="looks like deg/s"):
+        read_bytes(zip_bytes(sensor_logger(gyro_deg=True)), "deg.zip")
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 20.0, 0.01)
+    angle = 0.6 * np.sin(2 * np.pi * 0.2 * t)  # the phone tilts slowly about x
+    up = np.column_stack([np.zeros_like(t), np.sin(angle), np.cos(angle)])
+    gyro = np.column_stack([np.gradient(angle, t), np.zeros_like(t), np.zeros_like(t)])
+    gyro = gyro + 0.05 * rng.standard_normal(gyro.shape)
+    warnings: list[str] = []
+    assert sensor_clock.gyro_scale_from_gravity(t, gyro, up, "walk", warnings) == pytest.approx(1.0)
+    deg = np.degrees(gyro)
+    assert sensor_clock.gyro_scale_from_gravity(t, deg, up, "walk", warnings) == pytest.approx(np.pi / 180)
+    assert "deg/s, converted" in warnings[-1]
+    kept = sensor_clock.gyro_scale_from_gravity(t, deg, up, "walk", warnings, stated_unit="rad/s (header)")
+    assert kept == 1.0 and "rad/s (header) kept as stated" in warnings[-1] and "fits 0.017" in warnings[-1]
+
+
+def test_the_gravity_turn_fit_is_not_biased_by_the_step_wobble_of_a_walk():
+    # A walk: slow tilt plus a 2 Hz wobble the low-passed gravity direction cannot follow.
+    t = np.arange(0.0, 60.0, 0.01)
+    slow = 0.5 * np.sin(2 * np.pi * 0.1 * t)
+    wobble = 0.15 * np.sin(2 * np.pi * 2.0 * t)
+    tilt = slow + wobble
+    acc = 9.81 * np.column_stack([np.zeros_like(t), np.sin(tilt), np.cos(tilt)])
+    gyro = np.column_stack([np.gradient(tilt, t), np.zeros_like(t), np.zeros_like(t)])
+    up = sensor_clock.low_pass(acc, t)
+    warnings: list[str] = []
+    assert sensor_clock.gyro_scale_from_gravity(t, gyro, up, "walk", warnings) == 1.0
+    assert not warnings
 
 
 @pytest.mark.parametrize(
@@ -282,6 +312,9 @@ def test_shared_sensor_logger_exports(shared_data):
         assert f_world[2] == pytest.approx(9.85, abs=0.1) and np.hypot(*f_world[:2]) < 0.1
     assert any("iOS" in w for w in ios.meta["warnings"])  # iOS: gravity reported downwards, negated
     assert android.mag_uT.shape == (len(android), 3)
+    for seq in (ios, android):  # rad/s as the app documents it: kept, never read as deg/s
+        assert not any("deg/s" in w for w in seq.meta["warnings"])
+        assert np.percentile(np.linalg.norm(seq.gyro_rad_s, axis=1), 99) < 10.0
     with pytest.raises(DataFormatError, match=r"no gyroscope and no acceleration with g.*linear"):
         read_sequence(phone / "phyphox" / "walk-no-gyroscope")
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ftin.data.discovery import read_sequence
 from ftin.data.loading import load_sequences
-from ftin.data.readers import read_sequence
 from ftin.data.windows import world_imu
 
 

@@ -12,7 +12,7 @@ from ftin.models import create_model
 from ftin.models.imunet import MIN_WINDOW as IMUNET_MIN_WINDOW
 from ftin.models.imunet import feature_length
 
-# Parameter counts of the reference implementations at 6 x 200 input (design §3): RoNIN's
+# Parameter counts of the reference implementations at 6 x 200 input: RoNIN's
 # model_resnet1d / model_temporal with its default configs, TLIO's model_resnet (3 outputs), RNIN-VIO's
 # ResNetLSTMSeqNet (100 Hz, 3 outputs), IMUNet's PyTorch IMUNet (2 outputs).
 REFERENCE_PARAMETERS = {

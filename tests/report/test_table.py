@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ftin.cli.table import parse_dataset_options
-from ftin.metrics import Convention, describe
+from ftin.metrics import Convention, describe, list_metrics
 from ftin.report import (
     PAPER_COLUMNS,
     ReportError,
@@ -74,14 +74,11 @@ def test_every_pair_evaluated_once(results, table_data):
 
 def test_table_layout_and_percentage(results, report_dir):
     table = paper_table(results)
-    assert [(r.dataset, r.metric) for r in table.rows] == [
-        ("walk", "ATE"),
-        ("walk", "RTE"),
-        ("walk", "Path ratio"),
-        ("pocket", "ATE"),
-        ("pocket", "RTE"),
-        ("pocket", "Path ratio"),
+    shown = list_metrics(in_tables=True)  # one row per registered table metric and dataset
+    assert [(r.dataset, r.metric, r.name) for r in table.rows] == [
+        (dataset, m.label, m.name) for dataset in ("walk", "pocket") for m in shown
     ]
+    assert [m.label for m in shown][:2] == ["ATE", "ATE evo"]  # both ATE conventions, labelled
     labels = [c.label for c in PAPER_COLUMNS]
     assert [c.label for c in table.missing] == MISSING_LABELS
     resnet = next(c for c in results.checkpoints if c.model_name == "ronin_resnet")
@@ -90,11 +87,10 @@ def test_table_layout_and_percentage(results, report_dir):
         cells = dict(zip(labels, row.cells, strict=True))
         mean_r, mean_f = resnet.reports[row.dataset].mean, ftin.reports[row.dataset].mean
         still = results.stand_still[row.dataset]
-        attr = {"ATE": "ate", "RTE": "rte", "Path ratio": "path_length_ratio"}[row.metric]
-        r, f = getattr(mean_r, attr), getattr(mean_f, attr)
+        r, f = mean_r[row.name], mean_f[row.name]
         assert cells["RoNIN ResNet"] == r and cells["FTIN"] == f and cells["+FDL&TDL"] == f
-        assert cells["Stand still"] == getattr(still, attr)
-        if row.metric == "Path ratio":
+        assert cells["Stand still"] == still[row.name]
+        if row.name == "path_length_ratio":
             assert cells["Stand still"] == 0.0 and cells["FTIN vs RoNIN ResNet"] is None
         else:
             assert cells["FTIN vs RoNIN ResNet"] == pytest.approx(100.0 * (r - f) / r)
@@ -108,14 +104,14 @@ def test_table_layout_and_percentage(results, report_dir):
 
     md = (report_dir / "table.md").read_text()
     assert describe(Convention.RONIN) in md
-    assert "ronin_resnet_sim" in md and "sim/train" in md and "walk: 2 sequences" in md
+    assert "ronin_resnet_sim" in md and "trained on sim (1 recording)" in md and "walk: 2 sequences" in md
     assert "No checkpoint for: RoNIN LSTM (`ronin_lstm`)" in md
     table_lines = [line for line in md.splitlines() if line.startswith("|")]
     assert table_lines[0] == "| Dataset | Metric | " + " | ".join(labels) + " |"
-    assert len(table_lines) == 2 + 6
+    assert len(table_lines) == 2 + 2 * len(shown)
     walk_ate = [cell.strip() for cell in table_lines[2].strip("|").split("|")]
-    walk_rte = [cell.strip() for cell in table_lines[3].strip("|").split("|")]
-    assert walk_ate[:2] == ["walk", "ATE"] and walk_rte[:2] == ["", "RTE"]
+    walk_evo = [cell.strip() for cell in table_lines[3].strip("|").split("|")]
+    assert walk_ate[:2] == ["walk", "ATE"] and walk_evo[:2] == ["", "ATE evo"]  # the dataset named once
     row = table.rows[0]
     cells = dict(zip(labels, walk_ate[2:], strict=True))
     assert cells["RoNIN LSTM"] == "—" and cells["+TDL"] == "—"
@@ -142,7 +138,7 @@ def test_table_layout_and_percentage(results, report_dir):
     rows = list(csv.reader(io.StringIO((report_dir / "table.csv").read_text())))
     assert rows[0][:4] == ["dataset", "metric", "Stand still", "RoNIN ResNet"]
     assert "FTIN vs RoNIN ResNet (%)" in rows[0]
-    assert len(rows) == 7
+    assert len(rows) == 1 + len(table.rows)
     first = dict(zip(rows[0], rows[1], strict=True))
     assert first["RoNIN LSTM"] == "" and float(first["FTIN"]) == row.cells[labels.index("FTIN")]
     r, f = float(first["RoNIN ResNet"]), float(first["FTIN"])

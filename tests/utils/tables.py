@@ -23,7 +23,7 @@ def write_table_checkpoints(directory: Path) -> Path:
             name,
             seed=i,
             model_kwargs=tiny_model_kwargs(name, WINDOW),
-            training_data={"paths": ["sim/train"]},
+            training_data={"datasets": ["sim"], "recordings": ["sim/train"]},
         )
     # Files of a training run folder that are no checkpoint pair must be skipped.
     (directory / "config.json").write_text("{}")

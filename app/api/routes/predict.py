@@ -109,7 +109,13 @@ def _predict_json(
         raise InvalidInputError(_describe(exc)) from None
     predictor.check_sample_count(len(body.t_s), "request body")
     seq = sequence_from_arrays(
-        body.name, body.t_s, body.gyro_rad_s, body.acc_m_s2, body.q_world_device_wxyz, body.gt_p_world_m
+        body.name,
+        body.t_s,
+        body.gyro_rad_s,
+        body.acc_m_s2,
+        body.q_world_device_wxyz,
+        body.gt_p_world_m,
+        body.mag_uT,
     )
     return predictor.predict_imu(seq, model, run_id, deadline=deadline, align=align)
 

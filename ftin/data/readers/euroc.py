@@ -27,6 +27,7 @@ from scipy.spatial.transform import Slerp
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
 
@@ -79,7 +80,7 @@ def _read_asl_csv(path: Path, min_columns: int, what: str) -> tuple[np.ndarray, 
         pass  # re-read as text below to say which line and column is wrong
     try:
         frame = pd.read_csv(path, header=None, comment="#", dtype=str, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise DataFormatError(f"{path}: cannot read as CSV ({what}): {exc}") from exc
     if frame.shape[1] < min_columns:
         raise DataFormatError(
@@ -113,6 +114,7 @@ def _read_asl_csv(path: Path, min_columns: int, what: str) -> tuple[np.ndarray, 
     return t_ns, values
 
 
+@register_reader(priority=90)
 def read(path: Path, max_gt_gap_s: float = 0.05) -> ImuSequence:
     """Read one EuRoC sequence folder (the one holding ``mav0``)."""
     seq_dir = _sequence_dir(path)

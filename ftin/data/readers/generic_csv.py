@@ -10,10 +10,10 @@ One header row, then one row per IMU sample; column order is free. Canonical col
 * optional ``gt_x, gt_y, gt_z`` — ground-truth position [m]; named ``gt_device_world_x, ...`` when it
   is in the orientation's world frame (what ``write_csv`` writes from our readers), else it may be
   in its own world frame (motion capture beside a phone attitude) and comparisons align it at the
-  start (``meta["gt_frame"]``, ``ftin.metrics.align``).
+  start (``meta["gt_frame"]``, ``ftin.metrics.alignment_modes``).
 
 This module reads and writes; the column table, aliases and header matching are in
-``ftin.data.readers.columns``, the checks in ``ftin.data.validate``. Decisions:
+``ftin.data.io.csv_columns``, the checks in ``ftin.data.validate``. Decisions:
 
 * Units written in the header are trusted and converted, with a warning. Units are never guessed
   silently from the values: the time unit is the one (s, ms, us or ns) whose median interval means
@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.columns import (
+from ftin.data.io.csv_columns import (
     COLUMNS,
     GROUPS,
     GT_DEVICE_WORLD_PREFIX,
@@ -56,6 +56,7 @@ from ftin.data.readers.columns import (
     shown,
     sniff_delimiter,
 )
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     MAX_ABS_ACC_M_S2,
@@ -89,7 +90,7 @@ __all__ = [  # the table and limits are re-exported: callers and tests know them
 ]
 
 FORMAT = "csv"
-DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz (design §2)
+DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 
 
@@ -238,7 +239,7 @@ def read_csv(
             f"{source}: missing column(s) {', '.join(missing)}; found columns: {found} "
             f"(accepted names: see the CSV schema){hint}"
         )
-    for group in ("q", "gt"):
+    for group in ("q", "gt", "mag"):
         present = [c for c in GROUPS[group] if c in chosen]
         if present and len(present) < len(GROUPS[group]):
             absent = [c for c in GROUPS[group] if c not in chosen]
@@ -277,13 +278,14 @@ def read_csv(
     if "gt_x" in chosen:
         gt = Trajectory(t_s, stacked("gt"))
         named = re.sub(r"[^a-z0-9]+", "_", chosen["gt_x"].header.strip().lower()).strip("_")
-        # ``gt_frame`` (read by ``ftin.metrics.align.default_alignment``): "device_world" when the columns
+        # ``gt_frame`` (read by ``ftin.metrics.default_alignment``): "device_world" when the columns
         # say so (written by ``ftin data convert`` / ``ftin sim``), else "unknown": a phone attitude and
         # motion-capture positions usually differ by a heading, so the comparison aligns at the start.
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
         meta["gt_frame"] = "device_world" if in_device_world else "unknown"
+    mag = stacked("mag") if "mag_x" in chosen else None
     meta["warnings"] = warnings
-    seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta)
+    seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta, mag)
     names = ColumnNames(
         chosen["t"].header.strip(),
         headers_of("gyro"),
@@ -294,6 +296,7 @@ def read_csv(
     return validate(seq, source=source, row_label=row_label, columns=names, min_samples=min_samples)
 
 
+@register_reader(priority=0)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: ``read_csv`` on a file."""
     return read_csv(path, **options)
@@ -353,6 +356,9 @@ def write_csv(seq: ImuSequence, path: str | os.PathLike | IO[str]) -> Path | Non
         prefix = GT_DEVICE_WORLD_PREFIX if device_world else "gt"
         for i, axis in enumerate("xyz"):
             columns[f"{prefix}_{axis}"] = seq.gt.p_world_m[:, i]
+    if seq.mag_uT is not None:
+        for i, axis in enumerate("xyz"):
+            columns[f"mag_{axis}"] = seq.mag_uT[:, i]
     frame = pd.DataFrame(columns)
     if isinstance(path, (str, os.PathLike)):
         out = Path(path)

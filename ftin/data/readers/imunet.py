@@ -31,6 +31,7 @@ from pathlib import Path
 from scipy.spatial.transform import Rotation
 
 import ftin.data.readers.ridi as ridi
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 
 FORMAT = "imunet"
@@ -49,6 +50,7 @@ def discover(root: Path) -> list[Path]:
     return ridi.discover_processed(root, ridi.is_arcore_recording)
 
 
+@register_reader(priority=60)
 def read(path: Path, solve_extrinsic: bool = True, align_window_s: float = 1.0) -> ImuSequence:
     """Read one IMUNet recording; ``path`` is its folder (or ``processed/data.csv`` inside it)."""
     return ridi.read_processed_csv(

@@ -54,8 +54,9 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers import sensor_clock
-from ftin.data.readers.sensor_clock import SensorSeries
+from ftin.data.io import sensor_clock
+from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import STANDARD_GRAVITY_M_S2, validate_read
 
@@ -341,6 +342,7 @@ def _on_clock_tracked(mocap: Mocap, clock: np.ndarray) -> np.ndarray:
     return mocap.tracked[k - 1] & mocap.tracked[k]
 
 
+@register_reader(priority=35)
 def read(
     path: Path,
     orientation: str = "device",

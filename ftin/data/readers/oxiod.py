@@ -57,6 +57,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
 
@@ -123,7 +124,7 @@ def _read_numeric_csv(path: Path, n_columns: int, what: str) -> np.ndarray:
         return values
     try:
         frame = pd.read_csv(path, header=None, dtype=str)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise DataFormatError(f"{path}: cannot read as CSV ({what}): {exc}") from exc
     if frame.shape[1] != n_columns:
         raise DataFormatError(
@@ -195,6 +196,7 @@ def solve_device_to_marker(
     return DeviceToMarker(rotation, rms(gyro_smooth, w_marker), rms(acc_smooth, f_marker))
 
 
+@register_reader(priority=100)
 def read(
     path: Path,
     orientation: OrientationSource | str = OrientationSource.GROUND_TRUTH,

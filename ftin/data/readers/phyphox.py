@@ -17,8 +17,9 @@ Decisions:
 * phyphox reports every platform in Android's convention (+9.81 m/s² up at rest); with no
   orientation in the export that sign cannot be checked and a warning says so. The gyroscope's unit
   and sign are checked against how gravity turns (``sensor_clock.gyro_scale_from_gravity``).
-* Sensors are merged onto one clock as for Sensor Logger (``exports``); the magnetometer, when
-  present, goes to ``ImuSequence.mag_uT`` for the orientation filter (9-D mode).
+* Sensors are merged onto one clock as for Sensor Logger (``sensor_clock``); the magnetometer, when
+  present, goes to ``ImuSequence.mag_uT`` for the orientation filter (9-D mode); ``Location.csv`` (GPS)
+  to ``meta["gps"]`` (``ftin.data.location``).
 """
 
 from __future__ import annotations
@@ -31,11 +32,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-import ftin.data.readers.exports as exports
-import ftin.data.readers.sensor_clock as sensor_clock
+import ftin.data.io.phone_exports as phone_exports
+import ftin.data.io.sensor_clock as sensor_clock
+from ftin.data import location
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles
-from ftin.data.readers.sensor_clock import SensorSeries
+from ftin.data.io.phone_exports import ExportFiles
+from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
@@ -69,7 +72,7 @@ def _separator(line: str) -> str:
 
 
 def _header(data: bytes) -> list[str]:
-    line = exports.first_line(data)
+    line = phone_exports.first_line(data)
     return [c.strip().strip('"').strip() for c in line.split(_separator(line))]
 
 
@@ -90,14 +93,14 @@ def is_phyphox_csv(data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    return exports.claims_export(
+    return phone_exports.claims_export(
         path, lambda name: name.lower().endswith(".csv"), lambda _n, head: is_phyphox_csv(head)
     )
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    return exports.discover_exports(
+    return phone_exports.discover_exports(
         root, claims, lambda files: any(f.lower().endswith(".csv") for f in files), skip_folder="meta"
     )
 
@@ -117,7 +120,7 @@ def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, Sen
     if not groups:
         return []
     try:
-        sep = _separator(exports.first_line(data))
+        sep = _separator(phone_exports.first_line(data))
         table = pd.read_csv(io.BytesIO(data), engine="c", header=0, sep=sep, decimal=_decimal(data, sep))
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         raise DataFormatError(f"{source}: {name} is not a readable CSV table ({str(exc).strip()})") from None
@@ -137,7 +140,7 @@ def _sensors_in(name: str, data: bytes, source: str) -> list[tuple[str, str, Sen
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One phyphox export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    return exports.without_overflow_warnings(_read_export, files, name)
+    return phone_exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -182,9 +185,11 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         "no orientation in the export to check it"
     )
     acc = total
-    gyro = sensor_clock.checked_gyro(gyro, acc, sensor_clock.low_pass(acc, clock), clock, source, warnings)
+    stated = f"{'rad/s' if gyro_scale == 1.0 else 'deg/s'} (the header of {gyro_label})"
+    up = sensor_clock.low_pass(acc, clock)
+    gyro = sensor_clock.checked_gyro(gyro, acc, up, clock, source, warnings, stated_unit=stated)
     meta: dict[str, Any] = {
-        **sensor_clock.export_meta(FORMAT, source, clock),
+        **sensor_clock.export_meta(FORMAT, source, clock, [gyro_series, acc_series]),
         "sensor_rates_hz": {
             gyro_label: round(gyro_series.rate_hz, 2),
             acc_label: round(acc_series.rate_hz, 2),
@@ -197,12 +202,20 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         mag_label, mag_series, mag_scale = found["mag"][0]
         mag_series = sensor_clock.clean_series(mag_series, source, warnings)
         mag = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
+    gps_file = files.find("Location")
+    if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
+        track = location.phyphox_track(gps_file[1], gps_file[0], float(clock[0]))
+        if track is not None:
+            meta["gps"] = track
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 
 
+@register_reader(priority=30)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))
+    return read_export(
+        phone_exports.open_export(path), options.pop("name", None) or phone_exports.export_name(path)
+    )

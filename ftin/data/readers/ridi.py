@@ -39,7 +39,8 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.readers.folders import numeric_columns, read_headed_csv, require_columns
+from ftin.data.io.sequence_folders import numeric_columns, read_headed_csv, require_columns
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
@@ -225,6 +226,7 @@ def read_processed_csv(
     return validate_read(seq)  # the checks every reader shares
 
 
+@register_reader(priority=70)
 def read(path: Path, align_window_s: float = 1.0, orientation: str = "device") -> ImuSequence:
     """Read one RIDI sequence; ``path`` is its folder (or ``processed/data.csv`` inside it)."""
     return read_processed_csv(path, FORMAT, align_window_s=align_window_s, orientation=orientation)

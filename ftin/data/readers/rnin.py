@@ -28,13 +28,14 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import (
+from ftin.data.io.sequence_folders import (
     MarkedFolderLayout,
     numeric_columns,
     read_headed_csv,
     reference_pose_meta,
     require_columns,
 )
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
@@ -57,6 +58,7 @@ def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
     return bool(identity_start or np.array_equal(q_wxyz[0], q_wxyz[-1]))
 
 
+@register_reader(priority=40)
 def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
     """Read one RNIN-VIO sequence; ``path`` is its folder (or its ``SenseINS.csv``)."""
     folder = LAYOUT.sequence_dir(path)

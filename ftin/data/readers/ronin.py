@@ -43,7 +43,8 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout, read_json
+from ftin.data.io.sequence_folders import MarkedFolderLayout, read_json
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     check_finite,
@@ -124,6 +125,7 @@ def _hdf5_array(
     return array
 
 
+@register_reader(priority=80)
 def read(
     path: Path,
     orientation: RoninOrientation | str = RoninOrientation.GAME_RV,

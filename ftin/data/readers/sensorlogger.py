@@ -19,6 +19,7 @@ Decisions (each checked on the shared iPhone 12 mini and Xiaomi exports, see the
   Android upwards); without orientation, ``Metadata.csv``'s platform decides.
 * Gyroscope: ``Gyroscope`` (bias-compensated) when present, else ``GyroscopeUncalibrated``; its unit
   and sign are checked against how gravity turns in the device frame (``gyro_scale_from_gravity``).
+* ``Location.csv`` (GPS), when it holds fixes, goes to ``meta["gps"]`` (``ftin.data.location``).
 * ``Orientation`` is the phone's own attitude (``orientation_source = "device"``); the magnetometer,
   when present, is kept in ``ImuSequence.mag_uT`` for the orientation filter of recordings without one.
 * What cannot give a trajectory (no gyroscope; acceleration without gravity and no ``Gravity``)
@@ -34,15 +35,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-import ftin.data.readers.exports as exports
-import ftin.data.readers.sensor_clock as sensor_clock
-from ftin.data import frames
+import ftin.data.io.phone_exports as phone_exports
+import ftin.data.io.sensor_clock as sensor_clock
+from ftin.data import frames, location
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.exports import ExportFiles
-from ftin.data.readers.sensor_clock import SensorSeries
+from ftin.data.io.phone_exports import ExportFiles
+from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
+# Sensor Logger documents its gyroscope in rad/s on both platforms (awesome-sensor-logger UNITS.md).
+GYRO_UNIT_DOCUMENTED = "rad/s (Sensor Logger's documented unit)"
 FORMAT = "sensorlogger"
 
 AXIS_SENSORS = (
@@ -70,7 +74,7 @@ def _cells(line: str) -> list[str]:
 def looks_like_sensor_file(name: str, data: bytes) -> bool:
     if name.lower() not in KNOWN_FILES:
         return False
-    cells = set(_cells(exports.first_line(data)))
+    cells = set(_cells(phone_exports.first_line(data)))
     if name.lower() == "metadata.csv":
         return "appversion" in cells or "platform" in cells
     if name.lower() == "orientation.csv":
@@ -79,12 +83,12 @@ def looks_like_sensor_file(name: str, data: bytes) -> bool:
 
 
 def claims(path: Path) -> bool:
-    return exports.claims_export(path, lambda name: name.lower() in KNOWN_FILES, looks_like_sensor_file)
+    return phone_exports.claims_export(path, lambda name: name.lower() in KNOWN_FILES, looks_like_sensor_file)
 
 
 def discover(root: Path) -> list[Path]:
     """Export folders and ZIP files under ``root`` (itself included)."""
-    return exports.discover_exports(
+    return phone_exports.discover_exports(
         root, claims, lambda files: bool({f.lower() for f in files} & KNOWN_FILES)
     )
 
@@ -174,7 +178,7 @@ def _platform(files: ExportFiles, source: str) -> tuple[str | None, dict[str, An
 
 def read_export(files: ExportFiles, name: str) -> ImuSequence:
     """One Sensor Logger export (already in memory) as an ``ImuSequence``; see the module docstring."""
-    return exports.without_overflow_warnings(_read_export, files, name)
+    return phone_exports.without_overflow_warnings(_read_export, files, name)
 
 
 def _read_export(files: ExportFiles, name: str) -> ImuSequence:
@@ -234,10 +238,12 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     sign, q = sensor_clock.gravity_sign(q, total, platform, source, warnings)
     acc = sign * total
     up = sign * gravity if gravity is not None else sensor_clock.low_pass(acc, clock)
-    gyro = sensor_clock.checked_gyro(on[gyro_key], acc, up, clock, source, warnings)
+    gyro = sensor_clock.checked_gyro(
+        on[gyro_key], acc, up, clock, source, warnings, stated_unit=GYRO_UNIT_DOCUMENTED
+    )
 
     meta: dict[str, Any] = {
-        **sensor_clock.export_meta(FORMAT, source, clock),
+        **sensor_clock.export_meta(FORMAT, source, clock, [series[gyro_key], *(series[k] for k in acc_keys)]),
         "device": device,
         "sensor_rates_hz": {s.name: round(s.rate_hz, 2) for s in series.values()},
         "specific_force_from": " + ".join(series[k].name for k in acc_keys),
@@ -247,6 +253,12 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         meta["orientation_source"] = "device"
     mag_key = next((k for k in ("Magnetometer", "MagnetometerUncalibrated") if k in series), None)
     mag = None if mag_key is None else sensor_clock.on_clock(series[mag_key], clock, source, warnings)
+    gps_file = files.find("Location")
+    if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
+        zero_ns = None if origin is None else origin + int(round(clock[0] * 1e9))
+        track = location.sensorlogger_track(gps_file[1], gps_file[0], zero_ns, float(clock[0]))
+        if track is not None:
+            meta["gps"] = track
     meta["warnings"] = warnings
     seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
@@ -288,7 +300,10 @@ def _orientation_on_clock(series: SensorSeries, clock: np.ndarray) -> np.ndarray
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
+@register_reader(priority=20)
 def read(path: Path, **options: Any) -> ImuSequence:
     """Reader-contract entry point: an export folder, a ZIP, or one CSV of an export folder."""
     path = Path(path)
-    return read_export(exports.open_export(path), options.pop("name", None) or exports.export_name(path))
+    return read_export(
+        phone_exports.open_export(path), options.pop("name", None) or phone_exports.export_name(path)
+    )

@@ -36,7 +36,8 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.readers.folders import MarkedFolderLayout, read_json, reference_pose_meta
+from ftin.data.io.sequence_folders import MarkedFolderLayout, read_json, reference_pose_meta
+from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
     check_finite,
@@ -143,6 +144,7 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return result
 
 
+@register_reader(priority=50)
 def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSequence:
     """Read one TLIO sequence; ``path`` is its folder (or its ``imu0_resampled.npy``)."""
     calibration = Calibration(calibration)
@@ -153,7 +155,9 @@ def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSe
     except FileNotFoundError as exc:
         raise DataFormatError(f"{folder}: not a TLIO sequence folder ({DATA_FILE} is missing)") from exc
     except (OSError, ValueError) as exc:
-        raise DataFormatError(f"{data_path}: cannot load as a numpy array ({exc})") from exc
+        # np.load takes a file that is no .npy for a pickle, which it refuses: say what it is not
+        reason = "not a .npy file of numbers; pickled data is never loaded" if "pickle" in str(exc) else exc
+        raise DataFormatError(f"{data_path}: cannot load as a numpy array ({reason})") from exc
     if data.ndim != 2 or data.shape[1] != N_COLUMNS or not np.issubdtype(data.dtype, np.number):
         raise DataFormatError(
             f"{data_path}: expected a numeric (N, {N_COLUMNS}) array (ts_us, gyro 3, acc 3, q xyzw 4, p 3, "

@@ -1,6 +1,6 @@
 """Phone sensors recorded on different clocks, merged onto one, with units and signs from gravity.
 
-Shared by the Sensor Logger and phyphox readers (``ftin.data.readers.exports`` opens the files).
+Shared by the Sensor Logger and phyphox readers (``ftin.data.io.phone_exports`` opens the files).
 
 Decisions:
 
@@ -9,8 +9,8 @@ Decisions:
   covers. A sensor sampled faster than the clock is first averaged over each clock interval (the
   exact mean of its linear interpolant, from the running integral), so a 500 Hz gyroscope beside a
   100 Hz accelerometer keeps the rotation it measured instead of aliasing; slower or equal sensors
-  are interpolated linearly. Gaps are bridged by interpolation and reported in the warnings; a gap
-  longer than ``MAX_BRIDGED_GAP_S`` is an error naming the sensor and the time.
+  are interpolated linearly. Gaps follow the rule every input follows (``ftin.data.gaps``): bridged
+  by interpolation with a note, held (predicted around) with a warning, refused past a minute.
 """
 
 from __future__ import annotations
@@ -22,10 +22,9 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
 
-from ftin.data import frames, validate
+from ftin.data import frames, gaps, validate
 from ftin.data.errors import DataFormatError
 
-MAX_BRIDGED_GAP_S = 5.0  # a phone app paused for a moment; longer is another recording
 MIN_OVERLAP_S = 1.0
 
 
@@ -62,21 +61,47 @@ def clean_series(series: SensorSeries, source: str, warnings: list[str]) -> Sens
     return SensorSeries(series.name, t, v)
 
 
+def _gap_threshold_s(series: SensorSeries) -> float:
+    return max(5.0 * float(np.median(np.diff(series.t_s))), 0.05)
+
+
 def _check_gaps(series: SensorSeries, source: str, warnings: list[str]) -> None:
+    """Gaps of one sensor, by the rule every input follows (``ftin.data.gaps``): bridged with a note,
+    held with a warning (``held_holes`` puts them in the sequence's meta), refused past a minute."""
     dt = np.diff(series.t_s)
-    median = float(np.median(dt))
-    gaps = np.flatnonzero(dt > max(5.0 * median, 0.05))
-    if not gaps.size:
+    found = np.flatnonzero(dt > _gap_threshold_s(series))
+    if not found.size:
         return
-    worst = int(gaps[np.argmax(dt[gaps])])
-    if dt[worst] > MAX_BRIDGED_GAP_S:
+    worst = int(found[np.argmax(dt[found])])
+    if dt[worst] > gaps.HOLD_MAX_S:
         raise DataFormatError(
-            f"{source}: {series.name} has a gap of {dt[worst]:.2f} s at t = {series.t_s[worst]:.2f} s "
-            f"(more than {MAX_BRIDGED_GAP_S:g} s); the sensor stopped recording: split the recording there"
+            f"{source}: {series.name} has no data for {dt[worst]:.1f} s from t = {series.t_s[worst]:.2f} s "
+            f"(more than {gaps.HOLD_MAX_S:g} s): the sensor stopped recording; these are two recordings"
         )
-    warnings.append(
-        f"{series.name}: {gaps.size} gap(s) up to {dt[worst] * 1000:.0f} ms bridged by interpolation"
-    )
+    bridged = found[dt[found] <= gaps.BRIDGE_MAX_S]
+    if bridged.size:
+        longest = int(bridged[np.argmax(dt[bridged])])
+        warnings.append(
+            f"bridged {bridged.size} gap(s) in {series.name} by interpolation: {dt[bridged].sum():.3g} s in "
+            f"all, the longest {dt[longest] * 1000:.0f} ms at t = {series.t_s[longest]:.2f} s"
+        )
+    for i in found[dt[found] > gaps.BRIDGE_MAX_S]:
+        warnings.append(
+            f"{series.name}: no data for {dt[i]:.1f} s from t = {series.t_s[i]:.2f} s: the walk there is "
+            "unknown; the parts on either side are predicted separately and the trajectory holds its "
+            "position across the hole"
+        )
+
+
+def held_holes(required: list[SensorSeries], clock: np.ndarray) -> list[list[float]]:
+    """``[[start, end], ...]`` on ``clock``'s time axis: the holes longer than ``gaps.BRIDGE_MAX_S`` in
+    any required sensor (``meta["holes_s"]``)."""
+    holes = []
+    for series in required:
+        dt = np.diff(series.t_s)
+        for i in np.flatnonzero((dt > _gap_threshold_s(series)) & (dt > gaps.BRIDGE_MAX_S)):
+            holes.append([float(series.t_s[i]), float(series.t_s[i + 1])])
+    return sorted(holes)
 
 
 def _interval_means(series: SensorSeries, grid_s: np.ndarray, step_s: float) -> np.ndarray:
@@ -175,27 +200,46 @@ def acceleration_scale(values: np.ndarray, what: str, source: str, warnings: lis
 
 
 def gyro_scale_from_gravity(
-    t_s: np.ndarray, gyro: np.ndarray, up_device: np.ndarray, source: str, warnings: list[str]
+    t_s: np.ndarray,
+    gyro: np.ndarray,
+    up_device: np.ndarray,
+    source: str,
+    warnings: list[str],
+    stated_unit: str | None = None,
 ) -> float:
     """Check the gyroscope's unit and sign against how the gravity direction turns in the device.
 
     A vector fixed in the world, seen from the device, turns as ``du/dt = -omega x u``; the factor
     ``k`` of the least-squares fit ``du/dt = -k (gyro x u)`` is 1 for rad/s, pi/180 for deg/s and
-    negative for a gyroscope with the opposite sign convention. Returns the factor to apply
-    (1, pi/180, -1, ...), or 1 with a warning when the recording turns too little to tell.
+    negative for a gyroscope with the opposite sign convention. Both sides of the fit pass the same
+    0.5 Hz low-pass: ``u`` is a smoothed direction (a low-passed accelerometer, or the OS's gravity),
+    so an unfiltered rate term would count the step-frequency wobble as misfit and bias ``k`` towards
+    0 while walking (a rad/s phyphox walk fitted 0.03).
+
+    ``stated_unit`` (a header's unit, or the phone app's documented one) always wins: the fit then
+    only checks it, and where it disagrees a warning gives both numbers. A clear sign flip (k near
+    -1) is still applied, since no header states a sign. Without a stated unit the fit decides.
+    Returns the factor to apply (1, pi/180, -1, ...), or 1 with a warning when the recording turns
+    too little to tell.
     """
     u = up_device / np.linalg.norm(up_device, axis=1, keepdims=True)
-    du = np.gradient(u, t_s, axis=0)
-    model = -np.cross(gyro, u)
+    du = low_pass(np.gradient(u, t_s, axis=0), t_s)
+    model = low_pass(-np.cross(gyro, u), t_s)
     if float(np.sqrt(np.mean(np.sum(model**2, axis=1)))) < _MIN_ROTATION_FOR_GYRO_CHECK_RAD_S:
         warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
         return 1.0
     k = float(np.sum(du * model) / np.sum(model * model))
-    for factor, meaning in (
-        (1.0, None),
-        (np.pi / 180.0, "deg/s, converted to rad/s"),
-        (-1.0, "left-handed sign"),
-    ):
+    if 0.5 <= -k <= 2.0:
+        warnings.append(f"gyroscope sign: its rates turn gravity by {k:.3g}x: left-handed axes, negated")
+        return -1.0
+    if stated_unit is not None:
+        if not 0.5 <= k <= 2.0:
+            warnings.append(
+                f"gyroscope unit {stated_unit} kept as stated, though the gravity-turn check fits {k:.3g} "
+                "(1 expected for rad/s, 0.0175 for deg/s): check the trajectory's turns"
+            )
+        return 1.0
+    for factor, meaning in ((1.0, None), (np.pi / 180.0, "deg/s, converted to rad/s")):
         if 0.5 <= k / factor <= 2.0:
             if meaning is not None:
                 warnings.append(f"gyroscope read as {meaning} (its rates turn gravity by {k:.3g}x rad/s)")
@@ -244,26 +288,39 @@ def gravity_sign(
     return 1.0, None
 
 
-def low_pass(acc: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
-    """Gravity's direction in the device frame: specific force low-passed at ``cutoff_hz``."""
+def low_pass(values: np.ndarray, t_s: np.ndarray, cutoff_hz: float = 0.5) -> np.ndarray:
+    """``values`` (N, C) low-passed at ``cutoff_hz``, zero phase: of the specific force, gravity's
+    direction in the device frame."""
     rate = 1.0 / float(np.median(np.diff(t_s)))
-    if len(acc) < 30 or rate <= 2 * cutoff_hz:
-        return np.repeat(acc.mean(axis=0, keepdims=True), len(acc), axis=0)
-    return sosfiltfilt(butter(2, cutoff_hz, fs=rate, output="sos"), acc, axis=0)
+    if len(values) < 30 or rate <= 2 * cutoff_hz:
+        return np.repeat(values.mean(axis=0, keepdims=True), len(values), axis=0)
+    return sosfiltfilt(butter(2, cutoff_hz, fs=rate, output="sos"), values, axis=0)
 
 
 def checked_gyro(
-    gyro: np.ndarray, acc: np.ndarray, up: np.ndarray, clock: np.ndarray, source: str, warnings: list[str]
+    gyro: np.ndarray,
+    acc: np.ndarray,
+    up: np.ndarray,
+    clock: np.ndarray,
+    source: str,
+    warnings: list[str],
+    stated_unit: str | None = None,
 ) -> np.ndarray:
     """The gyroscope in rad/s with the sign gravity's turning in the device frame shows
-    (``gyro_scale_from_gravity``), the IMU checked before and after."""
+    (``gyro_scale_from_gravity``: a stated unit wins), the IMU checked before and after."""
     check_imu(gyro, acc, source)
-    gyro = gyro * gyro_scale_from_gravity(clock, gyro, up, source, warnings)
+    gyro = gyro * gyro_scale_from_gravity(clock, gyro, up, source, warnings, stated_unit)
     check_imu(gyro, acc, source)
     return gyro
 
 
-def export_meta(fmt: str, source: str, clock: np.ndarray) -> dict[str, Any]:
-    """The ``meta`` entries every phone export shares."""
+def export_meta(
+    fmt: str, source: str, clock: np.ndarray, required: list[SensorSeries] | None = None
+) -> dict[str, Any]:
+    """The ``meta`` entries every phone export shares (``holes_s`` when a required sensor has one)."""
     rate_hz = float(1.0 / (clock[1] - clock[0])) if len(clock) > 1 else 0.0
-    return {"dataset": fmt, "source": source, "rate_hz": rate_hz, "carry": "unknown"}
+    meta: dict[str, Any] = {"dataset": fmt, "source": source, "rate_hz": rate_hz, "carry": "unknown"}
+    holes = held_holes(required or [], clock)
+    if holes:
+        meta["holes_s"] = holes
+    return meta

@@ -36,13 +36,13 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.types import Trajectory
-from ftin.metrics.alignment import RigidAlignment, fit_se2, fit_se3
 from ftin.metrics.trajectory import (
     Convention,
     TrajectoryMetrics,
     _common_samples,
     evaluate_trajectory,
 )
+from ftin.metrics.umeyama import RigidAlignment, fit_se2, fit_se3
 
 DEFAULT_START_WINDOW_S = 10.0
 MIN_START_PATH_M = 2.0
@@ -164,12 +164,14 @@ def evaluate_aligned(
     alignment: Alignment | str = Alignment.NONE,
     rte_window_s: float = 60.0,
     start_window_s: float = DEFAULT_START_WINDOW_S,
+    smooth_s: float | None = None,
 ) -> tuple[TrajectoryMetrics, AlignmentFit]:
-    """Metrics of ``est`` against ``gt`` under ``alignment``; the metrics name it and its heading."""
+    """Metrics of ``est`` against ``gt`` under ``alignment``; the metrics name it and its heading
+    (``smooth_s``: see ``evaluate_trajectory``)."""
     alignment = Alignment(alignment)
     fit = fit_alignment(est, gt, alignment, start_window_s)
     scored = fit.estimate_in_gt_frame(est) if alignment is Alignment.START else est
-    metrics = evaluate_trajectory(scored, gt, convention_for(alignment), rte_window_s)
+    metrics = evaluate_trajectory(scored, gt, convention_for(alignment), rte_window_s, smooth_s)
     metrics = replace(
         metrics, alignment=alignment.value, heading_deg=fit.heading_deg, align_window_s=fit.window_s
     )

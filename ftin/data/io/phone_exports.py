@@ -2,7 +2,7 @@
 
 Shared by the Sensor Logger and phyphox readers: opening an export (folder or ZIP) as an in-memory
 set of files, recognising and discovering exports. Their sensors are merged onto one clock in
-``ftin.data.readers.sensor_clock``.
+``ftin.data.io.sensor_clock``.
 
 Decisions:
 
@@ -170,6 +170,10 @@ def open_export(path: Path) -> ExportFiles:
             return read_zip(path.read_bytes(), str(path))
         except OSError as exc:
             raise DataFormatError(f"{path}: cannot read file ({exc.strerror or exc})") from None
+    if path.suffix.lower() == ".zip":
+        raise DataFormatError(
+            f"{path}: not a ZIP file (it does not start with PK); export the recording again"
+        )
     return read_folder(path.parent)
 
 

@@ -25,7 +25,7 @@ class ColumnSpec:
     """One canonical column of the format and the header names accepted for it."""
 
     name: str
-    group: str  # "t", "gyro", "acc", "q" or "gt": columns of a group come together
+    group: str  # "t", "gyro", "acc", "q", "gt" or "mag": columns of a group come together
     unit: str
     meaning: str
     required: bool
@@ -62,6 +62,7 @@ _Q_PREFIXES = (
     "game_rotation_vector",
     "q_world_device",
 )
+_MAG_PREFIXES = ("mag", "magnet", "magnetometer", "magnetic_field", "magn", "magnetometer_calibrated")
 _GT_PREFIXES = ("gt", "gt_p", "gt_pos", "gt_position", "pos", "position", "p", "p_world", "gt_device_world")
 # Ground truth under this name is in the orientation's world frame (what ``write_csv`` writes from
 # our readers' output); any other name may be in its own world frame (see ``meta["gt_frame"]``).
@@ -133,6 +134,15 @@ COLUMNS: tuple[ColumnSpec, ...] = (
         _GT_PREFIXES,
         meaning="ground-truth position {0}; `gt_device_world_{0}` when in the orientation's world frame",
     ),
+    *_axis_columns(
+        "mag",
+        "µT",
+        False,
+        _MAG_PREFIXES,
+        short=("m",),
+        meaning="magnetic field along device {} (µT; nT, mT, gauss or mG in the header are converted): "
+        "lets the orientation filter reference its heading to magnetic north",
+    ),
 )
 
 GROUPS: dict[str, tuple[str, ...]] = {}
@@ -159,6 +169,11 @@ _UNITS: dict[str, str] = {
     **dict.fromkeys(("m/s2", "ms-2", "m_s2", "ms2", "mps2", "m/s/s", "m_s_2", "m/s^2"), "m/s^2"),
     **dict.fromkeys(("g", "gee"), "g"),
     **dict.fromkeys(("m", "meter", "meters", "metre", "metres"), "m"),
+    **dict.fromkeys(("ut", "µt", "μt", "microtesla", "microteslas", "micro_t"), "uT"),
+    **dict.fromkeys(("nt", "nanotesla", "nanoteslas"), "nT"),
+    **dict.fromkeys(("mt", "millitesla", "milliteslas"), "mT"),
+    **dict.fromkeys(("gauss", "gs"), "gauss"),
+    **dict.fromkeys(("mgauss", "milligauss", "mgs"), "mG"),
 }
 # Unit suffixes seen glued to names (``gyro_x_rad_s``) -> canonical unit; longest tried first.
 _UNIT_SUFFIXES: dict[str, str] = {
@@ -178,6 +193,8 @@ _UNIT_SUFFIXES: dict[str, str] = {
     "ns": "ns",
     "g": "g",
     "m": "m",
+    "ut": "uT",
+    "nt": "nT",
 }
 # Aliases whose name states the unit.
 _IMPLIED_UNITS = {"t_s": "s", "time_s": "s", "seconds_elapsed": "s", "seconds": "s", "sec": "s"}
@@ -187,6 +204,7 @@ TO_CANONICAL = {
     "gyro": {"rad/s": 1.0, "deg/s": math.pi / 180.0},
     "acc": {"m/s^2": 1.0, "g": STANDARD_GRAVITY_M_S2},
     "gt": {"m": 1.0},
+    "mag": {"uT": 1.0, "nT": 1e-3, "mT": 1e3, "gauss": 100.0, "mG": 0.1},
 }
 TIME_UNIT_WORDS = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 

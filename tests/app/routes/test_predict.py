@@ -1,4 +1,5 @@
-"""Every REST route and every error class, through FastAPI's TestClient (no viser scene here)."""
+"""POST /predict (app/api/routes/predict.py): CSV, raw body and JSON arrays, every error class,
+the upload limit and what results tell."""
 
 from __future__ import annotations
 
@@ -13,110 +14,8 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
+from tests.app.routes.helpers import ARRAY_COLUMNS, DEFAULT_MODEL, OTHER_MODEL, arrays_body, detail, upload
 from tests.utils.recordings import still_phone_csv
-
-DEFAULT_MODEL = "ftin-oxiod"
-OTHER_MODEL = "resnet-tiny"
-
-
-def upload(client: TestClient, data: bytes, name: str = "walk.csv", **params: str):
-    return client.post("/predict", params=params, files={"file": (name, data, "text/csv")})
-
-
-ARRAY_COLUMNS = {  # POST /predict's JSON arrays -> the generic CSV's columns
-    "t_s": "t",
-    "gyro_rad_s": ["gyro_x", "gyro_y", "gyro_z"],
-    "acc_m_s2": ["acc_x", "acc_y", "acc_z"],
-    "q_world_device_wxyz": ["q_w", "q_x", "q_y", "q_z"],
-    "gt_p_world_m": [f"gt_device_world_{a}" for a in "xyz"],
-}
-
-
-def arrays_body(frame: pd.DataFrame, *fields: str, **extra: str) -> dict[str, object]:
-    """A JSON body for ``POST /predict`` with ``fields`` (keys of ``ARRAY_COLUMNS``) taken from ``frame``."""
-    return {**extra, **{f: frame[ARRAY_COLUMNS[f]].to_numpy().tolist() for f in fields}}
-
-
-def detail(response) -> str:
-    body = response.json()
-    assert set(body) == {"detail"}, body
-    assert isinstance(body["detail"], str)
-    return body["detail"]
-
-
-# --- health, models, sequences, page -------------------------------------------------------------
-
-
-def test_health_reports_what_was_loaded(client: TestClient) -> None:
-    body = client.get("/health").json()
-    assert body["status"] == "ok"
-    assert body["models"] == [DEFAULT_MODEL, OTHER_MODEL]
-    assert body["default_model"] == DEFAULT_MODEL
-    assert body["sequences"] == 3
-    assert body["scene_url"] is None  # viser disabled in this app
-    assert body["notes"] == []
-    assert body["inferences_running"] == 0
-    assert body["max_upload_mb"] == 200.0 and body["max_samples"] == 720_000
-    assert body["inference_timeout_s"] == 120.0
-
-
-def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
-    models = {m["name"]: m for m in client.get("/models").json()}
-    assert set(models) == {DEFAULT_MODEL, OTHER_MODEL}
-    ftin = models[DEFAULT_MODEL]
-    assert ftin["architecture"] == "ftin" and models[OTHER_MODEL]["architecture"] == "resnet1d"
-    assert ftin["default"] is True and models[OTHER_MODEL]["default"] is False
-    assert ftin["imu_rate_hz"] == 100.0 and ftin["window"] == 50 and ftin["stride"] == 25
-    assert ftin["trained_on"] == "simulated walks (test fixture)"
-    assert models[OTHER_MODEL]["trained_on"] == "simulated walks (2 sequences)"  # no developer path
-    assert ftin["metrics"] == {"ate": 1.5, "rte": 2.5, "pde": 0.05}
-    assert ftin["parameters"] > 1000 and ftin["out_dim"] == 2
-
-
-def test_sequences_lists_the_data_folder(client: TestClient) -> None:
-    sequences = {s["name"]: s for s in client.get("/sequences").json()}
-    assert set(sequences) == {"walk_gt", "more/imu_only", "broken"}
-    walk = sequences["walk_gt"]
-    assert walk["id"] == "walks--walk_gt" and walk["dataset"] == "csv"
-    assert walk["duration_s"] == pytest.approx(19.99) and walk["rate_hz"] == pytest.approx(100.0)
-    assert walk["samples"] == 2000 and walk["has_ground_truth"] is True and walk["error"] is None
-    assert sequences["more/imu_only"]["has_ground_truth"] is False
-    assert "/" not in sequences["more/imu_only"]["id"]
-    # An unreadable file is listed with the reader's reason instead of failing the whole listing.
-    broken = sequences["broken"]
-    assert broken["duration_s"] is None and "broken" in broken["error"]
-
-
-def test_upload_page_and_static_files_are_served(client: TestClient) -> None:
-    page = client.get("/")
-    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
-    assert "FTIN Studio" in page.text and "/static/app.js" in page.text
-    for asset in ("/static/app.js", "/static/plot.js", "/static/style.css"):
-        assert client.get(asset).status_code == 200
-    # Nothing on the page may come from the internet.
-    assert "http://" not in page.text.replace("http://www.w3.org", "")
-    assert "https://" not in page.text
-
-
-def test_docs_page_works_offline(client: TestClient) -> None:
-    page = client.get("/docs")
-    assert page.status_code == 200 and "swagger-ui-bundle.js" in page.text
-    assert "cdn." not in page.text and "https://" not in page.text
-    for asset in ("swagger-ui-bundle.js", "swagger-ui.css"):
-        assert client.get(f"/static-offline-docs/{asset}").status_code == 200
-    assert client.get("/redoc").status_code == 404
-
-
-def test_openapi_documents_both_predict_bodies(client: TestClient) -> None:
-    assert client.get("/docs").status_code == 200
-    spec = client.get("/openapi.json").json()
-    content = spec["paths"]["/predict"]["post"]["requestBody"]["content"]
-    assert {"multipart/form-data", "application/json", "text/csv"} <= set(content)
-    assert "t_s" in content["application/json"]["schema"]["properties"]
-    assert "/sequences/{sequence_id}/predict" in spec["paths"]
-
-
-# --- predictions ---------------------------------------------------------------------------------
 
 
 def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: bytes) -> None:
@@ -133,8 +32,8 @@ def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: b
     assert len(velocity["t"]) == len(velocity["vx"]) == len(velocity["vy"]) > 10
     assert velocity["vz"] is None  # a 2-D model
     metrics = body["metrics"]
-    assert {"ate", "rte", "pde", "path_length_ratio"} <= set(metrics)
-    scored = ("ate", "rte", "pde", "path_length_ratio")
+    assert {"ate", "ate_euclidean", "rte", "pde", "path_length_ratio"} <= set(metrics)
+    scored = ("ate", "ate_euclidean", "rte", "pde", "path_length_ratio")
     assert all(np.isfinite(metrics[k]) and metrics[k] >= 0 for k in scored)
     assert metrics["convention"] == "ronin" and "no alignment" in metrics["convention_text"]
     assert metrics["predicted_path_m"] > 0 and metrics["true_path_m"] > 0
@@ -163,14 +62,6 @@ def test_predict_without_ground_truth_estimates_orientation(
     assert body["trajectory"]["x"][0] == 0.0  # no ground truth: starts at the origin
 
 
-def test_client_paths_and_unicode_names_are_harmless(client: TestClient, csv_with_gt: bytes) -> None:
-    body = upload(client, csv_with_gt, "C:\\Users\\me\\wälk ü.csv").json()
-    assert body["sequence"] == "wälk ü"
-    csv = client.get(body["csv_url"])
-    assert csv.status_code == 200
-    assert 'filename="w_lk__ftin-oxiod_trajectory.csv"' in csv.headers["content-disposition"]
-
-
 def test_predict_raw_csv_body(client: TestClient, csv_with_gt: bytes) -> None:
     response = client.post("/predict", content=csv_with_gt, headers={"content-type": "text/csv"})
     assert response.status_code == 200, response.text
@@ -185,23 +76,6 @@ def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> 
     result = response.json()
     assert result["sequence"] == "arrays" and result["source"] == "json"
     assert result["orientation_source"] == "device" and result["metrics"] is not None
-
-
-def test_predict_listed_sequence(client: TestClient) -> None:
-    response = client.post("/sequences/walks--walk_gt/predict", params={"model": OTHER_MODEL})
-    assert response.status_code == 200, response.text
-    body = response.json()
-    assert body["sequence"] == "walk_gt" and body["source"] == "sequence" and body["model"] == OTHER_MODEL
-
-
-def test_client_chosen_run_id_can_be_polled(client: TestClient, csv_with_gt: bytes) -> None:
-    body = upload(client, csv_with_gt, run_id="page-run-0001").json()
-    assert body["run_id"] == "page-run-0001"
-    assert client.get("/runs/page-run-0001").json()["state"] == "done"
-    assert client.post("/runs/page-run-0001/show").status_code == 200
-
-
-# --- every error class ---------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize(
@@ -230,33 +104,6 @@ def test_recording_shorter_than_a_window_is_422(client: TestClient, sample_frame
     assert "too short" in message and "51" in message
 
 
-def test_unknown_model_is_404_naming_the_valid_ones(client: TestClient, csv_with_gt: bytes) -> None:
-    response = upload(client, csv_with_gt, model="NoSuchModel")
-    assert response.status_code == 404
-    message = detail(response)
-    assert "NoSuchModel" in message and DEFAULT_MODEL in message and OTHER_MODEL in message
-
-
-@pytest.mark.parametrize(
-    "path",
-    [
-        "/sequences/nope/predict",
-        "/sequences/..%2F..%2Fetc%2Fpasswd/predict",
-        "/sequences/%2Fetc%2Fpasswd/predict",
-        "/sequences/walks--..--..--etc--passwd/predict",
-        "/sequences/../../etc/passwd/predict",
-        "/sequences/%2e%2e%2f%2e%2e%2fetc%2fpasswd/predict",
-        "/sequences/walks--walk_gt%2F..%2F..%2Fbroken/predict",
-        "/sequences/..%5C..%5Cwindows%5Cwin.ini/predict",
-        "/sequences/%252e%252e%252fetc%252fpasswd/predict",
-    ],
-)
-def test_sequence_ids_cannot_escape_the_data_folders(client: TestClient, path: str) -> None:
-    response = client.post(path)
-    assert response.status_code == 404
-    assert "passwd" not in response.text or "unknown sequence id" in response.text
-
-
 @pytest.mark.parametrize("filename", ["../../etc/passwd", "/etc/passwd", "..\\..\\boot.ini", ".."])
 def test_upload_file_names_are_only_labels(client: TestClient, csv_with_gt: bytes, filename: str) -> None:
     """A client's file name never becomes a path: nothing is read or written under it."""
@@ -273,33 +120,6 @@ def test_cross_origin_predict_gets_no_cors_header(client: TestClient, csv_with_g
         headers={"Origin": "http://evil.example"},
     )
     assert "access-control-allow-origin" not in response.headers
-
-
-def test_unknown_sequence_names_the_id(client: TestClient) -> None:
-    message = detail(client.post("/sequences/nope/predict"))
-    assert "nope" in message and "GET /sequences" in message
-
-
-def test_unreadable_listed_sequence_is_422(client: TestClient) -> None:
-    response = client.post("/sequences/walks--broken/predict")
-    assert response.status_code == 422 and "broken" in detail(response)
-
-
-def test_unknown_runs_are_404(client: TestClient) -> None:
-    for response in (
-        client.get("/runs/nosuchrun"),
-        client.get("/runs/nosuchrun/trajectory.csv"),
-        client.post("/runs/nosuchrun/show"),
-    ):
-        assert response.status_code == 404 and "nosuchrun" in detail(response)
-
-
-def test_run_id_conflicts_and_format(client: TestClient, csv_with_gt: bytes) -> None:
-    assert upload(client, csv_with_gt, run_id="same-id-123").status_code == 200
-    again = upload(client, csv_with_gt, run_id="same-id-123")
-    assert again.status_code == 409 and "same-id-123" in detail(again)
-    bad = upload(client, csv_with_gt, run_id="no spaces!")
-    assert bad.status_code == 422 and "run_id" in detail(bad)
 
 
 def test_multipart_without_file_field_is_400(client: TestClient, csv_with_gt: bytes) -> None:
@@ -320,8 +140,8 @@ def test_unsupported_content_type_is_415(client: TestClient) -> None:
 @pytest.mark.parametrize(
     ("change", "expected"),
     [
-        (
-            {"t_s": [0.0, 0.01, 0.01, 0.03]},
+        (  # a timestamp repeated with other values (an exact repeat is dropped with a note)
+            {"t_s": [0.0, 0.01, 0.01, 0.03], "gyro_rad_s": [[0, 0, 0], [0, 0, 0], [0, 0, 0.1], [0, 0, 0]]},
             "sample 2, column 't_s': timestamp",
         ),
         ({"gyro_rad_s": [[0, 0]] * 4}, "gyro_rad_s: expected a list of rows of 3 numbers"),
@@ -357,9 +177,6 @@ def test_query_validation_errors_are_plain_sentences(client: TestClient) -> None
     assert detail(response).startswith("query parameter model:")
 
 
-# --- upload limit, CORS, startup errors ----------------------------------------------------------
-
-
 @pytest.fixture(scope="module")
 def small_limit_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
     with TestClient(create_app(make_settings(max_upload_mb=0.1))) as test_client:  # 100 KiB
@@ -393,27 +210,6 @@ def test_json_above_the_limit_is_413(small_limit_client: TestClient) -> None:
     assert response.status_code == 413
 
 
-def test_cors_is_closed_by_default(client: TestClient) -> None:
-    response = client.options(
-        "/health", headers={"Origin": "http://evil.example", "Access-Control-Request-Method": "GET"}
-    )
-    assert "access-control-allow-origin" not in response.headers
-    get = client.get("/health", headers={"Origin": "http://evil.example"})
-    assert "access-control-allow-origin" not in get.headers
-
-
-def test_cors_opens_only_for_configured_origins(make_settings: Callable[..., Settings]) -> None:
-    app = create_app(make_settings(cors_origins=["http://lab.example"]))
-    with TestClient(app) as test_client:
-        ok = test_client.get("/health", headers={"Origin": "http://lab.example"})
-        assert ok.headers["access-control-allow-origin"] == "http://lab.example"
-        other = test_client.get("/health", headers={"Origin": "http://evil.example"})
-        assert "access-control-allow-origin" not in other.headers
-
-
-# --- issue 11: results that tell the truth --------------------------------------------------------
-
-
 def test_a_phone_lying_still_while_the_truth_walks_gets_a_path_warning(
     client: TestClient, sample_frame: pd.DataFrame
 ) -> None:
@@ -426,7 +222,12 @@ def test_a_phone_lying_still_while_the_truth_walks_gets_a_path_warning(
     assert len(path_warnings) == 1, body["warnings"]  # one warning, not one per symptom
     assert "barely moves" in path_warnings[0] and f"{metrics['true_path_m']:.0f} m" in path_warnings[0]
     # The stand-still baseline is scored with the same convention, for comparison.
-    assert set(metrics["stand_still"]) == {"ate", "rte", "pde"} and metrics["stand_still"]["ate"] > 0
+    table_metrics = {m["name"] for m in client.get("/metrics").json() if m["in_tables"]}
+    assert (
+        set(metrics["stand_still"]) == table_metrics
+        and {"ate", "ate_euclidean", "rte", "pde"} <= table_metrics
+    )
+    assert metrics["stand_still"]["ate"] > 0 and metrics["stand_still"]["path_length_ratio"] == 0.0
 
 
 def test_a_plausible_path_has_no_path_warning_and_read_notes_are_not_warnings(
@@ -447,18 +248,3 @@ def test_a_json_recording_is_not_named_request(client: TestClient, sample_frame:
     response = client.post("/predict", json=body)
     assert response.status_code == 200, response.text
     assert response.json()["sequence"] == "recording"
-
-
-def test_an_expired_run_says_so_and_how_to_get_it_back(
-    make_settings: Callable[..., Settings], csv_with_gt: bytes
-) -> None:
-    with TestClient(create_app(make_settings(max_runs=1))) as small:
-        first = upload(small, csv_with_gt).json()["run_id"]
-        upload(small, csv_with_gt)  # the first run is dropped from memory
-        for response in (
-            small.get(f"/runs/{first}/trajectory.csv"),
-            small.post(f"/runs/{first}/show"),
-        ):
-            assert response.status_code == 410
-            assert "expired" in detail(response) and "Predict again" in detail(response)
-        assert small.get("/runs/never-was-a-run/trajectory.csv").status_code == 404

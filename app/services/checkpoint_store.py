@@ -57,10 +57,10 @@ class ModelEntry:
     def trained_on(self) -> str | None:
         """``training_data`` of the checkpoint in words: what data and how many sequences.
 
-        ``ftin train`` records ``{"paths": [...], "sequences": [...]}``. The paths are a developer's
-        (``../shared/data/oxiod/...``), so they are named by their kinds (``OxIOD and RIDI (21
-        sequences)``), else by the last folder they share (``walks (2 sequences)``). A plain string is
-        kept as is.
+        ``ftin train`` records the datasets by name (``ftin.train.provenance``): they are named by
+        their kinds (``OxIOD and RIDI (21 sequences)``), else as recorded. An older card records
+        only paths, a developer's (``../shared/data/oxiod/...``): named by their kinds, else by the
+        last folder they share (``walks (2 sequences)``). A plain string is kept as is.
         """
         data = self.meta.get("training_data")
         if data is None or isinstance(data, str):
@@ -68,6 +68,8 @@ class ModelEntry:
         if isinstance(data, dict):
             paths = [str(p).replace("\\", "/").rstrip("/") for p in data.get("paths", []) if str(p).strip()]
             where = labels(self.data_kinds)
+            if where is None and data.get("datasets"):
+                where = ", ".join(str(d) for d in data["datasets"])
             if where is None:
                 try:
                     common = os.path.commonpath(paths) if len(paths) > 1 else (paths or [""])[0]

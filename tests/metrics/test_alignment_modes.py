@@ -1,8 +1,8 @@
-"""Alignment choices (``ftin.metrics.align``): analytic frame offsets and an independent evo check.
+"""Alignment choices (``ftin.metrics.alignment_modes``): analytic frame offsets and an independent evo check.
 
-evo: ``none`` = the unaligned APE on z = 0 copies / sqrt 2 (RoNIN's coordinate RMSE); ``se2`` = APE
-after ``align(correct_scale=False)`` on z = 0 copies; ``start`` = the same with ``n`` = the samples of
-the start window (evo's ``--n_to_align``) and RoNIN's aggregate (/ sqrt 2).
+evo: ``none`` = the unaligned APE on z = 0 copies; ``se2`` = APE after ``align(correct_scale=False)``
+on z = 0 copies; ``start`` = the same with ``n`` = the samples of the start window (evo's
+``--n_to_align``). Each is ``ate_euclidean``; the headline ``ate`` is RoNIN's coordinate RMS (/ sqrt 2).
 """
 
 from __future__ import annotations
@@ -80,13 +80,15 @@ def test_agrees_with_evo(alignment):
     gt = moved(Trajectory(est.t_s, est.p_world_m + wobble), yaw_deg=25.0)
     metrics, fit = evaluate_aligned(est, gt, alignment)
     if alignment == "none":
-        expected = evo_ape_xy(est, gt, None, align=False) / np.sqrt(2)
+        evo = evo_ape_xy(est, gt, None, align=False)
     elif alignment == "se2":
-        expected = evo_ape_xy(est, gt, None, align=True)
+        evo = evo_ape_xy(est, gt, None, align=True)
     else:
         n = int(round(fit.window_s * 50.0)) + 1
-        expected = evo_ape_xy(est, gt, n, align=True) / np.sqrt(2)
-    assert metrics.ate == pytest.approx(expected, rel=1e-6)
+        evo = evo_ape_xy(est, gt, n, align=True)
+    # Both conventions under every alignment: evo's Euclidean RMSE, and the headline RoNIN RMS (/ sqrt 2).
+    assert metrics.ate_euclidean == pytest.approx(evo, rel=1e-6)
+    assert metrics.ate == pytest.approx(evo / np.sqrt(2), rel=1e-6)
 
 
 def test_start_window_grows_until_the_truth_moves():
@@ -121,4 +123,4 @@ def test_se2_matches_a_brute_force_yaw_search():
     coarse = min(np.arange(-180.0, 180.0, 1.0), key=rmse)
     fine = min(np.arange(coarse - 1.0, coarse + 1.0, 0.001), key=rmse)
     assert fit.heading_deg == pytest.approx(fine, abs=0.002)
-    assert metrics.ate == pytest.approx(rmse(fine), rel=1e-5)
+    assert metrics.ate_euclidean == pytest.approx(rmse(fine), rel=1e-5)

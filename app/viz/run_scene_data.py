@@ -45,8 +45,9 @@ class RunView:
     window_t_s: np.ndarray  # (M,)
     window_start_s: np.ndarray  # (M,)
     window_end_s: np.ndarray  # (M,)
-    metrics: dict[str, float | None] | None  # ate, rte, pde, path_length_ratio
+    metrics: dict[str, float | None] | None  # every registered metric by name (ftin.metrics)
     convention: str | None  # how the metrics align the estimate ("ronin": not at all)
+    truth: Trajectory | None  # the ground truth in the prediction's frame (what was scored)
     warnings: tuple[str, ...]  # what may be wrong with this run (the path length included)
     position_error_m: np.ndarray | None  # (M,) horizontal, at window times
     velocity_error_m_s: np.ndarray | None  # (M,)
@@ -54,7 +55,7 @@ class RunView:
     loaded: LoadedModel | None  # to recompute feature taps
     model_input: ModelInput | None
     has_spectra: bool  # the model has FDL spectra to show
-    alignment: str | None = None  # ftin.metrics.align, in words with the fitted heading (None: no metrics)
+    alignment: str | None = None  # ftin.metrics.alignment_modes in words, fitted heading (None: no metrics)
 
     @classmethod
     def from_run(cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None) -> RunView:
@@ -66,14 +67,10 @@ class RunView:
         else:
             start = t - WINDOW_T_ANCHOR * window_s
             end = start + window_s
-        gt = run.sequence.gt
+        gt = run.truth
         model_input = run.model_input if loaded is not None and len(t) > 0 else None
         has_spectra = model_input is not None and window_taps(loaded, model_input, 0) is not None
-        verdict = run.verdict
-        metrics = None
-        if pred.metrics is not None:
-            metrics = {k: float(pred.metrics.as_dict()[k]) for k in ("ate", "rte", "pde")}
-            metrics["path_length_ratio"] = verdict.path_length_ratio
+        verdict, scored = run.verdict, run.metrics
         return cls(
             run_id=run.run_id,
             model_name=run.model_name,
@@ -83,8 +80,9 @@ class RunView:
             window_t_s=t,
             window_start_s=start,
             window_end_s=end,
-            metrics=metrics,
-            convention=None if pred.metrics is None else str(pred.metrics.as_dict().get("convention")),
+            metrics=None if scored is None else dict(scored.values),
+            convention=None if scored is None else scored.convention.value,
+            truth=gt,
             warnings=tuple(verdict.warnings),
             position_error_m=None if gt is None else position_error_per_window(t, pred.trajectory, gt),
             velocity_error_m_s=(
@@ -94,7 +92,7 @@ class RunView:
             loaded=loaded,
             model_input=model_input,
             has_spectra=has_spectra,
-            alignment=_alignment_words(pred.metrics),
+            alignment=_alignment_words(scored),
         )
 
     @property
@@ -123,7 +121,7 @@ class RunView:
 
     def window_points(self, index: int, truth: bool = False) -> np.ndarray:
         """Positions along window ``index`` (estimate, or ground truth), at least two points."""
-        traj = self.sequence.gt if truth else self.trajectory
+        traj = self.truth if truth else self.trajectory
         assert traj is not None
         t0, t1 = self.window_start_s[index], self.window_end_s[index]
         inside = traj.t_s[(traj.t_s > t0) & (traj.t_s < t1)]
@@ -140,7 +138,7 @@ class RunView:
 
 
 def _alignment_words(metrics: Any) -> str | None:
-    """``start (heading +12.3°)``: the alignment the metrics used and what it fitted (issue 10)."""
+    """``start (heading +12.3°)``: the alignment the metrics used and what it fitted."""
     if metrics is None or getattr(metrics, "alignment", None) is None:
         return None
     heading = "" if metrics.heading_deg is None else f" (fitted heading {metrics.heading_deg:+.1f}°)"

@@ -1,0 +1,17 @@
+"""The training campaign: the protocol's jobs (``ftin.protocol``) trained and scored on Ray.
+
+``folder`` is the campaign folder (its state, the frozen code, every job's run folder), ``job`` what
+one worker does with one job (train, resume, evaluate), ``engine`` the Ray side (a local Ray or an
+existing cluster: workers, GPUs, retries), ``collect`` the committable records and the shipped
+checkpoints. Ray is an optional extra (``pip install -e ".[cluster]"``): without it only the commands
+that need no engine (status, collect, ship) work.
+"""
+
+from __future__ import annotations
+
+
+class CampaignError(ValueError):
+    """A campaign cannot do what was asked; the message says why and what to do."""
+
+
+INSTALL_HINT = 'the campaign engine needs Ray: pip install -e ".[cluster]" (or pip install "ray[tune]")'

@@ -1,0 +1,109 @@
+"""From a campaign folder to what is committed: one record per finished job and a manifest
+(``ftin table --campaign`` reads them), and the shipped checkpoints with their model cards.
+
+A record is ``{"training": done.json, "history": history.json, "evaluation": eval.json}`` in
+``<results>/<job name with / as __>.json``. Per checkpoint name (``<model>-<dataset>``) the seed with
+the best validation MSE is the candidate; it ships if it passes ``protocol.validation_gate``, else
+an earlier checkpoint of that name is withdrawn (a model that has not learned to walk is not hosted).
+FTIN's candidates are the variant validation chose.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Callable, Collection
+from pathlib import Path
+from typing import Any
+
+from ftin import protocol
+from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, read_json, write_json
+from ftin.train.state import HISTORY_FILE
+
+MANIFEST = "manifest.json"
+CARD_SUFFIXES = (".safetensors", ".json", ".md")
+
+
+def record_name(job_name: str) -> str:
+    return job_name.replace("/", "__") + ".json"
+
+
+def job_record(campaign: Campaign, job: protocol.Job) -> dict[str, Any]:
+    folder = campaign.job_dir(job)
+    return {
+        "training": read_json(folder / DONE_FILE),
+        "history": read_json(folder / HISTORY_FILE),
+        "evaluation": read_json(folder / EVAL_FILE),
+    }
+
+
+def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> dict[str, Any]:
+    """Write every finished job's record and ``manifest.json`` to ``results``; the manifest.
+    ``only``: checkpoint names whose candidates alone are considered (groups finished early)."""
+    results.mkdir(parents=True, exist_ok=True)
+    variant = campaign.choose_variant()
+    best: dict[str, tuple[float, protocol.Job, dict[str, Any]]] = {}
+    for job in campaign.jobs():
+        if not campaign.is_done(job) or (only and job.checkpoint_stem not in only):
+            continue
+        record = job_record(campaign, job)
+        write_json(results / record_name(job.name), record)
+        if job.model == "ftin" and variant is not None and job.variant != variant:
+            continue
+        val = record["training"]["best_val_mse"]
+        stem = job.checkpoint_stem
+        if stem not in best or val < best[stem][0]:
+            best[stem] = (val, job, record)
+    manifest: dict[str, Any] = {
+        "campaign_commit": campaign.state["commit"],
+        "ftin_variant": variant,
+        "shipped": {},
+        "not_shipped": {},
+    }
+    for stem, (val, job, record) in sorted(best.items()):
+        gate = protocol.validation_gate(record)
+        key = "not_shipped" if gate["refused"] else "shipped"
+        manifest[key][stem] = {"job": job.name, **({} if gate["refused"] else {"val_mse": val}), **gate}
+    write_json(results / MANIFEST, manifest)
+    return manifest
+
+
+def ship(
+    campaign: Campaign, results: Path, checkpoints: Path, on_event: Callable[[str], None] = print
+) -> list[Path]:
+    """Copy every checkpoint ``manifest.json`` ships into ``checkpoints`` with its model card, and
+    withdraw the refused names; the files written."""
+    from ftin.train.model_card import render_campaign_card
+
+    path = results / MANIFEST
+    if not path.exists():
+        raise ValueError(f"{results}: no {MANIFEST}; run `ftin campaign collect` first")
+    manifest = read_json(path)
+    checkpoints.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for stem in manifest["not_shipped"]:
+        for suffix in CARD_SUFFIXES:
+            if (old := checkpoints / (stem + suffix)).exists():
+                old.unlink()
+                on_event(f"withdrawn: {old} (its campaign run failed the validation gate)")
+    for stem, entry in manifest["shipped"].items():
+        folder = campaign.runs / entry["job"]
+        for suffix in (".safetensors", ".json"):
+            shutil.copy2(folder / (stem + suffix), checkpoints / (stem + suffix))
+            written.append(checkpoints / (stem + suffix))
+        record = read_json(results / record_name(entry["job"]))
+        seeds = [
+            read_json(p)
+            for p in sorted(results.glob("*__*.json"))
+            if _same_model(read_json(p)["training"], record["training"])
+        ]
+        meta = json.loads((folder / (stem + ".json")).read_text())
+        card = render_campaign_card(meta, record, seeds, manifest.get("ftin_variant"))
+        (checkpoints / (stem + ".md")).write_text(card)
+        written.append(checkpoints / (stem + ".md"))
+    return written
+
+
+def _same_model(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    keys = ("model", "dataset", "variant", "fold")
+    return all(a.get(k) == b.get(k) for k in keys)

@@ -1,0 +1,211 @@
+"""Ray for the campaign: a local Ray with N one-thread workers, or an existing cluster (``--address``).
+
+Every job is one Ray task (one CPU, ``gpus_per_job`` GPUs) that runs ``ftin.campaign.job.run_job``
+on the job's frozen code, the copy in the campaign folder, first on the task's path (Ray takes a
+local ``working_dir`` only for a whole driver, not per task, and the campaign folder must be shared
+by every node anyway: results and checkpoints land in one folder). Jobs on different copies run in
+different worker processes (their runtime environments differ). A worker that dies is
+retried (``RETRIES``) and its job continues from its last resume state. Stopping the driver (Ctrl-C,
+SIGTERM, ``stop``) cancels the running tasks: each job writes its resume state at its next step and
+the next ``run`` continues it. Jobs come from ``Campaign.pending`` each time a slot frees, so a
+choice made on finished jobs (FTIN's variant) adds its jobs while the campaign runs.
+
+Ray Tune would add trial folders, its own checkpoints and a second resume mechanism on top of the
+training loop's; plain tasks keep one run folder and one resume state per job.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from ftin.campaign import INSTALL_HINT, CampaignError
+from ftin.campaign.folder import FAILED_FILE, Campaign, write_json
+
+RETRIES = 3  # a task whose worker died runs again this many times
+STOP_GRACE_S = 120.0  # how long cancelled jobs get to write their resume state
+THREAD_ENV = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+def import_ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise CampaignError(INSTALL_HINT) from None
+    return ray
+
+
+@contextlib.contextmanager
+def ray_session(address: str | None = None, workers: int | None = None) -> Iterator[Any]:
+    """Ray for this process: the one already initialised, else a cluster at ``address``, else a local
+    Ray with ``workers`` CPUs (shut down on exit)."""
+    ray = import_ray()
+    if ray.is_initialized():
+        yield ray
+        return
+    options: dict[str, Any] = {"logging_level": "WARNING", "log_to_driver": False}
+    if address:
+        try:
+            ray.init(address=address, **options)
+        except ConnectionError as exc:
+            raise CampaignError(
+                f"{exc}. A cluster started by `ray start` takes drivers with RAY_AUTH_MODE=token set and "
+                "its token in ~/.ray/auth_token (or RAY_AUTH_TOKEN)"
+            ) from None
+    else:
+        ray.init(address="local", num_cpus=workers, **options)  # never a cluster found running here
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+def train_job(code: str, runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
+    """The Ray task: one job on its frozen code. Ray puts the driver's folder first on a worker's
+    path (a checkout there would shadow the frozen copy), so the task is pickled by value, puts
+    ``code`` first itself and only then imports ftin."""
+    import importlib
+    import sys
+
+    import ray
+
+    sys.path.insert(0, code)
+    loaded = sys.modules.get("ftin")
+    if loaded is not None and not str(loaded.__file__).startswith(code):
+        raise RuntimeError(
+            f"this worker already holds ftin from {loaded.__file__}, not the job's code {code}"
+        )
+    job = importlib.import_module("ftin.campaign.job")
+    node = ray.get_runtime_context().get_node_id()[:12]
+    return job.run_job(runs, spec, data_root, device=device, threads=threads, where=f"ray node {node}")
+
+
+def run(
+    campaign: Campaign,
+    *,
+    workers: int | None = None,
+    address: str | None = None,
+    gpus_per_job: float = 0.0,
+    threads: int = 1,
+    stop: threading.Event | None = None,
+    on_event: Callable[[str], None] = print,
+) -> dict[str, str]:
+    """Run every pending job, ``workers`` at a time (default: the cluster's CPUs); each job's outcome
+    by name (``done``, a training stop reason, ``failed: ...``)."""
+    stop = stop or threading.Event()
+    outcomes: dict[str, str] = {}
+    with ray_session(address, workers) as ray, _stop_on_signals(stop):
+        slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
+        ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # train_job, by value
+        task = ray.remote(train_job)
+        device = "cuda" if gpus_per_job > 0 else "cpu"
+        in_flight: dict[Any, str] = {}
+        while True:
+            if not stop.is_set():
+                busy = set(in_flight.values()) | set(outcomes)
+                for job in [j for j in campaign.pending() if j.name not in busy][: slots - len(in_flight)]:
+                    code = campaign.code_for(job).resolve()
+                    env = {"PYTHONPATH": str(code), **{name: str(threads) for name in THREAD_ENV}}
+                    ref = task.options(
+                        num_cpus=1,
+                        num_gpus=gpus_per_job,
+                        max_retries=RETRIES,
+                        name=job.name,
+                        runtime_env={"env_vars": env},
+                    ).remote(
+                        str(code), str(campaign.runs), job.to_json(), str(campaign.data_root), device, threads
+                    )
+                    in_flight[ref] = job.name
+                    on_event(f"{job.name}: submitted (code {code.name})")
+            if not in_flight:
+                break
+            if stop.is_set():
+                for ref in in_flight:
+                    ray.cancel(ref)  # a SIGINT in the worker: the job saves and returns
+                _collect(ray, campaign, in_flight, outcomes, on_event, timeout=STOP_GRACE_S, wait_all=True)
+                break
+            _collect(ray, campaign, in_flight, outcomes, on_event, timeout=1.0)
+    return outcomes
+
+
+def _collect(
+    ray: Any,
+    campaign: Campaign,
+    in_flight: dict[Any, str],
+    outcomes: dict[str, str],
+    on_event: Callable[[str], None],
+    *,
+    timeout: float,
+    wait_all: bool = False,
+) -> None:
+    count = len(in_flight) if wait_all else 1
+    ready, _ = ray.wait(list(in_flight), num_returns=count, timeout=timeout)
+    for ref in ready:
+        name = in_flight.pop(ref)
+        try:
+            outcome = ray.get(ref)
+        except ray.exceptions.TaskCancelledError:
+            outcome = "cancelled"
+        except ray.exceptions.RayTaskError as exc:  # the job raised: it wrote failed.json
+            outcome = f"failed: {exc.cause!r}"
+        except ray.exceptions.RayError as exc:  # its worker died more often than RETRIES
+            outcome = f"failed: {type(exc).__name__}"
+            write_json(campaign.runs / name / FAILED_FILE, {"error": str(exc)[:2000]})
+        outcomes[name] = outcome
+        on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcome}")
+
+
+@contextlib.contextmanager
+def _stop_on_signals(stop: threading.Event) -> Iterator[None]:
+    """SIGINT/SIGTERM set ``stop`` (the jobs save and the run ends); a second SIGINT interrupts at once."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, _frame: Any) -> None:
+        if stop.is_set() and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        stop.set()
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def map_tasks(
+    fn: Callable[..., Any],
+    items: Sequence[Any],
+    *shared: Any,
+    workers: int | None = None,
+    address: str | None = None,
+    on_done: Callable[[int], None] | None = None,
+) -> list[Any]:
+    """``fn(item, *shared)`` for every item as Ray tasks (one CPU each, ``workers`` at a time; default:
+    the cluster's CPUs), results in the items' order. ``shared`` goes to the object store once;
+    ``on_done(index)`` is called as each item finishes (progress bars)."""
+    with ray_session(address, workers) as ray:
+        slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
+        env = {name: "1" for name in THREAD_ENV}
+        task = ray.remote(fn).options(num_cpus=1, max_retries=RETRIES, runtime_env={"env_vars": env})
+        refs = [ray.put(value) for value in shared]
+        results: list[Any] = [None] * len(items)
+        queue, in_flight = list(enumerate(items)), {}
+        while queue or in_flight:
+            while queue and len(in_flight) < slots:
+                index, item = queue.pop(0)
+                in_flight[task.remote(item, *refs)] = index
+            ready, _ = ray.wait(list(in_flight), num_returns=1)
+            for ref in ready:
+                index = in_flight.pop(ref)
+                results[index] = ray.get(ref)
+                if on_done is not None:
+                    on_done(index)
+        return results

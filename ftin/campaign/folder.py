@@ -1,0 +1,220 @@
+"""The campaign folder: its state, the frozen code its jobs run on, and one run folder per job.
+
+``<runs>/campaign.json`` names the job list (a protocol campaign such as ``table1``, or job specs
+from a JSON file), the data root, the frozen code and the choices made on the way (FTIN's variant).
+``<runs>/code-<hash>/ftin`` is a copy of the package as it was when the code was frozen: every job
+runs on the copy it started on (``<job>/code.txt``; Ray ships it to the workers as the job's
+``working_dir``), so editing the working tree never changes a running or resumed job.
+
+A job's folder holds ``job.json`` (its spec, fixed at its first start), the training run (config,
+resume state, history, best checkpoint), ``log.txt``, ``eval.json`` and ``done.json`` once finished,
+or ``failed.json``. ``.lock`` is held while a worker trains it.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import ftin
+from ftin import protocol
+from ftin.campaign import CampaignError
+from ftin.checkpoint import atomic_write_text
+
+STATE_FILE = "campaign.json"
+JOB_FILE = "job.json"
+DONE_FILE = "done.json"
+FAILED_FILE = "failed.json"
+EVAL_FILE = "eval.json"
+CODE_FILE = "code.txt"
+LOCK_FILE = ".lock"
+LOG_FILE = "log.txt"
+
+
+def read_json(path: Path) -> Any:
+    return json.loads(Path(path).read_text())
+
+
+def write_json(path: Path, value: Any) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, json.dumps(value, indent=1) + "\n")
+
+
+def load_job_list(source: str | Path) -> str | list[dict[str, Any]]:
+    """A protocol campaign's name, or the job specs of a JSON file (a list of ``Job.to_json`` objects)."""
+    if str(source) in protocol.CAMPAIGNS:
+        return str(source)
+    path = Path(source)
+    if not path.is_file():
+        known = ", ".join(protocol.CAMPAIGNS)
+        raise CampaignError(f"--jobs {source}: neither a protocol campaign ({known}) nor a JSON file")
+    try:
+        specs = read_json(path)
+        jobs = [protocol.Job.from_json(spec) for spec in specs]
+    except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as exc:
+        raise CampaignError(f"--jobs {path}: not a JSON list of job specs ({exc})") from None
+    names = [job.name for job in jobs]
+    if not jobs or len(set(names)) != len(names):
+        raise CampaignError(f"--jobs {path}: give at least one job, each name once")
+    return [job.to_json() for job in jobs]
+
+
+class Campaign:
+    """A campaign folder (module docstring)."""
+
+    def __init__(self, runs: Path) -> None:
+        self.runs = Path(runs).expanduser().resolve()
+        path = self.runs / STATE_FILE
+        if not path.exists():
+            raise CampaignError(
+                f"{self.runs} holds no campaign (no {STATE_FILE}); `ftin campaign plan` first"
+            )
+        self.state: dict[str, Any] = read_json(path)
+
+    @classmethod
+    def create(cls, runs: Path, data_root: Path, jobs: str | Path) -> Campaign:
+        runs = Path(runs).expanduser().resolve()
+        if (runs / STATE_FILE).exists():
+            raise CampaignError(f"{runs} already holds a campaign; continue it with `ftin campaign run`")
+        job_list = load_job_list(jobs)
+        runs.mkdir(parents=True, exist_ok=True)
+        code, commit = freeze_code(runs)
+        now = time.strftime("%Y-%m-%d %H:%M:%S")
+        state = {
+            "commit": commit,
+            "code": code.name,
+            "codes": [{"code": code.name, "commit": commit, "since": now}],
+            "data_root": str(Path(data_root).expanduser().resolve()),
+            "created": now,
+            "jobs": job_list,
+            "ftin_variant": None,
+        }
+        write_json(runs / STATE_FILE, state)
+        return cls(runs)
+
+    def save(self) -> None:
+        write_json(self.runs / STATE_FILE, self.state)
+
+    def refresh_code(self) -> Path:
+        """Freeze the running package again: jobs not yet started run on it from now on."""
+        code, commit = freeze_code(self.runs)
+        if code.name != self.state["code"]:
+            self.state["code"], self.state["commit"] = code.name, commit
+            since = time.strftime("%Y-%m-%d %H:%M:%S")
+            self.state["codes"].append({"code": code.name, "commit": commit, "since": since})
+            self.save()
+        return code
+
+    # --- jobs ---------------------------------------------------------------------------------------
+
+    @property
+    def data_root(self) -> Path:
+        return Path(self.state["data_root"])
+
+    def jobs(self) -> list[protocol.Job]:
+        """Every job known now (a protocol campaign grows once FTIN's variant is chosen); a started
+        job keeps the spec it started with."""
+        source = self.state["jobs"]
+        if isinstance(source, str):
+            jobs = protocol.CAMPAIGNS[source](self.state.get("ftin_variant"))
+        else:
+            jobs = [protocol.Job.from_json(spec) for spec in source]
+        return [
+            protocol.Job.from_json(read_json(p)) if (p := self.job_dir(j) / JOB_FILE).exists() else j
+            for j in jobs
+        ]
+
+    def job_dir(self, job: protocol.Job) -> Path:
+        return self.runs / job.name
+
+    def is_done(self, job: protocol.Job) -> bool:
+        return (self.job_dir(job) / DONE_FILE).exists()
+
+    def has_failed(self, job: protocol.Job) -> bool:
+        return (self.job_dir(job) / FAILED_FILE).exists()
+
+    def is_running(self, job: protocol.Job) -> bool:
+        """A worker holds the job's lock now (seen from any process on a filesystem with locks)."""
+        path = self.job_dir(job) / LOCK_FILE
+        if not path.exists():
+            return False
+        with open(path, "a") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                return True
+            fcntl.flock(handle, fcntl.LOCK_UN)
+        return False
+
+    def pending(self) -> list[protocol.Job]:
+        """Jobs neither done nor failed, in the list's order (FTIN's variant chosen first when it can be)."""
+        self.choose_variant()
+        return [job for job in self.jobs() if not self.is_done(job) and not self.has_failed(job)]
+
+    def retry_failed(self) -> list[str]:
+        names = [job.name for job in self.jobs() if self.has_failed(job)]
+        for name in names:
+            (self.runs / name / FAILED_FILE).unlink()
+        return names
+
+    def code_for(self, job: protocol.Job) -> Path:
+        """The frozen code the job runs on: the one it started with, else the current one (recorded)."""
+        marker = self.job_dir(job) / CODE_FILE
+        if marker.exists():
+            return self.runs / marker.read_text().strip()
+        marker.parent.mkdir(parents=True, exist_ok=True)
+        marker.write_text(self.state["code"] + "\n")
+        return self.runs / self.state["code"]
+
+    def choose_variant(self) -> str | None:
+        """FTIN's TDL variant for the ``table1`` campaign, once both variants' seed-0 runs are done."""
+        if self.state.get("jobs") != "table1" or self.state.get("ftin_variant") is not None:
+            return self.state.get("ftin_variant")
+        val_mse: dict[str, dict[str, float]] = {}
+        for variant in protocol.FTIN_VARIANTS:
+            for dataset in (protocol.OXIOD, protocol.RIDI):
+                done = self.runs / dataset / f"ftin-{variant}-s0" / DONE_FILE
+                if done.exists():
+                    val_mse.setdefault(variant, {})[dataset] = read_json(done)["best_val_mse"]
+        chosen, scores = protocol.choose_variant(val_mse)
+        if chosen is not None:
+            self.state["ftin_variant"], self.state["ftin_variant_scores"] = chosen, scores
+            self.save()
+        return chosen
+
+
+def freeze_code(runs: Path) -> tuple[Path, str | None]:
+    """Copy the running ``ftin`` package to ``<runs>/code-<content hash>/ftin`` (once per content);
+    return the folder and the git commit it came from (``+dirty`` with local changes; None outside git)."""
+    package = Path(ftin.__file__).resolve().parent
+    files = sorted(p for p in package.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    digest = hashlib.sha256()
+    for path in files:
+        digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
+    code = runs / f"code-{digest.hexdigest()[:12]}"
+    if not code.exists():
+        tmp = runs / f".{code.name}.tmp"
+        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.copytree(package, tmp / "ftin", ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        os.replace(tmp, code)
+    return code, _git_commit(package.parent)
+
+
+def _git_commit(repo: Path) -> str | None:
+    try:
+        head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], capture_output=True, text=True)
+        dirty = subprocess.run(
+            ["git", "-C", str(repo), "status", "--porcelain", "--", "ftin"], capture_output=True, text=True
+        )
+    except OSError:
+        return None
+    if head.returncode != 0:
+        return None
+    return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")

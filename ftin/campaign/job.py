@@ -1,0 +1,174 @@
+"""One job on one worker: train it (or resume it where it stopped), then score its best checkpoint.
+
+This module runs on the job's frozen code (``ftin.campaign.folder``). Stopping is the training
+loop's: SIGINT/SIGTERM (a cancelled Ray task) end the run at the next step with its resume state
+written; a killed worker loses at most the steps since the last save (every epoch, and every
+``save_every_min`` inside one), and the retried task continues from there (``ftin.train.state``).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import socket
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from ftin import protocol
+from ftin.campaign.folder import (
+    DONE_FILE,
+    EVAL_FILE,
+    FAILED_FILE,
+    JOB_FILE,
+    LOCK_FILE,
+    LOG_FILE,
+    read_json,
+    write_json,
+)
+
+SIM_DATA = "sim-data"
+LOCK_WAIT_S = 120.0  # a job cancelled a moment ago may still be writing its resume state
+
+
+def run_job(
+    runs: str, spec: dict[str, Any], data_root: str, *, device: str = "cpu", threads: int = 1, where: str = ""
+) -> str:
+    """Train and evaluate the job ``spec`` in ``<runs>/<name>``; its stop reason, or ``done``.
+    ``where`` (the Ray node) goes into the job's log beside the host and process."""
+    import torch
+
+    from ftin.train.config import TrainConfig
+    from ftin.train.loop import run_training
+    from ftin.train.state import RESUME_FILE
+
+    torch.set_num_threads(threads)
+    out = Path(runs) / spec["name"]
+    out.mkdir(parents=True, exist_ok=True)
+    with _locked(out / LOCK_FILE):
+        if (out / DONE_FILE).exists():
+            return "done"
+        if not (out / JOB_FILE).exists():  # the spec is fixed at the first start
+            write_json(out / JOB_FILE, spec)
+        job = protocol.Job.from_json(read_json(out / JOB_FILE))
+        root = Path(runs) if job.dataset == protocol.SIM else Path(data_root)
+        resume = (out / RESUME_FILE).exists()
+        host = f"{socket.gethostname()} pid {os.getpid()} {where}".strip()
+        code = Path(__file__).resolve().parents[2]  # the frozen copy this job runs on
+        _log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
+        try:
+            if job.dataset == protocol.SIM:
+                make_sim_data(Path(runs) / SIM_DATA)
+            config = TrainConfig(out_dir=str(out), **{**job.config(root), "device": device})
+            result = run_training(config, resume=resume, progress=False)
+            _log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
+            if not result.finished:
+                return result.stop_reason  # stopped: the next `ftin campaign run` resumes it
+            evaluation = evaluate_job(job, root, result.checkpoint)
+        except Exception as exc:  # recorded, so the campaign goes on with the other jobs
+            write_json(out / FAILED_FILE, {"error": repr(exc)})
+            _log(out, f"failed: {exc!r}")
+            raise
+        evaluation["checkpoint"] = str(result.checkpoint.relative_to(Path(runs)))
+        write_json(out / EVAL_FILE, evaluation)
+        write_json(out / DONE_FILE, summary(job, result))
+        return "done"
+
+
+def summary(job: protocol.Job, result: Any) -> dict[str, Any]:
+    """``done.json``: what the report and the model card read of a finished run."""
+    history = result.history
+    return {
+        "job": job.name,
+        "model": job.model,
+        "dataset": job.dataset,
+        "seed": job.seed,
+        "variant": job.variant,
+        "fold": job.fold,
+        "stop_reason": result.stop_reason,
+        "epochs": result.epochs_done,
+        "steps": result.steps,
+        "best_val_mse": result.best_val_loss,
+        "best_epoch": max((r["epoch"] for r in history if r["best"]), default=None),
+        "lr_decays": sum(1 for a, b in zip(history, history[1:], strict=False) if b["lr"] < a["lr"]),
+        "wall_time_s": history[-1]["elapsed_s"] if history else None,
+        "finished": time.strftime("%Y-%m-%d %H:%M:%S"),
+    }
+
+
+def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, Any]:
+    """Per-recording metrics of the best checkpoint on the job's validation and test parts, each
+    orientation source, with the stand-still baseline (``ftin.report.evaluation``, RoNIN convention)."""
+    from ftin.checkpoint import load_model
+    from ftin.data.loading import load_sequences
+    from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
+    from ftin.report.evaluation import evaluate_checkpoints
+    from ftin.report.results import DatasetSpec, LoadedDataset
+
+    datasets = []
+    for dataset, part, orientations in job.evaluation_sets():
+        paths = job.paths(root, part, dataset)
+        for orientation in orientations:
+            key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
+            sequences = load_sequences(paths, f"{key}:", orientation)
+            datasets.append(LoadedDataset(DatasetSpec(key, tuple(paths)), sequences))
+    results = evaluate_checkpoints([load_model(checkpoint)], datasets, Convention.RONIN)
+    reports = results.checkpoints[0].reports
+    parts: dict[str, list[dict[str, Any]]] = {}
+    for dataset in datasets:
+        rows = []
+        for res in reports[dataset.name].sequences:
+            gt = results.ground_truth[dataset.name][res.name]
+            still = evaluate_trajectory(stand_still(gt), gt, Convention.RONIN)
+            rows.append(
+                {
+                    "name": res.name,
+                    "duration_s": res.duration_s,
+                    **res.metrics.as_dict(),
+                    "stand_still": {m.name: still.values.get(m.name) for m in list_metrics(in_tables=True)},
+                }
+            )
+        parts[dataset.name] = rows
+    return {"checkpoint": checkpoint.name, "convention": Convention.RONIN.value, "parts": parts}
+
+
+def make_sim_data(folder: Path) -> None:
+    """The simulator model's walks, seeds disjoint from the app's bundled samples (made once)."""
+    from ftin.sim.samples import write_walks
+
+    with _locked(folder.with_name(folder.name + ".lock")):
+        for part, count, seed in (
+            ("train", protocol.SIM_TRAIN_WALKS, 1000),
+            ("val", protocol.SIM_VAL_WALKS, 5000),
+        ):
+            if not (folder / part / ".complete").exists():
+                write_walks(folder / part, count, 120.0, 100.0, seed)
+                (folder / part / ".complete").write_text("")
+
+
+@contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """Hold ``path``'s exclusive lock: one worker per job, even while a cancelled one still saves."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    deadline = time.monotonic() + LOCK_WAIT_S
+    with open(path, "a") as handle:
+        while True:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"{path.parent}: another worker still runs this job") from None
+                time.sleep(1.0)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _log(out: Path, message: str) -> None:
+    with open(out / LOG_FILE, "a") as log:
+        log.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {message}\n")
+    print(f"{out.name}: {message}", flush=True)

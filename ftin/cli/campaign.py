@@ -1,0 +1,219 @@
+"""``ftin campaign``: the training campaign of the protocol on Ray (``ftin.campaign``).
+
+plan (create the campaign folder, freeze the code) -> run (the jobs on a local Ray or a cluster;
+again after any interruption) -> status -> collect (records + manifest) -> ship (checkpoints and
+model cards) -> table (Table 1 from the records). Expected failures print one ``error:`` line and
+exit with status 2; so does ``run`` without Ray installed, naming the extra to install.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from ftin.campaign import CampaignError
+from ftin.campaign.folder import Campaign
+from ftin.campaign.status import STATES, campaign_status
+from ftin.cli.common import REPORT_ERRORS, app, out_console, user_errors
+
+campaign_app = typer.Typer(
+    help="The training campaign of the protocol (docs/results/protocol.md) on Ray: plan, run, status, "
+    'collect, ship, table. Needs the extra: pip install -e ".\\[cluster]".',
+    no_args_is_help=True,
+)
+app.add_typer(campaign_app, name="campaign")
+
+CAMPAIGN_ERRORS = (CampaignError, *REPORT_ERRORS)
+RunsOption = Annotated[
+    Path, typer.Option("--runs", help="Campaign folder (state, frozen code, one run folder per job).")
+]
+ResultsOption = Annotated[
+    Path, typer.Option("--results", help="Folder of the per-job records and manifest.json.")
+]
+DEFAULT_RUNS = Path("runs/campaign")
+DEFAULT_RESULTS = Path("docs/results/campaign")
+
+
+@campaign_app.command("plan")
+def plan_command(
+    runs: RunsOption = DEFAULT_RUNS,
+    data: Annotated[
+        Path, typer.Option("--data", help="Data root holding oxiod/, ridi/, inria_attitude/.")
+    ] = Path("../shared/data"),
+    jobs: Annotated[
+        str,
+        typer.Option("--jobs", help="A protocol campaign (table1) or a JSON file of job specs."),
+    ] = "table1",
+    refresh_code: Annotated[
+        bool,
+        typer.Option("--refresh-code", help="Existing campaign: jobs not yet started run on this code."),
+    ] = False,
+) -> None:
+    """Create the campaign folder: the job list, the data root and a frozen copy of the code."""
+    with user_errors(*CAMPAIGN_ERRORS):
+        if refresh_code:
+            campaign = Campaign(runs)
+            code = campaign.refresh_code()
+            typer.echo(f"jobs not yet started run on {code.name} from now on")
+            return
+        if not data.is_dir():
+            raise CampaignError(f"--data {data}: no such folder")
+        campaign = Campaign.create(runs, data, jobs)
+    names = [job.name for job in campaign.jobs()]
+    typer.echo(f"campaign in {campaign.runs}: {len(names)} job(s) now, code {campaign.state['code']}")
+    for name in names:
+        typer.echo(f"  {name}")
+    typer.echo(f"next: ftin campaign run --runs {runs}")
+
+
+@campaign_app.command("run")
+def run_command(
+    runs: RunsOption = DEFAULT_RUNS,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers",
+            min=1,
+            help="Jobs at a time (default: 2 on a local Ray, the cluster's CPUs with --address).",
+        ),
+    ] = None,
+    address: Annotated[
+        str | None,
+        typer.Option(
+            "--address", help="An existing Ray cluster (ray start --head), e.g. 10.0.0.1:6379 or auto."
+        ),
+    ] = None,
+    gpus_per_job: Annotated[
+        float, typer.Option("--gpus-per-job", min=0.0, help="GPUs per job (trains on cuda); default CPU.")
+    ] = 0.0,
+    threads: Annotated[int, typer.Option("--threads", min=1, help="torch threads per job.")] = 1,
+    retry_failed: Annotated[
+        bool, typer.Option("--retry-failed", help="Run failed jobs again (their failed.json is removed).")
+    ] = False,
+) -> None:
+    """Run every job not yet done on Ray; Ctrl-C stops the jobs at their next step (resumable)."""
+    from ftin.campaign import engine
+
+    with user_errors(*CAMPAIGN_ERRORS):
+        engine.import_ray()
+        campaign = Campaign(runs)
+        if retry_failed:
+            for name in campaign.retry_failed():
+                typer.echo(f"{name}: will run again")
+        local_workers = workers or (None if address else 2)
+        outcomes = engine.run(
+            campaign,
+            workers=local_workers,
+            address=address,
+            gpus_per_job=gpus_per_job,
+            threads=threads,
+            on_event=lambda line: typer.echo(line),
+        )
+    left = [j.name for j in campaign.pending()]
+    failed = sorted(name for name, outcome in outcomes.items() if outcome.startswith("failed"))
+    typer.echo(f"{len(outcomes)} job(s) ran; {len(left)} not done; failed: {', '.join(failed) or 'none'}")
+    if left:
+        typer.echo(f"continue with: ftin campaign run --runs {runs}")
+
+
+@campaign_app.command("status")
+def status_command(runs: RunsOption = DEFAULT_RUNS) -> None:
+    """Jobs done / running / started / failed / left, with their validation figures."""
+    with user_errors(*CAMPAIGN_ERRORS):
+        campaign = Campaign(runs)
+        rows = campaign_status(campaign)
+    counts = {state: sum(r.state == state for r in rows) for state in STATES}
+    variant = campaign.state.get("ftin_variant") or "not chosen yet"
+    where = f"campaign {escape(str(campaign.runs))} (code {campaign.state['code']}, FTIN variant {variant})"
+    table = Table(title=where + ": " + ", ".join(f"{n} {state}" for state, n in counts.items()))
+    for header in (
+        "job",
+        "state",
+        "epochs",
+        "best val MSE",
+        "@ epoch",
+        "val ATE [m]",
+        "stand still",
+        "path ratio",
+    ):
+        table.add_column(header, justify="left" if header in ("job", "state") else "right")
+    table.add_column("min", justify="right")
+    table.add_column("note", overflow="fold")
+
+    def num(value: float | None, digits: int) -> str:
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    styles = {"done": "green", "running": "cyan", "failed": "red", "started": "yellow", "left": "dim"}
+    for r in rows:
+        gate = r.gate or {}
+        note = gate.get("refused") or r.detail
+        table.add_row(
+            escape(r.name),
+            f"[{styles[r.state]}]{r.state}[/]",
+            "-" if r.epochs is None else str(r.epochs),
+            num(r.best_val_mse, 5),
+            "-" if r.best_epoch is None else str(r.best_epoch),
+            num(gate.get("val_ate_m"), 3),
+            num(gate.get("val_stand_still_ate_m"), 3),
+            num(gate.get("val_path_length_ratio"), 2),
+            num(r.minutes, 0),
+            escape(note or ""),
+        )
+    out_console().print(table)
+
+
+@campaign_app.command("collect")
+def collect_command(
+    runs: RunsOption = DEFAULT_RUNS,
+    results: ResultsOption = DEFAULT_RESULTS,
+    only: Annotated[
+        list[str] | None,
+        typer.Option("--only", help="Only these checkpoint names, e.g. ftin-pedestrian (repeatable)."),
+    ] = None,
+) -> None:
+    """Write each finished job's record and manifest.json (which seed ships, the gate's verdicts)."""
+    from ftin.campaign.collect import collect
+
+    with user_errors(*CAMPAIGN_ERRORS):
+        manifest = collect(Campaign(runs), results, only or ())
+    typer.echo(f"shipped: {', '.join(manifest['shipped']) or 'none'}")
+    typer.echo(f"not shipped: {', '.join(manifest['not_shipped']) or 'none'}")
+    typer.echo(f"wrote {results}")
+
+
+@campaign_app.command("ship")
+def ship_command(
+    runs: RunsOption = DEFAULT_RUNS,
+    results: ResultsOption = DEFAULT_RESULTS,
+    checkpoints: Annotated[
+        Path, typer.Option("--checkpoints", help="Where the shipped checkpoints and model cards go.")
+    ] = Path("checkpoints"),
+) -> None:
+    """Copy the checkpoints the manifest ships (with model cards); withdraw the refused names."""
+    from ftin.campaign.collect import ship
+
+    with user_errors(*CAMPAIGN_ERRORS):
+        written = ship(Campaign(runs), results, checkpoints, on_event=lambda line: typer.echo(line))
+    for path in written:
+        typer.echo(f"wrote {path}")
+
+
+@campaign_app.command("table")
+def table_command(
+    results: ResultsOption = DEFAULT_RESULTS,
+    out: Annotated[Path, typer.Option("--out", help="Folder for table.md/.csv and the figure.")] = Path(
+        "docs/results"
+    ),
+) -> None:
+    """Table 1 from the collected records (as ``ftin table --campaign``)."""
+    from ftin.cli.table import campaign_table
+
+    with user_errors(*CAMPAIGN_ERRORS):
+        written = campaign_table(results, out)
+    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    for path in written:
+        typer.echo(f"wrote {path}")

@@ -1,0 +1,55 @@
+"""The table of readers: each reader module registers itself with ``@register_reader(priority=...)``.
+
+A reader is a module of ``ftin.data.readers`` that defines the contract (``FORMAT``, ``discover``,
+``read``, optionally ``claims``; see the package docstring) and decorates its ``read``::
+
+    FORMAT = "mydataset"
+
+    def discover(root: Path) -> list[Path]: ...
+
+    @register_reader(priority=60)
+    def read(path: Path, **options: Any) -> ImuSequence: ...
+
+Decisions:
+
+* The module, not the function, is registered: discovery, detection and reading look ``discover``,
+  ``claims`` and ``read`` up on it when they run, so the decorator may stand above functions the
+  module defines later, and a test can patch a module's function.
+* ``priority`` orders detection and listing, highest first (ties by format name): a path claimed by
+  a format is not offered to formats below it. Bands in use: dataset layouts 40-100 (folders and
+  files of their own shape), phone exports 20-30, the generic CSV 0 (last: it accepts any CSV whose
+  header names the required columns, RIDI's and RNIN's included).
+* Registering a second module under a format already taken is an error, not a silent replacement.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from types import ModuleType
+from typing import TypeVar
+
+READERS: dict[str, ModuleType] = {}  # format -> reader module, highest priority first
+PRIORITY: dict[str, int] = {}  # format -> its priority
+
+ReadFunction = TypeVar("ReadFunction", bound=Callable[..., object])
+
+
+def register_reader(priority: int) -> Callable[[ReadFunction], ReadFunction]:
+    """Decorator on a reader module's ``read``: adds the module to ``READERS`` under its ``FORMAT``."""
+
+    def register(read: ReadFunction) -> ReadFunction:
+        module = sys.modules[read.__module__]
+        fmt = getattr(module, "FORMAT", None)
+        if not isinstance(fmt, str) or not fmt:
+            raise TypeError(f"{module.__name__}: a reader module defines FORMAT (a non-empty str) above read")
+        taken = READERS.get(fmt)
+        if taken is not None and taken.__name__ != module.__name__:
+            raise ValueError(f"{module.__name__}: format {fmt!r} is already registered by {taken.__name__}")
+        PRIORITY[fmt] = priority
+        ordered = sorted({**READERS, fmt: module}.items(), key=lambda item: (-PRIORITY[item[0]], item[0]))
+        READERS.clear()
+        READERS.update(ordered)
+        return read
+
+    return register

@@ -1,0 +1,202 @@
+"""The registered metrics (``ftin.metrics.registry``), in the order tables show them.
+
+Decisions:
+- One headline convention, stated once (``HEADLINE``): ATE and RTE are RoNIN's per-axis RMS, the
+  root mean square over every coordinate of the errors, as the paper and its baselines report them.
+  evo's convention, the RMSE of the per-sample Euclidean errors, is its own metric (``ate_euclidean``):
+  on k axes it is exactly sqrt(k) times the headline, whatever the alignment, so switching alignment
+  never switches convention.
+- PDE is the final position error over the ground-truth path length (a ratio, shown in %).
+- Path lengths compare like with like: the estimate holds one velocity per window (a 1 s window sees
+  no step-by-step sway), while the ground truth carries every sway and tracking jitter of a walk,
+  which lengthen it by several percent. Both paths are therefore smoothed by the same centred moving
+  average over ``Comparison.smooth_s`` (the model's window; none when not given) before their
+  horizontal lengths are taken, so a correct prediction reads ~1, not ~0.92.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ftin.metrics.registry import Better, Comparison, register
+
+HEADLINE = (
+    "Headline convention (RoNIN, as the paper): ATE and RTE are the RMS over every coordinate of the "
+    "errors; evo's Euclidean RMSE is shown beside as ATE evo (√2 × ATE on the horizontal plane)."
+)
+
+HEADLINE_METRIC = "ate"  # the one number a result is ranked by (the stand-still column, Fig. 4's pick)
+
+MIN_TRAVEL_FOR_HEADING_M = 0.3  # shorter displacements have no reliable direction (sway, jitter)
+
+# Below this much ground-truth path a ratio means nothing (a recording of someone standing still).
+MIN_PATH_FOR_RATIO_M = 0.5
+
+
+@register(
+    "ate",
+    "ATE",
+    "m",
+    "absolute trajectory error, RoNIN convention: RMS over every coordinate of the position errors",
+)
+def _ate(c: Comparison) -> float:
+    return per_axis_rms(c.est_m - c.gt_m)
+
+
+@register(
+    "ate_euclidean",
+    "ATE evo",
+    "m",
+    "absolute trajectory error, evo convention: RMSE of the Euclidean position errors (evo_ape)",
+)
+def _ate_euclidean(c: Comparison) -> float:
+    return euclidean_rmse(c.est_m - c.gt_m)
+
+
+@register(
+    "rte",
+    "RTE",
+    "m",
+    "relative trajectory error: the headline RMS of displacement differences over every RTE window "
+    "(a shorter recording: its whole drift scaled to the window)",
+)
+def _rte(c: Comparison) -> float:
+    return relative_error(c.est_m, c.gt_m, c.t_s, c.rte_window_s)
+
+
+@register(
+    "pde",
+    "PDE",
+    "",
+    "position drift error: final position error / ground-truth path length",
+    scale=100.0,
+    display_unit="%",
+    digits=2,
+)
+def _pde(c: Comparison) -> float:
+    return drift_ratio(c.est_m, c.gt_m)
+
+
+@register(
+    "path_length_ratio",
+    "Path ratio",
+    "",
+    "predicted / true horizontal path length, both smoothed over the model's window "
+    "(1: the right distance, 0: a model that never moves)",
+    better=Better.ONE,
+    digits=2,
+)
+def _path_length_ratio(c: Comparison) -> float | None:
+    true_m = compared_path_m(c.gt_xyz_m, c.t_s, c.smooth_s)
+    if true_m < MIN_PATH_FOR_RATIO_M:
+        return None
+    return compared_path_m(c.est_xyz_m, c.t_s, c.smooth_s) / true_m
+
+
+@register(
+    "predicted_path_m",
+    "Predicted path",
+    "m",
+    "horizontal length of the predicted path, smoothed over the model's window",
+    better=Better.NONE,
+    needs_truth=False,
+    in_tables=False,
+    digits=1,
+)
+def _predicted_path(c: Comparison) -> float:
+    return compared_path_m(c.est_xyz_m, c.t_s, c.smooth_s)
+
+
+@register(
+    "true_path_m",
+    "True path",
+    "m",
+    "horizontal length of the ground-truth path, smoothed over the model's window",
+    better=Better.NONE,
+    in_tables=False,
+    digits=1,
+)
+def _true_path(c: Comparison) -> float:
+    return compared_path_m(c.gt_xyz_m, c.t_s, c.smooth_s)
+
+
+@register(
+    "heading_error_deg",
+    "Heading",
+    "deg",
+    "RMS angle between the predicted and the true horizontal direction of travel over each model "
+    "window (where both move at least 0.3 m)",
+    in_tables=False,
+    digits=1,
+)
+def _heading_error(c: Comparison) -> float | None:
+    width = max(1, int(round((c.smooth_s or 1.0) / float(np.median(np.diff(c.t_s))))))
+    if len(c.t_s) <= width:
+        return None
+    d_est = c.est_m[width:, :2] - c.est_m[:-width, :2]
+    d_gt = c.gt_m[width:, :2] - c.gt_m[:-width, :2]
+    moving = (np.linalg.norm(d_gt, axis=1) >= MIN_TRAVEL_FOR_HEADING_M) & (
+        np.linalg.norm(d_est, axis=1) >= MIN_TRAVEL_FOR_HEADING_M
+    )
+    if not moving.any():
+        return None  # a direction needs travel: a predictor that never moves has none
+    e, g = d_est[moving], d_gt[moving]
+    angle = np.arctan2(g[:, 0] * e[:, 1] - g[:, 1] * e[:, 0], np.sum(g * e, axis=1))
+    return float(np.degrees(np.sqrt(np.mean(angle**2))))
+
+
+# --- the arithmetic, shared with the array functions of ftin.metrics.trajectory ---------------------
+
+
+def per_axis_rms(err: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(err**2)))
+
+
+def euclidean_rmse(err: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
+
+
+def relative_error(
+    est: np.ndarray, gt: np.ndarray, t_s: np.ndarray, window_s: float, aggregate=per_axis_rms
+) -> float:
+    """``aggregate`` of the displacement differences over every ``window_s`` window."""
+    if not np.isfinite(window_s) or window_s <= 0:
+        raise ValueError(f"rte window_s must be a positive number of seconds, got {window_s}")
+    rate_hz = 1.0 / float(np.median(np.diff(t_s)))
+    k = int(round(window_s * rate_hz))
+    if k < 1:
+        raise ValueError(f"rte window_s = {window_s} s is shorter than one sample interval at {rate_hz:g} Hz")
+    if k <= len(est) - 1:
+        return aggregate((est[k:] - est[:-k]) - (gt[k:] - gt[:-k]))
+    # Shorter than one window: scale the whole-sequence drift to the window length.
+    err = (est[-1:] - est[:1]) - (gt[-1:] - gt[:1])
+    return aggregate(err) * window_s / float(t_s[-1] - t_s[0])
+
+
+def drift_ratio(est: np.ndarray, gt: np.ndarray) -> float:
+    path_m = float(np.linalg.norm(np.diff(gt, axis=0), axis=1).sum())
+    if path_m <= 0.0:
+        raise ValueError("PDE is undefined: the ground-truth path has zero length (it never moves)")
+    return float(np.linalg.norm(est[-1] - gt[-1])) / path_m
+
+
+def horizontal_length_m(p_m: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(np.asarray(p_m)[:, :2], axis=0), axis=1).sum())
+
+
+def smoothed(p_m: np.ndarray, t_s: np.ndarray, smooth_s: float | None) -> np.ndarray:
+    """Centred moving average of ``p_m`` over ``smooth_s`` seconds (only full windows: no edge shrink)."""
+    p = np.asarray(p_m, dtype=np.float64)
+    if smooth_s is None or len(p) < 3:
+        return p
+    width = int(round(smooth_s / float(np.median(np.diff(t_s)))))
+    width = min(width, len(p) - 1)
+    if width < 2:
+        return p
+    csum = np.cumsum(np.vstack([np.zeros((1, p.shape[1])), p]), axis=0)
+    return (csum[width:] - csum[:-width]) / width
+
+
+def compared_path_m(p_m: np.ndarray, t_s: np.ndarray, smooth_s: float | None) -> float:
+    """Horizontal path length of ``p_m`` after smoothing over ``smooth_s`` (module docstring)."""
+    return horizontal_length_m(smoothed(p_m, t_s, smooth_s))

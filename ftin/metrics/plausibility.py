@@ -1,0 +1,269 @@
+"""Is a predicted walk plausible? Figures that need no ground truth, and warnings in words.
+
+Each figure is a ``Figure``: a name, a unit, a description and a function of the ``Walk`` (the
+predicted trajectory and the IMU sequence it came from). ``FIGURES`` lists them in the order they
+are shown; ``assess(trajectory, seq)`` computes all of them and the warnings (``Plausibility``).
+
+Decisions:
+- Distances are horizontal (the models are 2-D or integrate z separately; a walk is judged on the
+  ground plan). Speeds and headings are read on a ``GRID_S`` grid of the trajectory (one position a
+  second): a model's velocity is a mean over its window, and finer steps only add jitter.
+- "Moving" means a horizontal speed of at least ``MOVING_M_S`` on that grid: standing at the start
+  and end does not lower the mean speed.
+- Steps and cadence come from the accelerometer (``ftin.metrics.steps``), independently of the
+  model; the step length is the predicted path over the step count, so a model that walks too short
+  or too far shows as a step length outside the human range ``STEP_LENGTH_RANGE_M`` (0.4-1.0 m
+  walking; a loop in a small room can truly have shorter steps, and the warning says so).
+- Speed and cadence must agree: the mean speed while moving should lie within
+  ``cadence x STEP_LENGTH_RANGE_M`` widened by ``SPEED_SLACK``; checked only when the step length
+  itself raised no warning (one problem, one warning). A prediction that moves briskly while the
+  accelerometer shows no steps (a trolley, a vehicle, or a model moving a still phone), or steps
+  while the prediction stands, is named too.
+- Heading change is the signed sum of the walking direction's changes while moving (unwrapped): 0
+  for a straight line, about +-180 for there and back, +-360 for a loop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ftin.data.location import GpsTrack
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.metrics.gps import GpsComparison, compare_gps
+from ftin.metrics.steps import Steps, detect_steps
+from ftin.metrics.trajectory import horizontal_path_length
+
+GRID_S = 1.0
+MOVING_M_S = 0.2
+STEP_LENGTH_RANGE_M = (0.4, 1.0)
+MAX_WALKING_CADENCE = 140.0  # steps/min; above it a person runs and steps are longer
+MIN_STEPS_TO_JUDGE = 10
+SPEED_SLACK = 0.3
+STILL_SPEED_M_S = 0.1
+NO_STEPS_SPEED_M_S = 0.5
+
+
+@dataclass
+class Walk:
+    """A predicted trajectory and its IMU sequence, with what the figures share computed once."""
+
+    trajectory: Trajectory
+    seq: ImuSequence
+
+    @cached_property
+    def steps(self) -> Steps:
+        return detect_steps(self.seq.t_s, self.seq.acc_m_s2, self.seq.gyro_rad_s)
+
+    @cached_property
+    def gps(self) -> GpsComparison | None:
+        """The prediction beside the export's GPS track (``seq.meta["gps"]``), if it has one."""
+        track = self.seq.meta.get("gps")
+        return compare_gps(self.trajectory, track) if isinstance(track, GpsTrack) else None
+
+    @cached_property
+    def path_m(self) -> float:
+        return horizontal_path_length(self.trajectory.p_world_m) if len(self.trajectory) > 1 else 0.0
+
+    @cached_property
+    def grid(self) -> np.ndarray:
+        """``(K, 2)`` horizontal positions every ``GRID_S`` seconds."""
+        t, p = self.trajectory.t_s, self.trajectory.p_world_m
+        if len(t) < 2 or t[-1] - t[0] < GRID_S:
+            return np.asarray(p[:, :2], dtype=np.float64)
+        ticks = np.arange(t[0], t[-1] + 1e-9, GRID_S)
+        return np.column_stack([np.interp(ticks, t, p[:, i]) for i in (0, 1)])
+
+    @cached_property
+    def moving(self) -> np.ndarray:
+        """``(K - 1,)`` whether each grid interval moves at least ``MOVING_M_S``."""
+        if len(self.grid) < 2:
+            return np.zeros(0, dtype=bool)
+        return np.linalg.norm(np.diff(self.grid, axis=0), axis=1) >= MOVING_M_S * GRID_S
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One plausibility figure: what it is called, its unit, what it means, how it is computed."""
+
+    name: str
+    unit: str
+    description: str
+    compute: Callable[[Walk], float | None]
+
+
+def _duration(walk: Walk) -> float:
+    return walk.seq.duration_s
+
+
+def _moving_speed(walk: Walk) -> float | None:
+    if not walk.moving.any():
+        return None
+    steps = np.linalg.norm(np.diff(walk.grid, axis=0), axis=1)
+    return float(steps[walk.moving].sum() / (np.count_nonzero(walk.moving) * GRID_S))
+
+
+def _step_count(walk: Walk) -> float:
+    return float(walk.steps.count)
+
+
+def _cadence(walk: Walk) -> float | None:
+    return walk.steps.cadence_per_min
+
+
+def _step_length(walk: Walk) -> float | None:
+    return walk.path_m / walk.steps.count if walk.steps.count >= 2 else None
+
+
+def _start_to_end(walk: Walk) -> float:
+    p = walk.trajectory.p_world_m
+    return float(np.linalg.norm(p[-1, :2] - p[0, :2])) if len(p) else 0.0
+
+
+def _heading_change(walk: Walk) -> float | None:
+    d = np.diff(walk.grid, axis=0)
+    if np.count_nonzero(walk.moving) < 2:
+        return None
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    turns = np.angle(np.exp(1j * np.diff(heading)))  # wrapped to (-pi, pi]
+    both = walk.moving[1:] & walk.moving[:-1]
+    return float(np.degrees(turns[both].sum()))
+
+
+FIGURES: tuple[Figure, ...] = (
+    Figure("path_length", "m", "Horizontal length of the predicted path.", lambda w: w.path_m),
+    Figure("duration", "s", "Length of the recording.", _duration),
+    Figure(
+        "moving_speed",
+        "m/s",
+        f"Mean horizontal speed of the prediction while it moves (at least {MOVING_M_S:g} m/s).",
+        _moving_speed,
+    ),
+    Figure("step_count", "steps", "Steps detected in the accelerometer (heel strikes).", _step_count),
+    Figure("cadence", "steps/min", "Steps per minute of walking, from the accelerometer.", _cadence),
+    Figure(
+        "step_length",
+        "m",
+        "Predicted path length / detected steps (people walk 0.4-1.0 m a step).",
+        _step_length,
+    ),
+    Figure("start_to_end", "m", "Straight-line distance from the predicted start to the end.", _start_to_end),
+    Figure(
+        "heading_change",
+        "deg",
+        "Signed sum of the walking direction's changes while moving (0 straight, +-360 a loop).",
+        _heading_change,
+    ),
+)
+
+
+GPS_FIGURES: tuple[Figure, ...] = (
+    Figure("gps_fixes", "fixes", "GPS fixes in the export's Location.csv.", lambda w: w.gps and w.gps.fixes),
+    Figure(
+        "gps_path_length",
+        "m",
+        "Length of the GPS track (one fix a second, smoothed over 5 s against the fixes' jitter).",
+        lambda w: w.gps and w.gps.path_m,
+    ),
+    Figure(
+        "gps_median_accuracy",
+        "m",
+        "Median horizontal accuracy the phone reported for its fixes (about one standard deviation).",
+        lambda w: w.gps and w.gps.median_accuracy_m,
+    ),
+    Figure(
+        "gps_distance_rms",
+        "m",
+        "RMS distance between the prediction and the GPS fixes, aligned on the first 30 s of the walk.",
+        lambda w: w.gps and w.gps.distance_rms_m,
+    ),
+    Figure(
+        "gps_final_distance",
+        "m",
+        "Distance between the prediction and the GPS at the last common fix (after the start alignment).",
+        lambda w: w.gps and w.gps.final_distance_m,
+    ),
+)
+
+
+@dataclass(frozen=True)
+class FigureValue:
+    name: str
+    unit: str
+    value: float | None
+    description: str
+
+
+@dataclass(frozen=True)
+class Plausibility:
+    """Every figure's value and the warnings (empty: nothing looks implausible)."""
+
+    figures: list[FigureValue]
+    warnings: list[str] = field(default_factory=list)
+    gps: GpsComparison | None = None
+    gps_figures: list[FigureValue] = field(default_factory=list)
+
+    def value(self, name: str) -> float | None:
+        return next((f.value for f in self.figures if f.name == name), None)
+
+
+def _finite(value: float | None) -> float | None:
+    return None if value is None or not np.isfinite(value) else float(value)
+
+
+def _values(figures: tuple[Figure, ...], walk: Walk) -> list[FigureValue]:
+    return [FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in figures]
+
+
+def assess(trajectory: Trajectory, seq: ImuSequence) -> Plausibility:
+    """The figures of ``trajectory`` (predicted from ``seq``) and the warnings they raise."""
+    walk = Walk(trajectory, seq)
+    values = [FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in FIGURES]
+    gps_values = []
+    if walk.gps is not None:
+        gps_values = [
+            FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in GPS_FIGURES
+        ]
+    return Plausibility(values, plausibility_warnings(Plausibility(values)), walk.gps, gps_values)
+
+
+def plausibility_warnings(p: Plausibility) -> list[str]:
+    """At most one warning on the distance walked, in words (module docstring)."""
+    steps, cadence = p.value("step_count") or 0.0, p.value("cadence")
+    path, length, speed = p.value("path_length") or 0.0, p.value("step_length"), p.value("moving_speed")
+    low, high = STEP_LENGTH_RANGE_M
+    walking = cadence is not None and cadence <= MAX_WALKING_CADENCE and steps >= MIN_STEPS_TO_JUDGE
+    if walking and (speed is None or speed < STILL_SPEED_M_S):
+        return [
+            f"The accelerometer shows {steps:.0f} steps ({cadence:.0f} a minute) but the prediction "
+            "barely moves: the model misses the walk."
+        ]
+    if walking and length is not None and not low <= length <= high:
+        side = "below" if length < low else "above"
+        cause = (
+            "the model likely underestimates the distance walked (unless the walk went in tight turns, "
+            "where steps are short)"
+            if length < low
+            else "the model likely overestimates the distance walked"
+        )
+        return [
+            f"Predicted step length {length:.2f} m ({path:.1f} m over {steps:.0f} steps) is {side} the "
+            f"human walking range {low:.1f}-{high:.1f} m: {cause}."
+        ]
+    if walking and cadence is not None and speed is not None:
+        rate = cadence / 60.0
+        slow, fast = rate * low * (1 - SPEED_SLACK), rate * high * (1 + SPEED_SLACK)
+        if not slow <= speed <= fast:
+            return [
+                f"The predicted speed while moving, {speed:.2f} m/s, does not fit a cadence of "
+                f"{cadence:.0f} steps a minute (expected {slow:.2f}-{fast:.2f} m/s)."
+            ]
+    if steps < 2 and speed is not None and speed >= NO_STEPS_SPEED_M_S and path >= 5.0:
+        return [
+            f"The prediction moves at {speed:.2f} m/s over {path:.1f} m but the accelerometer shows no "
+            "steps: not a walk (a trolley or a vehicle?), or a model moving a phone that stays still."
+        ]
+    return []

@@ -1,0 +1,27 @@
+"""GET /models (app/api/routes/models.py) and the model name every prediction route takes."""
+
+from __future__ import annotations
+
+from fastapi.testclient import TestClient
+
+from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, detail, upload
+
+
+def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
+    models = {m["name"]: m for m in client.get("/models").json()}
+    assert set(models) == {DEFAULT_MODEL, OTHER_MODEL}
+    ftin = models[DEFAULT_MODEL]
+    assert ftin["architecture"] == "ftin" and models[OTHER_MODEL]["architecture"] == "resnet1d"
+    assert ftin["default"] is True and models[OTHER_MODEL]["default"] is False
+    assert ftin["imu_rate_hz"] == 100.0 and ftin["window"] == 50 and ftin["stride"] == 25
+    assert ftin["trained_on"] == "simulated walks (test fixture)"
+    assert models[OTHER_MODEL]["trained_on"] == "simulated walks (2 sequences)"  # no developer path
+    assert ftin["metrics"] == {"ate": 1.5, "rte": 2.5, "pde": 0.05}
+    assert ftin["parameters"] > 1000 and ftin["out_dim"] == 2
+
+
+def test_unknown_model_is_404_naming_the_valid_ones(client: TestClient, csv_with_gt: bytes) -> None:
+    response = upload(client, csv_with_gt, model="NoSuchModel")
+    assert response.status_code == 404
+    message = detail(response)
+    assert "NoSuchModel" in message and DEFAULT_MODEL in message and OTHER_MODEL in message

@@ -1,0 +1,68 @@
+"""``ftin campaign`` without an engine run: plan, status, refusals, and the install hint without Ray."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from ftin.cli import app
+from tests.utils.cli import fails_cleanly, runner
+
+
+def _jobs_file(tmp_path):
+    parts = {"train": ["walks/train"], "val": ["walks/val"], "test": ["walks/test"]}
+    jobs = [
+        {
+            "name": f"walks/ronin_tcn-s{seed}",
+            "model": "ronin_tcn",
+            "dataset": "walks",
+            "seed": seed,
+            "parts": parts,
+        }
+        for seed in (0, 1)
+    ]
+    path = tmp_path / "jobs.json"
+    path.write_text(json.dumps(jobs))
+    return path
+
+
+def test_plan_then_status_lists_every_job_as_left(tmp_path):
+    runs = tmp_path / "runs"
+    planned = runner.invoke(
+        app,
+        [
+            "campaign",
+            "plan",
+            "--runs",
+            str(runs),
+            "--data",
+            str(tmp_path),
+            "--jobs",
+            str(_jobs_file(tmp_path)),
+        ],
+    )
+    assert planned.exit_code == 0, planned.output
+    assert "2 job(s)" in planned.output and (runs / "campaign.json").exists()
+    frozen = json.loads((runs / "campaign.json").read_text())["code"]
+    assert (runs / frozen / "ftin" / "campaign" / "job.py").is_file()  # the code the jobs will run on
+    status = runner.invoke(app, ["campaign", "status", "--runs", str(runs)], env={"COLUMNS": "200"})
+    assert status.exit_code == 0, status.output
+    assert "0 done, 0 running, 0 started, 0 failed, 2 left" in status.output
+    assert "walks/ronin_tcn-s1" in status.output
+    again = runner.invoke(app, ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path)])
+    fails_cleanly(again, "already holds a campaign")
+
+
+def test_bad_plans_fail_cleanly(tmp_path):
+    fails_cleanly(runner.invoke(app, ["campaign", "status", "--runs", str(tmp_path)]), "holds no campaign")
+    bad = tmp_path / "bad.json"
+    bad.write_text('[{"name": "x", "model": "ftin"}]')
+    args = ["campaign", "plan", "--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--jobs"]
+    fails_cleanly(runner.invoke(app, [*args, str(bad)]), "missing ['dataset']")
+    fails_cleanly(runner.invoke(app, [*args, "table9"]), "neither a protocol campaign (table1)")
+
+
+def test_run_without_ray_says_how_to_install_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails as on a machine without the extra
+    result = runner.invoke(app, ["campaign", "run", "--runs", str(tmp_path)])
+    fails_cleanly(result, 'pip install -e ".[cluster]"')

@@ -1,0 +1,57 @@
+"""``ftin predict`` prints the plausibility figures, the GPS comparison and the standing-still verdict."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ftin.cli import app
+from ftin.data.readers.generic_csv import write_csv
+from tests.data.test_location import LAT0, LON0, sensorlogger_location_csv
+from tests.utils.cli import runner
+
+
+def test_predict_prints_plausibility_and_the_standing_still_verdict(
+    trained, data_dir, sim_sequences, tmp_path
+):
+    checkpoint = ["--checkpoint", str(trained / "ronin_tcn.json")]
+    recording = str(data_dir / f"{sim_sequences[0].name}.csv")
+    result = runner.invoke(app, ["predict", *checkpoint, recording, "--out", str(tmp_path / "t.csv")])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    [plausible] = [line for line in lines if line.startswith("plausibility: ")]
+    for name in ("path length", "duration 20 s", "moving speed", "step count", "cadence", "step length"):
+        assert name in plausible
+    assert any(line.startswith(("Worse than standing still", "Better than standing still")) for line in lines)
+    assert any("too short for ATE" in line for line in lines)  # a 20 s walk
+
+    no_gt = tmp_path / "no_gt.csv"
+    write_csv(sim_sequences[0].with_(gt=None), no_gt)
+    result = runner.invoke(app, ["predict", *checkpoint, str(no_gt), "--out", str(tmp_path / "t.csv")])
+    assert result.exit_code == 0 and "plausibility: path length" in result.stdout
+    assert "standing still" not in result.stdout and "GPS:" not in result.stdout
+
+
+def test_predict_on_a_phone_export_with_gps(trained, shared_data: Path, tmp_path):
+    source = shared_data / "phone" / "sensorlogger" / "inhand-20-steps-Zyf"
+    if not source.is_dir():
+        pytest.skip(f"no export at {source}")
+    export = tmp_path / "walk"
+    shutil.copytree(source, export)
+    first_ns = int(pd.read_csv(source / "Accelerometer.csv", nrows=1)["time"].iloc[0])
+    t = np.arange(0.0, 21.0, 1.0)
+    lat = LAT0 + 0.6 * t / 111_130.0
+    fixes = sensorlogger_location_csv(first_ns + (t * 1e9).astype(np.int64), t, lat, [LON0] * 21, [3.0] * 21)
+    (export / "Location.csv").write_bytes(fixes)
+    checkpoint = ["--checkpoint", str(trained / "ronin_tcn.json")]
+    result = runner.invoke(app, ["predict", *checkpoint, str(export), "--out", str(tmp_path / "t.csv")])
+    assert result.exit_code == 0, result.output
+    [gps] = [line for line in result.stdout.splitlines() if line.startswith("GPS: ")]
+    assert "gps fixes 21 fixes" in gps and "gps median accuracy 3.00 m" in gps and "gps distance rms" in gps
+    [plausible] = [line for line in result.stdout.splitlines() if line.startswith("plausibility: ")]
+    steps = int(plausible.split("step count ")[1].split()[0])
+    assert 18 <= steps <= 22  # 20 steps recorded
