@@ -7,8 +7,8 @@ Decisions:
   ``ftin.train.provenance``); older cards are read by the words of their paths. A sequence's kind
   comes from its
   reader format, its folder and its name: ``oxiod``, ``ronin``, ``ridi``, ``tlio``, ``rnin``,
-  ``imunet``, ``euroc``, and ``simulated`` (the ``sim`` folder or ``sim_*`` names of ``ftin sim``,
-  and the bundled samples). Anything else has no kind.
+  ``imunet``, ``euroc``, ``inria`` (the ``inria_attitude`` reader and folder), and ``simulated``
+  (the ``sim`` folder or ``sim_*`` names of ``ftin sim``, and the bundled samples). Anything else has no kind.
 - A checkpoint may be trained on several kinds (``ftin-pedestrian``: OxIOD and RIDI). The scene ticks,
   for a sequence, a checkpoint trained on its kind (an FTIN one first, the default model before the
   other FTIN ones); without one, the default model.
@@ -30,6 +30,7 @@ KIND_LABELS = {
     "rnin": "RNIN",
     "imunet": "IMUNet",
     "euroc": "EuRoC",
+    "inria": "Inria attitude benchmark",
 }
 
 _WORD = re.compile(r"[a-z0-9]+")

@@ -194,3 +194,21 @@ def test_oxiod_and_ridi_expose_their_magnetometer(shared_data, dataset):
     seq = read_sequence(path)
     assert seq.mag_uT is not None and seq.mag_uT.shape == (len(seq), 3)
     assert 15.0 < float(np.median(np.linalg.norm(seq.mag_uT, axis=1))) < 90.0
+
+
+def test_a_broken_sensor_file_is_named(datasets, tmp_path):
+    platform, name = GLITCHY.split("/")
+    copy = tmp_path / "datasets" / platform / name
+    shutil.copytree(datasets / GLITCHY, copy)
+    (tmp_path / "datasets" / "qualisys").mkdir()
+    shutil.copy(datasets / "qualisys" / f"{name}.mat", tmp_path / "datasets" / "qualisys")
+    with gzip.open(copy / "gyroscope-calibrated.txt.gz", "rt") as handle:
+        lines = handle.read().splitlines()
+    (copy / "gyroscope-calibrated.txt.gz").unlink()
+    lines[41] = "0.5 0.1"  # a cut line
+    (copy / "gyroscope-calibrated.txt").write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataFormatError, match=r"gyroscope-calibrated\.txt: line 42 has 2 columns"):
+        read_sequence(copy)
+    (copy / "timeAlignment.txt").write_text("soon\n")
+    with pytest.raises(DataFormatError, match=r"timeAlignment\.txt: expected one number"):
+        read_sequence(copy)
