@@ -17,6 +17,10 @@ Decisions:
   convention is assumed with a warning.
 - Samples at or before a sensor's latest time are dropped (a duplicate or late message); the
   history kept per sensor is ``HISTORY_S``, so memory does not grow with the session.
+- A gap (a lost message) in a motion sensor is filled with a copy of the sensor's stretch just before
+  it (from ``FILL_PERIOD_S`` back, about one gait cycle), not bridged by a straight line: a model reads a straight line as standing still, and a walk
+  is periodic, so the walker keeps walking through the gap (up to ``MAX_BRIDGED_GAP_S``; the
+  orientation is interpolated). The session's warnings count the filled gaps.
 """
 
 from __future__ import annotations
@@ -33,9 +37,11 @@ from ftin.data.readers.sensorlogger import acceleration_keys
 from ftin.live.messages import PushMessage
 
 CALIBRATION_S = 2.0  # data seen before units and signs are settled (and the first window can run)
-HISTORY_S = 1.0  # raw samples kept behind the clock (interpolation, gap checks)
+HISTORY_S = 2.5  # raw samples kept behind the clock (interpolation, gap checks)
 MAX_WARNINGS = 20
 GIVE_UP_S = 10.0  # data without the sensors odometry needs: an error, not an ever-growing buffer
+FILL_GAP_FACTOR, MIN_FILLED_GAP_S = 3.0, 0.05  # a gap: several sample intervals and 50 ms at least
+FILL_PERIOD_S = 1.0  # a gap is filled from this far back: about a walk's cycle of two steps
 GYRO_KEYS = ("Gyroscope", "GyroscopeUncalibrated")
 
 
@@ -78,6 +84,7 @@ class SensorStreams:
         self.next_index = 0  # next clock sample to hand out
         self.samples_in = 0
         self.samples_dropped = 0  # at or before their sensor's latest time
+        self.gaps_filled = 0
         self.warnings: list[str] = []
 
     # --- input -----------------------------------------------------------------------------------
@@ -97,11 +104,29 @@ class SensorStreams:
             if not keep.any():
                 continue
             if sensor in self._t:
-                self._t[sensor] = np.concatenate([self._t[sensor], t[keep]])
-                self._v[sensor] = np.concatenate([self._v[sensor], batch.values[keep]])
+                t_new, v_new = self._fill_gap(sensor, t[keep], batch.values[keep])
+                self._t[sensor] = np.concatenate([self._t[sensor], t_new])
+                self._v[sensor] = np.concatenate([self._v[sensor], v_new])
             else:
                 self._t[sensor], self._v[sensor] = t[keep], batch.values[keep]
                 self._first_t[sensor] = float(t[keep][0])
+
+    def _fill_gap(self, sensor: str, t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """New samples, preceded by a copy of the sensor's previous stretch when they follow a gap."""
+        history_t, history_v = self._t[sensor], self._v[sensor]
+        if sensor == "Orientation" or len(history_t) < 8:
+            return t, v  # an attitude is interpolated across a gap, not repeated
+        dt = float(np.median(np.diff(history_t[-64:])))
+        last = float(history_t[-1])
+        gap = float(t[0]) - last
+        if not max(FILL_GAP_FACTOR * dt, MIN_FILLED_GAP_S) < gap <= sensor_clock.MAX_BRIDGED_GAP_S:
+            return t, v
+        fill_t = last + dt * np.arange(1, int(np.floor((gap - 0.5 * dt) / dt)) + 1)
+        period = min(max(gap, FILL_PERIOD_S), last - float(history_t[0]))
+        source_t = last - period + np.mod(fill_t - last, period)
+        fill_v = np.column_stack([np.interp(source_t, history_t, history_v[:, c]) for c in range(v.shape[1])])
+        self.gaps_filled += 1
+        return np.concatenate([fill_t, t]), np.concatenate([fill_v, v])
 
     def sensor_rates_hz(self) -> dict[str, float]:
         return {

@@ -25,7 +25,7 @@ import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
-from ftin.infer import run_windows
+from ftin.infer import run_windows, select_parts
 
 BATCH_WINDOWS = 64
 
@@ -75,6 +75,8 @@ class IncrementalPredictor:
         self._p = Growing(3)
         self._span_start, self._span_end = Growing(None, np.int64), Growing(None, np.int64)
         self._velocity = Growing(self.dim)
+        self._span_t = Growing(2)  # start and end time of every span
+        self._mid_t = Growing(None)  # their middles (``Prediction.window_t_s``)
         self._window_starts = Growing(None, np.int64)
         self._next_start = 0  # window models: the next window's first sample
         self._next_frame = 0  # streaming models: the next frame to run
@@ -83,6 +85,7 @@ class IncrementalPredictor:
         self._final = 0
         self._v_running = np.zeros(self.dim)
         self._c_running = 0.0
+        self._final_length_m = 0.0  # horizontal path length up to the final point
         self._delta = np.zeros((0, self.dim))
         self._count = np.zeros(0)
 
@@ -133,25 +136,15 @@ class IncrementalPredictor:
         part_velocity, _ = run_windows(
             self.loaded, self._imu.view(), starts, self.window, self.parts, BATCH_WINDOWS, None, False
         )
-        offsets = np.arange(self.parts) * self.part
-        first = len(self._window_starts) == 0
-        keep = offsets if first else offsets[self.parts - self.later :]
-        kept_velocity = part_velocity if first else part_velocity[:, self.parts - self.later :]
-        if first and len(starts) > 1:  # the first window all its parts, the others their last ones
-            span_start = np.concatenate(
-                [
-                    starts[0] + offsets,
-                    (starts[1:, None] + offsets[None, self.parts - self.later :]).reshape(-1),
-                ]
-            )
-            velocity = np.concatenate(
-                [part_velocity[0], part_velocity[1:, self.parts - self.later :].reshape(-1, self.dim)]
-            )
+        if len(self._window_starts) == 0:  # the first window gives all its parts
+            span_start, span_end, velocity = select_parts(starts, self.window, self.stride, part_velocity)
         else:
-            span_start = (starts[:, None] + keep[None, :]).reshape(-1)
-            velocity = kept_velocity.reshape(-1, self.dim)
+            offsets = np.arange(self.parts - self.later, self.parts) * self.part
+            span_start = (starts[:, None] + offsets[None, :]).reshape(-1)
+            span_end = span_start + self.part
+            velocity = part_velocity[:, self.parts - self.later :].reshape(-1, self.dim)
         self._window_starts.extend(starts)
-        self._add_spans(span_start, span_start + self.part, velocity)
+        self._add_spans(span_start, span_end, velocity)
 
     def _run_stream(self) -> None:
         total = len(self) - 1  # frame i is the interval [t[i], t[i+1]]
@@ -173,6 +166,10 @@ class IncrementalPredictor:
         self._span_start.extend(start)
         self._span_end.extend(end)
         self._velocity.extend(velocity)
+        t = self._t.view()
+        span_t = np.column_stack([t[start], t[end]])
+        self._span_t.extend(span_t)
+        self._mid_t.extend(span_t.mean(axis=1))
         base = self._final
         np.add.at(self._delta, start - base, velocity)
         np.add.at(self._delta, end - base, -velocity)
@@ -197,11 +194,16 @@ class IncrementalPredictor:
         # Intervals before the latest span's start are final: drop their difference rows.
         done = new_final - base
         if done > 0:
+            self._final_length_m += _horizontal_length(p[base : new_final + 1])
             self._v_running = v_sum[done - 1].copy()
             self._c_running = float(count[done - 1])
             self._delta = self._delta[done:].copy()
             self._count = self._count[done:].copy()
             self._final = new_final
+
+    def path_length_m(self) -> float:
+        """Horizontal path length so far (the final part summed once, the tail each time)."""
+        return self._final_length_m + _horizontal_length(self._p.view()[self._final :])
 
     # --- views ----------------------------------------------------------------------------------
 
@@ -221,6 +223,10 @@ class IncrementalPredictor:
     def window_starts(self) -> np.ndarray:
         return self._window_starts.view()
 
+    def span_times(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(mid (M,), start and end (M, 2))`` times of the spans, as ``Prediction`` holds them."""
+        return self._mid_t.view(), self._span_t.view()
+
     def spans(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(span_start, span_end, velocity)``, sample indices and ``(M, D)`` mean velocities."""
         return self._span_start.view(), self._span_end.view(), self._velocity.view()
@@ -238,3 +244,7 @@ class IncrementalPredictor:
             self._span_end,
         )
         return sum(g.nbytes for g in (*grown, self._velocity, self._window_starts)) + self._delta.nbytes
+
+
+def _horizontal_length(points: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1).sum()) if len(points) > 1 else 0.0
