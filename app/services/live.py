@@ -139,8 +139,9 @@ class LiveService:
         """Check and queue one push body; the answer for the phone (raises 4xx service errors)."""
         if len(body) > self.max_body_bytes:
             raise PayloadTooLargeError(
-                f"push message of {len(body) / 1024:.0f} KiB; the limit is {self.settings.live_max_body_kb:g} "
-                "KiB (FTIN_LIVE_MAX_BODY_KB): shorten Sensor Logger's batch period or tick fewer sensors"
+                f"push message of {len(body) / 1024:.0f} KiB; the limit is "
+                f"{self.settings.live_max_body_kb:g} KiB (FTIN_LIVE_MAX_BODY_KB): shorten Sensor Logger's "
+                "batch period or tick fewer sensors"
             )
         if platform is not None and platform.lower() not in PLATFORMS:
             raise InvalidInputError(f"platform must be one of {', '.join(PLATFORMS)}; got {platform!r}")
@@ -163,7 +164,8 @@ class LiveService:
             if key in self._too_long:
                 raise ConflictError(
                     f"live session {message.session_id} reached its limit (FTIN_LIVE_MAX_SESSION_S "
-                    f"{self.settings.live_max_session_s:g} s, FTIN_MAX_SAMPLES) and was ended: start a new recording"
+                    f"{self.settings.live_max_session_s:g} s, FTIN_MAX_SAMPLES) and was ended: "
+                    "start a new recording"
                 )
             if not known and len(self._sessions) >= self.settings.live_max_sessions:
                 self.refused += 1

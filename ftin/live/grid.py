@@ -17,10 +17,11 @@ Decisions:
   convention is assumed with a warning.
 - Samples at or before a sensor's latest time are dropped (a duplicate or late message); the
   history kept per sensor is ``HISTORY_S``, so memory does not grow with the session.
-- A gap (a lost message) in a motion sensor is filled with a copy of the sensor's stretch just before
-  it (from ``FILL_PERIOD_S`` back, about one gait cycle), not bridged by a straight line: a model reads a straight line as standing still, and a walk
-  is periodic, so the walker keeps walking through the gap (up to ``MAX_BRIDGED_GAP_S``; the
-  orientation is interpolated). The session's warnings count the filled gaps.
+- A gap (a lost message) in a motion sensor is filled with a copy of the sensor's stretch before it
+  (from ``FILL_PERIOD_S`` back, about one gait cycle), not bridged by a straight line: a model reads
+  a straight line as standing still, and a walk is periodic, so the walker keeps walking through the
+  gap (up to ``MAX_BRIDGED_GAP_S``; the orientation is interpolated). The warnings count
+  the filled gaps.
 """
 
 from __future__ import annotations

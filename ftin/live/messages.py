@@ -3,8 +3,8 @@
 One message::
 
     {"messageId": 0, "sessionId": "...", "deviceId": "...",
-     "payload": [{"name": "accelerometer", "time": 1698501144401773000, "values": {"x": .., "y": .., "z": ..}},
-                 ...]}
+     "payload": [{"name": "accelerometer", "time": 1698501144401773000,
+                  "values": {"x": .., "y": .., "z": ..}}, ...]}
 
 ``time`` is UTC epoch nanoseconds, entry names are the export's file names in lower case, values its
 columns. The app's "Tap to Test Pushing" button sends a message whose first entry is named ``test``.

@@ -151,8 +151,8 @@ class LiveSession:
             )
         if self.dropped_messages:
             notes.append(
-                f"{self.dropped_messages} push message(s) lost or too late; {self.streams.gaps_filled} sensor "
-                "gap(s) filled with the stretch before them"
+                f"{self.dropped_messages} push message(s) lost or too late; "
+                f"{self.streams.gaps_filled} sensor gap(s) filled with the stretch before them"
             )
         return notes
 

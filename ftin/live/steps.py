@@ -27,7 +27,7 @@ class StepCounter:
         """Count the steps in these samples (in time order); returns the total so far."""
         magnitude = np.linalg.norm(acc_m_s2, axis=1)
         g = STANDARD_GRAVITY_M_S2
-        for t, m in zip(t_s.tolist(), magnitude.tolist()):
+        for t, m in zip(t_s.tolist(), magnitude.tolist(), strict=True):
             s = m if self._smoothed is None else self._smoothed + SMOOTHING * (m - self._smoothed)
             self._smoothed = s
             if s < g:
