@@ -120,8 +120,8 @@ class IncrementalPredictor:
             self._run_stream()
         else:
             self._run_windows()
-        if self.n_spans > before:
-            self._integrate(before)
+        if self.n_spans:  # the tail past the last span moves on with the last velocity, as offline
+            self._integrate()
         return self.n_spans - before
 
     # --- the model ------------------------------------------------------------------------------
@@ -178,7 +178,7 @@ class IncrementalPredictor:
 
     # --- integration ----------------------------------------------------------------------------
 
-    def _integrate(self, first_new_span: int) -> None:
+    def _integrate(self) -> None:
         """Commit the intervals that became final, recompute the provisional tail."""
         t, p = self._t.view(), self._p.view()
         n, base = len(t), self._final

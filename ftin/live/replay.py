@@ -28,7 +28,10 @@ import pandas as pd
 
 import ftin.data.readers.exports as exports
 from ftin.data.errors import DataFormatError
+from ftin.data.types import ImuSequence
 from ftin.live.messages import SENSOR_COLUMNS
+
+GIVE_UP_AFTER = 3  # failed posts before the first success that end a replay
 
 
 @dataclass(frozen=True)
@@ -77,14 +80,10 @@ def export_messages(
     repeat: int = 1,
 ) -> list[Push]:
     """The push messages of the export at ``path`` (see the module docstring)."""
-    if batch_s <= 0:
-        raise ValueError(f"batch_s must be > 0, got {batch_s}")
     sensors = _sensor_rows(path)
     start = min(int(t[0]) for t, _, _ in sensors.values())
     stop = max(int(t[-1]) for t, _, _ in sensors.values())
     period = stop - start + int(round(0.01e9))
-    session_id = session_id or uuid.uuid4().hex[:16]
-    batch_ns = int(round(batch_s * 1e9))
     entries: list[tuple[int, dict[str, Any]]] = []
     for lap in range(repeat):
         shift = lap * period
@@ -93,7 +92,44 @@ def export_messages(
                 entries.append(
                     (ti, {"name": name, "time": ti, "values": dict(zip(columns, row, strict=True))})
                 )
+    return _batched(entries, start, batch_s, session_id, device_id)
+
+
+def sequence_messages(
+    seq: ImuSequence,
+    batch_s: float = 1.0,
+    session_id: str | None = None,
+    device_id: str = "ftin-replay",
+    start_ns: int = 1_700_000_000 * 10**9,
+) -> list[Push]:
+    """Push messages of an ``ImuSequence`` as an Android phone would send them: ``gyroscope``,
+    ``totalacceleration`` (specific force, +g up) and, when it has one, ``orientation``."""
+    t_ns = start_ns + np.round((seq.t_s - seq.t_s[0]) * 1e9).astype(np.int64)
+    streams = [("gyroscope", seq.gyro_rad_s, "xyz"), ("totalacceleration", seq.acc_m_s2, "xyz")]
+    if seq.q_world_device_wxyz is not None:
+        streams.append(("orientation", seq.q_world_device_wxyz, ("qw", "qx", "qy", "qz")))
+    entries = [
+        (ti, {"name": name, "time": ti, "values": dict(zip(columns, row, strict=True))})
+        for name, values, columns in streams
+        for ti, row in zip(t_ns.tolist(), values.tolist(), strict=True)
+    ]
     entries.sort(key=lambda e: e[0])
+    return _batched(entries, int(t_ns[0]), batch_s, session_id, device_id)
+
+
+def _batched(
+    entries: list[tuple[int, dict[str, Any]]],
+    start: int,
+    batch_s: float,
+    session_id: str | None,
+    device_id: str,
+) -> list[Push]:
+    """Entries (time ns, entry) cut into one message per ``batch_s``, each sent at its batch's end."""
+    if batch_s <= 0:
+        raise ValueError(f"batch_s must be > 0, got {batch_s}")
+    entries.sort(key=lambda e: e[0])
+    session_id = session_id or uuid.uuid4().hex[:16]
+    batch_ns = int(round(batch_s * 1e9))
     messages: list[Push] = []
     batch: list[dict[str, Any]] = []
     batch_end = start + batch_ns
@@ -182,6 +218,8 @@ def send(
             report.failed += 1
             if len(report.errors) < 5:
                 report.errors.append(str(exc))
+            if report.sent == 0 and report.failed >= GIVE_UP_AFTER:
+                break  # nothing answers at this URL
             continue
         report.sent += 1
         report.statuses[status] = report.statuses.get(status, 0) + 1
