@@ -388,6 +388,7 @@ class LiveService:
                 self.runs.start(live.run_id, live.model_name, live.name)
             with self._lock:
                 run = self._run(live)
+            self.runs.update(run)  # viewers draw the last of it as they drew the rest
             self.runs.finish(run)
         log.info("live session %s ended: %s", live.name, reason)
 
