@@ -106,6 +106,7 @@ class LiveService:
         self._stop = threading.Event()
         self._worker: threading.Thread | None = None
         self.scene_reports_drawing = False  # the 3D scene calls drawn(): latency to the drawing
+        self.followed_run_id: str | None = None  # the run the scene follows (set by the scene)
         self.test_pushes = 0
         self.refused = 0
 
@@ -227,6 +228,10 @@ class LiveService:
             "orientation": s.orientation.source,
             "warnings": s.warnings(),
         }
+
+    def is_running(self, run_id: str) -> bool:
+        with self._lock:
+            return any(live.run_id == run_id for live in self._sessions.values())
 
     def drawn(self, run_id: str, covered_s: float | None) -> None:
         """The scene has drawn ``run_id`` up to ``covered_s`` (seconds of its data)."""
@@ -365,7 +370,7 @@ class LiveService:
         with self._lock:
             run = self._run(live)
         self.runs.update(run)
-        if not self.scene_reports_drawing:
+        if not self.scene_reports_drawing or live.run_id != self.followed_run_id:
             with self._lock:
                 s.mark_effect(s.predictor.covered_until_s, time.monotonic())
 

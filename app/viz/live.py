@@ -10,7 +10,11 @@ Decisions:
   the same at minute 1 and minute 60 (the path is decimated to ``MAX_LINE_POINTS``).
 - The camera keeps the user's viewing angle and distance and moves its target to the newest position;
   the grid re-frames when the walk leaves it.
-- Once drawn, the scene tells the live service (``drawn``), so the latency it reports ends on screen.
+- The scene follows one walk at a time (the first live session, until it ends; then the next one
+  that grows): several phones would otherwise replace each other's recording many times a second.
+  The others are runs as ever (``GET /live/sessions``, the upload page, "Open in 3D").
+- Once drawn, the scene tells the live service (``drawn``), so the latency it reports for the walk
+  it follows ends on screen (for the others, at publication).
 """
 
 from __future__ import annotations
@@ -64,7 +68,12 @@ class SceneLive:
             self.gui_live = self.server.gui.add_markdown(IDLE_TEXT)
 
     def run_updated(self, run: Run) -> None:
+        live = self.services.live
         with self._lock:
+            followed = live.followed_run_id
+            if followed is not None and followed != run.run_id and live.is_running(followed):
+                return  # the scene follows one walk at a time: the first, until it ends
+            live.followed_run_id = run.run_id
             self._live_pending[run.run_id] = run
             queued, self._live_queued = self._live_queued, True
         if not queued:

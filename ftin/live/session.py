@@ -5,9 +5,10 @@
 ``prediction()`` is the trajectory so far (views of the growing arrays, no copies) once the first
 window has run.
 
-Latency (``latencies_s``): from a message's arrival to the moment the trajectory covers its last
-sample, i.e. a window (or, for streaming models, a frame) ending at or after it was integrated and
-the result was handed on (``mark_effect``, called by whoever shows it).
+Latency (``latencies_s``, per sample): from the arrival of the message that carried a sample to the
+moment the trajectory covers it, i.e. a window (or, for streaming models, a frame) ending at or after
+it was integrated and the result was handed on (``mark_effect``, called by whoever shows it). Samples
+are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
 """
 
 from __future__ import annotations
@@ -58,8 +59,9 @@ class LiveSession:
         self.test_pushes = 0
         self.skipped: dict[str, int] = {}
         self.error: str | None = None
-        self._marks: deque[tuple[float, float]] = deque()  # (last sample time, arrival), in order
-        self.latencies_s: deque[float] = deque(maxlen=LATENCIES_KEPT)
+        # Per message not yet covered: [first, last sample time, samples, arrival, samples settled].
+        self._marks: deque[list[float]] = deque()
+        self.latencies_s: deque[tuple[float, int]] = deque(maxlen=LATENCIES_KEPT)
         self.latest_latency_s: float | None = None
 
     # --- input -----------------------------------------------------------------------------------
@@ -83,9 +85,10 @@ class LiveSession:
     def _use(self, messages: list[PushMessage], now_s: float) -> bool:
         for message in messages:
             self.streams.add(message)
-            last_ns = message.last_time_ns
-            if last_ns is not None and self.streams.origin_ns is not None:
-                self._marks.append(((last_ns - self.streams.origin_ns) * 1e-9, now_s))
+            gyro = message.sensors.get("Gyroscope", message.sensors.get("GyroscopeUncalibrated"))
+            if gyro is not None and len(gyro.t_ns) and self.streams.origin_ns is not None:
+                first, last = ((gyro.t_ns[[0, -1]] - self.streams.origin_ns) * 1e-9).tolist()
+                self._marks.append([first, last, len(gyro.t_ns), now_s, 0])
         grew = False
         while (chunk := self.streams.take()) is not None:
             q = self.orientation.update(chunk)
@@ -98,9 +101,18 @@ class LiveSession:
         if covered_s is None:
             return
         while self._marks and self._marks[0][0] <= covered_s + 1e-9:
-            _, arrival = self._marks.popleft()
-            self.latest_latency_s = now_s - arrival
-            self.latencies_s.append(self.latest_latency_s)
+            first, last, n, arrival, settled = self._marks[0]
+            if covered_s + 1e-9 >= last:
+                now_covered = n
+                self._marks.popleft()
+            else:  # part of the message: its samples are evenly spread over [first, last]
+                now_covered = min(n, int((covered_s - first) / (last - first) * (n - 1)) + 1)
+                self._marks[0][4] = now_covered
+            if now_covered > settled:
+                self.latest_latency_s = now_s - arrival
+                self.latencies_s.append((self.latest_latency_s, int(now_covered - settled)))
+            if now_covered < n:
+                break
         while len(self._marks) > LATENCIES_KEPT:  # messages the model never covers (a stalled sensor)
             self._marks.popleft()
 
@@ -137,10 +149,13 @@ class LiveSession:
         return float(rates.get("Gyroscope", rates.get("GyroscopeUncalibrated", 0.0)))
 
     def latency_summary(self) -> dict[str, float | None]:
-        values = np.asarray(self.latencies_s)
-        if not len(values):
+        if not self.latencies_s:
             return {"median_s": None, "p95_s": None}
-        return {"median_s": float(np.median(values)), "p95_s": float(np.percentile(values, 95))}
+        values, weights = np.asarray(self.latencies_s).T
+        return {
+            "median_s": weighted_quantile(values, weights, 0.5),
+            "p95_s": weighted_quantile(values, weights, 0.95),
+        }
 
     def warnings(self) -> list[str]:
         notes = list(self.streams.warnings)
@@ -191,3 +206,11 @@ class LiveSession:
             features=None,
             span_t_s=span_t,
         )
+
+
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of ``values`` each repeated ``weights`` times (the lower one at a tie)."""
+    order = np.argsort(values)
+    cumulative = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    index = int(np.searchsorted(cumulative, q * cumulative[-1]))
+    return float(np.asarray(values)[order][min(index, len(order) - 1)])
