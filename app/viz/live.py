@@ -147,7 +147,7 @@ class SceneLive:
         latency = "–" if info["latest_latency_s"] is None else f"{info['latest_latency_s']:.2f} s"
         state = "streaming" if info["state"] == "live" else info["state"]
         return (
-            f"📱 **{info['device_id']}** ({state}) · {info['rate_hz']:.0f} Hz · latency {latency} · "
-            f"dropped {info['dropped_messages']} · **{info['distance_m']:.1f} m** · {info['steps']} steps · "
-            f"{info['model']}"
+            f"Phone **{info['device_id']}** ({state}), {info['model']}  \n"
+            f"{info['rate_hz']:.0f} Hz, latency {latency}, dropped {info['dropped_messages']} messages  \n"
+            f"**{info['distance_m']:.1f} m** walked, {info['steps']} steps"
         )

@@ -92,8 +92,8 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
         server.gui.main_panel.set_width(400)
         server.scene.set_up_direction("+z")
         self._sequence_ids: dict[str, str] = {}  # Sequence menu label -> catalog id
+        self._build_live()  # first: the status of a walk streaming now is what matters most then
         self._build_controls()
-        self._build_live()
         self._build_plots()
         self.spectra.clear()
         self.errors.clear()
