@@ -7,11 +7,14 @@ from __future__ import annotations
 
 import io
 import math
+import threading
+import time
 import zipfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -209,3 +212,45 @@ def test_loss_duplicates_and_reordering_change_the_path_by_less_than_5_percent(
         session, tum = _replay(real_client, messages)
         assert session["dropped_messages"] > 0 and session["duplicate_messages"] > 0
         assert _path_m(tum) == pytest.approx(clean, rel=0.05), seed
+
+
+def test_a_flood_of_pushes_starves_neither_health_nor_uploads(
+    make_settings: Callable[..., Settings], server_control, csv_without_gt: bytes
+) -> None:
+    """Eight clients push as fast as they can into a small queue: pushes get 200 or 429 (never 5xx),
+    while /health answers at once and an upload still runs."""
+    server = server_control.start(make_settings(live_queue_messages=8, live_max_sessions=8))
+    statuses: list[int] = []
+    stop = threading.Event()
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 1000).with_(gt=None)
+    bodies = [m.body for m in sequence_messages(seq, 0.5)]
+
+    def flood(client_index: int) -> None:
+        with httpx.Client(base_url=server.base_url, timeout=30) as http:
+            i = 0
+            while not stop.is_set():
+                body = {**bodies[i % len(bodies)], "sessionId": f"flood-{client_index}", "messageId": i}
+                statuses.append(http.post(PUSH, json=body).status_code)
+                i += 1
+
+    threads = [threading.Thread(target=flood, args=(k,), daemon=True) for k in range(8)]
+    try:
+        for thread in threads:
+            thread.start()
+        time.sleep(1.0)
+        health_s = []
+        with httpx.Client(base_url=server.base_url, timeout=30) as http:
+            for _ in range(5):
+                t0 = time.monotonic()
+                assert http.get("/health").status_code == 200
+                health_s.append(time.monotonic() - t0)
+                time.sleep(0.2)
+            upload = http.post("/predict", files={"file": ("imu.csv", csv_without_gt, "text/csv")})
+        assert upload.status_code == 200, upload.text
+        assert max(health_s) < 1.0, health_s
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(30)
+        server_control.stop(server)
+    assert statuses and set(statuses) <= {200, 429}, set(statuses)
