@@ -43,7 +43,9 @@ from app.services.errors import (
     ConflictError,
     ForbiddenError,
     InvalidInputError,
+    NotFoundError,
     PayloadTooLargeError,
+    StartupError,
     UnauthorizedError,
 )
 from app.services.features import ModelInput
@@ -97,6 +99,11 @@ class LiveService:
     def __init__(self, settings: Settings, models: Any, runs: RunStore) -> None:
         self.settings = settings
         self.models = models  # app.services.models.ModelStore
+        if settings.live_model is not None:
+            try:
+                models.get(settings.live_model)
+            except NotFoundError as exc:
+                raise StartupError(f"FTIN_LIVE_MODEL: {exc}") from None
         self.runs = runs
         self._queue: queue.Queue[_Item] = queue.Queue(maxsize=settings.live_queue_messages)
         self._sessions: dict[Key, _Live] = {}

@@ -137,8 +137,8 @@ class SceneLive:
         target = np.asarray(position, dtype=np.float64)
         for client in self.server.get_clients().values():
             offset = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
+            client.camera.position = target + offset  # viser moves look_at along with the position
             client.camera.look_at = target
-            client.camera.position = target + offset
 
     def _live_status(self, run: Run) -> str:
         info = self.services.live.session_for_run(run.run_id)

@@ -254,3 +254,11 @@ def test_a_flood_of_pushes_starves_neither_health_nor_uploads(
             thread.join(30)
         server_control.stop(server)
     assert statuses and set(statuses) <= {200, 429}, set(statuses)
+
+
+def test_an_unknown_live_model_stops_the_start(make_settings: Callable[..., Settings]) -> None:
+    from app.services import Services
+    from app.services.errors import StartupError
+
+    with pytest.raises(StartupError, match="FTIN_LIVE_MODEL: unknown model 'nope'"):
+        Services.build(make_settings(live_model="nope"))
