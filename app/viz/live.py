@@ -55,6 +55,7 @@ class SceneLive:
     gui_sequence: viser.GuiDropdownHandle
     gui_dataset: viser.GuiDropdownHandle
     gui_time: viser.GuiSliderHandle
+    gui_progress: Any  # viser's progress bar handle
 
     show_run: Callable[[Run], None]
     _sequence_options: Callable[[str], list[str]]
@@ -131,6 +132,7 @@ class SceneLive:
             self._follow(view.trajectory.p_world_m[-1])
             self._update_time()
             self.gui_live.content = self._live_status(run)
+            self.gui_progress.visible = False  # a live run has no end to show progress towards
 
     def _follow(self, position: np.ndarray) -> None:
         """Move every camera's target to ``position``, keeping its angle and distance."""

@@ -144,7 +144,15 @@ class SensorStreams:
                 return None
         cal = self.calibration
         step = 1.0 / self.rate_hz
-        covered = min(float(self._t[k][-1]) for k in cal.required) - step
+        ends = {k: float(self._t[k][-1]) for k in cal.required}
+        newest = max(float(t[-1]) for t in self._t.values())
+        stalled = min(ends, key=ends.__getitem__)
+        if newest - ends[stalled] > sensor_clock.MAX_BRIDGED_GAP_S:
+            raise DataFormatError(
+                f"{self.source}: {stalled} stopped arriving {newest - ends[stalled]:.1f} s ago while other "
+                "sensors go on; the trajectory cannot continue without it (tick it in Sensor Logger again)"
+            )
+        covered = min(ends.values()) - step
         end = int(np.floor((covered - cal.grid_start_s) * self.rate_hz + 1e-9)) + 1
         if end - self.next_index < 2:
             return None
