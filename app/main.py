@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 import ftin
 from app.api.errors import BodySizeLimitMiddleware, install_error_handlers
-from app.api.routes import exports, health, metrics, models, pages, predict, runs, sequences
+from app.api.routes import exports, health, live, metrics, models, pages, predict, runs, sequences
 from app.api.routes.pages import STATIC_DIR
 from app.services import Services
 from app.services.errors import StartupError
@@ -37,7 +37,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     threads_before = torch.get_num_threads()
     if settings.torch_threads:
         torch.set_num_threads(settings.torch_threads)
-    scene = None
+    scene = services = None
     try:
         try:
             services = await run_in_threadpool(Services.build, settings)
@@ -56,6 +56,8 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         app.state.services, app.state.scene = services, scene
         yield
     finally:
+        if services is not None:
+            services.live.stop()  # running live sessions end as runs
         if scene is not None:
             scene.stop()
         app.state.scene = None
@@ -78,7 +80,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     app.add_middleware(BodySizeLimitMiddleware, max_body_bytes=app.state.settings.max_upload_bytes)
     install_error_handlers(app)
-    for module in (health, models, metrics, sequences, predict, runs, exports, pages):
+    for module in (health, models, metrics, sequences, predict, runs, exports, live, pages):
         app.include_router(module.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     return app

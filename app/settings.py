@@ -18,6 +18,8 @@ Decisions:
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
   slow each other down, and each holds its windows in memory); finished runs are kept while they
   hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs).
+- Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue; a push
+  from another machine is refused unless ``FTIN_LIVE_TOKEN`` is set, and then must carry it.
 - ``FTIN_TORCH_THREADS`` (default 1) sets torch's intra-op threads for the whole process while the
   app runs. One thread, because the app shares its CPU with the event loop, viser and the drawing
   thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
@@ -76,6 +78,16 @@ class Settings(BaseSettings):
     )
     max_concurrent_inferences: int = Field(1, ge=1, description="Predictions that may run at once.")
     torch_threads: int = Field(1, ge=0, description="torch intra-op threads (0: torch's default).")
+    # Live phone streams (POST /live/sensorlogger; app.services.live has the decisions).
+    live_token: str | None = Field(
+        None, min_length=8, description="Token a push must carry (?token=); required for pushes from the LAN."
+    )
+    live_model: str | None = Field(None, description="Model for live sessions (default: the default model).")
+    live_max_sessions: int = Field(4, ge=1, description="Live sessions running at once.")
+    live_max_session_s: float = Field(3600.0, gt=0, description="Longest live session, in seconds of data.")
+    live_idle_s: float = Field(30.0, gt=0, description="A live session without messages this long ends.")
+    live_max_body_kb: float = Field(2048.0, gt=0, description="Largest push message, in KiB.")
+    live_queue_messages: int = Field(256, ge=1, description="Push messages waiting to be used (429 beyond).")
 
     @field_validator("data_dirs", mode="before")
     @classmethod

@@ -119,7 +119,7 @@ def predict_trajectory(
     else:
         window, parts = _window_and_parts(loaded, seq, n, notes)
         starts = prepared.starts if window == loaded.window else window_starts(n, window, stride)
-        part_velocity, features = _run_windows(
+        part_velocity, features = run_windows(
             loaded, prepared.imu_world, starts, window, parts, batch_size, progress, return_features
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
@@ -261,7 +261,7 @@ def integrate_spans(
     return p
 
 
-def _run_windows(
+def run_windows(
     loaded: LoadedModel,
     imu: np.ndarray,
     starts: np.ndarray,

@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from ftin.checkpoint import atomic_write_text
+from ftin.files import atomic_write_text
 from ftin.train.provenance import absolute_paths_in, convert_card
 
 

@@ -1,7 +1,8 @@
 """Every error leaves the API as ``{"detail": "<plain words>"}`` with a 4xx status.
 
 - Service errors map to statuses by kind (404 unknown, 410 a run dropped from memory, 422 unusable
-  data, 413 too large, 409 taken, 504 inference over its time limit).
+  data, 413 too large, 409 taken, 504 inference over its time limit; live pushes: 401 no or wrong
+  token, 403 from the LAN without a token configured, 429 too busy).
 - Anything unexpected is logged with its traceback and answers 500 with the same JSON shape (bad
   input must never get there: the tests and the fuzzers hold that).
 - FastAPI's validation errors become one readable sentence naming the parameter or field.
@@ -22,13 +23,16 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.schemas import ErrorResponse
 from app.services.errors import (
+    BusyError,
     ConflictError,
+    ForbiddenError,
     InferenceTimeoutError,
     InvalidInputError,
     NotFoundError,
     PayloadTooLargeError,
     RunExpiredError,
     ServiceError,
+    UnauthorizedError,
 )
 
 STATUS_BY_ERROR: dict[type[ServiceError], int] = {
@@ -38,6 +42,9 @@ STATUS_BY_ERROR: dict[type[ServiceError], int] = {
     PayloadTooLargeError: 413,
     ConflictError: 409,
     InferenceTimeoutError: 504,
+    UnauthorizedError: 401,
+    ForbiddenError: 403,
+    BusyError: 429,
 }
 
 log = logging.getLogger("ftin.app")

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from app.services.catalog import SequenceCatalog
 from app.services.checkpoint_store import ModelStore
+from app.services.live import LiveService
 from app.services.prediction import PredictionService
 from app.services.runs import RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
@@ -18,6 +19,7 @@ class Services:
     catalog: SequenceCatalog
     runs: RunStore
     predictor: PredictionService
+    live: LiveService
     scene_url: str | None = None  # set once the viser server runs
 
     @classmethod
@@ -29,7 +31,7 @@ class Services:
         catalog = SequenceCatalog.scan(settings.data_dirs, bundled_dir=BUNDLED_SAMPLES_DIR)
         runs = RunStore(settings.max_runs, settings.max_kept_samples)
         predictor = PredictionService(models, catalog, runs, settings)
-        return cls(settings, models, catalog, runs, predictor)
+        return cls(settings, models, catalog, runs, predictor, LiveService(settings, models, runs))
 
     @property
     def notes(self) -> list[str]:

@@ -34,5 +34,17 @@ class ConflictError(ServiceError):
     """A client-chosen run id is already in use (HTTP 409)."""
 
 
+class UnauthorizedError(ServiceError):
+    """A live push without the configured token, or with a wrong one (HTTP 401)."""
+
+
+class ForbiddenError(ServiceError):
+    """A live push from the LAN while no token is configured (HTTP 403)."""
+
+
+class BusyError(ServiceError):
+    """Too many live sessions or queued messages: try again later (HTTP 429)."""
+
+
 class StartupError(RuntimeError):
     """The app cannot start with this configuration (corrupt checkpoint, missing default model)."""

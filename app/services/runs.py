@@ -92,6 +92,9 @@ class RunListener:
 
     def run_finished(self, run: Run) -> None: ...
 
+    def run_updated(self, run: Run) -> None:
+        """A live run grew (``RunStore.update``); ``run_finished`` follows when it ends."""
+
     def run_failed(self, status: RunStatus) -> None: ...
 
     def run_focused(self, run: Run) -> None: ...
@@ -105,6 +108,7 @@ class RunStore:
         self.max_runs = max_runs
         self.max_kept_samples = max_kept_samples
         self._runs: OrderedDict[str, Run] = OrderedDict()
+        self._live: dict[str, Run] = {}  # runs still growing (live phone sessions): never dropped
         self._status: OrderedDict[str, RunStatus] = OrderedDict()
         # Ids of runs dropped from memory (-> "model on sequence"), to say "expired", not "unknown".
         self._expired: OrderedDict[str, str] = OrderedDict()
@@ -151,8 +155,18 @@ class RunStore:
             status.done, status.total = int(done), int(total)
         self._notify("run_progress", status)
 
+    def update(self, run: Run) -> None:
+        """A running run's result so far (a live session's trajectory): served and shown as it grows."""
+        with self._lock:
+            self._live[run.run_id] = run
+            status = self._status.get(run.run_id)
+            if status is not None:
+                status.done = status.total = run.n_samples
+        self._notify("run_updated", run)
+
     def finish(self, run: Run) -> None:
         with self._lock:
+            self._live.pop(run.run_id, None)
             self._runs[run.run_id] = run
             while len(self._runs) > self.max_runs or (
                 len(self._runs) > 1
@@ -192,7 +206,7 @@ class RunStore:
 
     def get(self, run_id: str) -> Run:
         with self._lock:
-            run = self._runs.get(run_id)
+            run = self._runs.get(run_id) or self._live.get(run_id)
             expired = self._expired.get(run_id)
         if run is None and expired is not None:
             raise RunExpiredError(
@@ -208,7 +222,7 @@ class RunStore:
 
     def list(self) -> list[Run]:
         with self._lock:
-            return list(self._runs.values())
+            return [*self._runs.values(), *self._live.values()]
 
     def _trim_status(self) -> None:
         # Statuses are tiny, but a long-lived server should not keep them forever.

@@ -2,8 +2,8 @@
 
 Modules, one job each: ``controls`` (GUI folders, their callbacks and actions), ``overlay``
 (drawing of runs), ``timeline`` (slider and playback), ``summary`` (legend and metrics table),
-``panels`` (the Spectra / Error tabs); this one holds the scene's state, its lifecycle and the
-``RunListener`` callbacks that bring runs from any door.
+``panels`` (the Spectra / Error tabs), ``live`` (following a phone's live walk); this one holds the
+scene's state, its lifecycle and the ``RunListener`` callbacks that bring runs from any door.
 
 Layout (shared by every connected browser, so everyone sees every result):
 - control panel folders "Data" (dataset -> sequence), "Models" (one checkbox per checkpoint: several
@@ -51,6 +51,7 @@ from app.services.errors import ServiceError
 from app.services.runs import Run, RunListener, RunState, RunStatus
 from app.viz.controls import SceneControls
 from app.viz.drawing import GridNodes, PathNodes
+from app.viz.live import SceneLive
 from app.viz.overlay import SceneOverlay
 from app.viz.palette import ColorBook
 from app.viz.run_scene_data import RunView
@@ -60,7 +61,7 @@ from ftin.data import ImuSequence
 log = logging.getLogger(__name__)
 
 
-class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, RunListener):
+class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunListener):
     """The scene's state (one lock guards it), lifecycle and run callbacks; the GUI, the drawing of
     runs and the timeline come from the mixins, which share this state."""
 
@@ -91,6 +92,7 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, RunListener):
         server.gui.main_panel.set_width(400)
         server.scene.set_up_direction("+z")
         self._sequence_ids: dict[str, str] = {}  # Sequence menu label -> catalog id
+        self._build_live()  # first: the status of a walk streaming now is what matters most then
         self._build_controls()
         self._build_plots()
         self.spectra.clear()
@@ -103,6 +105,7 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, RunListener):
         server = viser.ViserServer(host=host, port=port, label="FTIN Studio", verbose=False)
         scene = cls(server, services, host)
         services.runs.subscribe(scene)
+        services.live.scene_reports_drawing = True  # live latency ends on screen (SceneLive.drawn)
         if show_first_run:
             scene.run_first_sequence()
         return scene

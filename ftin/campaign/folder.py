@@ -26,7 +26,7 @@ from typing import Any
 import ftin
 from ftin import protocol
 from ftin.campaign import CampaignError
-from ftin.checkpoint import atomic_write_text
+from ftin.files import atomic_write_text
 
 STATE_FILE = "campaign.json"
 JOB_FILE = "job.json"

@@ -216,7 +216,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
             "GyroscopeUncalibrated.csv used (no Gyroscope.csv): gyro bias not removed by the phone"
         )
 
-    acc_keys = _acceleration_keys(series, source, files)
+    acc_keys = acceleration_keys(series, source, ", ".join(files.names()) or "no CSV files")
     clock = sensor_clock.common_clock([series[gyro_key], *(series[k] for k in acc_keys)], source)
     on = {k: sensor_clock.on_clock(series[k], clock, source, warnings) for k in (gyro_key, *acc_keys)}
 
@@ -264,7 +264,9 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     return validate_read(seq)  # the checks every reader shares
 
 
-def _acceleration_keys(series: dict[str, SensorSeries], source: str, files: ExportFiles) -> list[str]:
+def acceleration_keys(series: dict[str, SensorSeries], source: str, present: str) -> list[str]:
+    """The series that give the specific force (see the module docstring); ``present`` lists what the
+    recording has, for the error message. Shared with the live stream (``ftin.live``)."""
     if "TotalAcceleration" in series:
         return ["TotalAcceleration"]
     if "Accelerometer" in series:
@@ -283,7 +285,6 @@ def _acceleration_keys(series: dict[str, SensorSeries], source: str, files: Expo
         )
     if "AccelerometerUncalibrated" in series:
         return ["AccelerometerUncalibrated"]
-    present = ", ".join(files.names()) or "no CSV files"
     raise DataFormatError(
         f"{source}: no accelerometer (Accelerometer.csv with Gravity.csv, or TotalAcceleration.csv) in this "
         f"Sensor Logger export ({present}); {_FIX}"

@@ -1,0 +1,196 @@
+"""Live phone streams: POST /live/sensorlogger (Sensor Logger's HTTP Push), GET /live/sessions, and
+GET /live/info (the push URL to type into the app). The decisions are in ``app.services.live``."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import time
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Request
+from pydantic import BaseModel, Field
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import ModelQuery, ServicesDep
+from app.schemas import ErrorResponse
+from app.services.errors import BusyError, PayloadTooLargeError
+from app.services.live import PARSERS, is_local
+
+router = APIRouter(tags=["live"])
+
+MAX_WAITING = 32  # pushes waiting for a parser before the next one gets 429
+PUSH_PATH = "/live/sensorlogger"
+
+TokenQuery = Annotated[
+    str | None, Query(description="The live token (FTIN_LIVE_TOKEN), when set.", max_length=200)
+]
+PlatformQuery = Annotated[
+    str | None,
+    Query(
+        description="android or ios: decides the acceleration sign when the phone streams no orientation.",
+        max_length=20,
+    ),
+]
+
+
+class LivePushResponse(BaseModel):
+    status: str = "ok"
+    test: bool = Field(description="True for Sensor Logger's 'Tap to Test Pushing' message.")
+    detail: str | None = None
+    run_id: str | None = Field(None, description="The session's run, once its first window has run.")
+    queued: int | None = Field(None, description="Messages waiting to be used.")
+
+
+class LiveSessionInfo(BaseModel):
+    session_id: str
+    device_id: str
+    part: int = Field(description="2, 3, ... when a session resumed after it ended idle.")
+    run_id: str | None = Field(
+        description="GET /runs/{run_id}/trajectory.tum etc.; null before the first window."
+    )
+    name: str
+    model: str
+    state: str = Field(description="live, ended or failed.")
+    ended_because: str | None
+    samples: int = Field(description="Samples on the model's clock so far.")
+    duration_s: float
+    rate_hz: float = Field(description="The gyroscope's rate as it arrives.")
+    latency_s: float | None = Field(
+        description="Median from a message's arrival to the trajectory covering it."
+    )
+    latency_p95_s: float | None
+    latest_latency_s: float | None
+    messages: int
+    dropped_messages: int = Field(description="Lost, or too late to use.")
+    duplicate_messages: int
+    distance_m: float = Field(description="Horizontal path length so far.")
+    steps: int
+    orientation: str | None = Field(description="device (the phone's own) or estimated (VQF online).")
+    warnings: list[str]
+
+
+class LiveInfoResponse(BaseModel):
+    push_path: str
+    local_url: str = Field(description="The push URL on this machine.")
+    lan_url: str | None = Field(
+        description="The push URL for a phone on the LAN (token included when shown)."
+    )
+    token_required: bool
+    token_shown: bool = Field(description="The token is shown only to a browser on this machine.")
+    note: str
+    sessions: list[LiveSessionInfo]
+
+
+async def _body(request: Request, limit: int) -> bytes:
+    declared = request.headers.get("content-length", "")
+    if declared.isdigit() and int(declared) > limit:
+        raise PayloadTooLargeError(
+            f"push message of {int(declared) / 1024:.0f} KiB; the limit is {limit / 1024:.0f} KiB "
+            "(FTIN_LIVE_MAX_BODY_KB)"
+        )
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > limit:
+            raise PayloadTooLargeError(
+                f"push message larger than {limit / 1024:.0f} KiB (FTIN_LIVE_MAX_BODY_KB)"
+            )
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+class _Gate:
+    """At most PARSERS bodies parsed at once, at most MAX_WAITING waiting (429 beyond)."""
+
+    def __init__(self) -> None:
+        self.semaphore = asyncio.Semaphore(PARSERS)
+        self.waiting = 0
+
+
+def _gate(request: Request) -> _Gate:
+    gate = getattr(request.app.state, "live_gate", None)
+    if gate is None:
+        gate = request.app.state.live_gate = _Gate()
+    return gate
+
+
+@router.post(
+    PUSH_PATH,
+    response_model=LivePushResponse,
+    responses={code: {"model": ErrorResponse} for code in (401, 403, 404, 409, 413, 422, 429)},
+)
+async def push(
+    request: Request,
+    services: ServicesDep,
+    token: TokenQuery = None,
+    model: ModelQuery = None,
+    platform: PlatformQuery = None,
+) -> LivePushResponse:
+    """One Sensor Logger push message (JSON: messageId, sessionId, deviceId, payload). Set the app's
+    HTTP Push URL to this address (GET /live/info has it, with the token)."""
+    arrival_s = time.monotonic()
+    auth = request.headers.get("authorization", "")
+    if token is None and auth.lower().startswith("bearer "):
+        token = auth[7:].strip()
+    live = services.live
+    live.check_access(request.client.host if request.client else None, token)
+    body = await _body(request, live.max_body_bytes)
+    gate = _gate(request)
+    if gate.waiting >= MAX_WAITING:
+        raise BusyError("too many push messages at once; this one was dropped")
+    gate.waiting += 1
+    try:
+        await gate.semaphore.acquire()
+    finally:
+        gate.waiting -= 1
+    try:
+        answer = await run_in_threadpool(live.accept, body, arrival_s, model, platform)
+    finally:
+        gate.semaphore.release()
+    return LivePushResponse(**answer)
+
+
+@router.get("/live/sessions", response_model=list[LiveSessionInfo])
+async def sessions(services: ServicesDep) -> list[LiveSessionInfo]:
+    """Running live sessions first, then the latest ended ones."""
+    return [LiveSessionInfo(**s) for s in services.live.sessions()]
+
+
+def lan_address() -> str | None:
+    """This machine's address on its LAN (the interface of the default route; nothing is sent)."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            probe.connect(("192.0.2.1", 9))  # TEST-NET-1: a UDP connect only picks the route
+            address = probe.getsockname()[0]
+    except OSError:
+        return None
+    return None if address.startswith("127.") or address == "0.0.0.0" else address
+
+
+@router.get("/live/info", response_model=LiveInfoResponse)
+def info(request: Request, services: ServicesDep) -> LiveInfoResponse:
+    """The push URL to type into Sensor Logger (Settings > Data Streaming > HTTP Push)."""
+    settings = services.settings
+    port = request.url.port or (443 if request.url.scheme == "https" else 80)
+    local = is_local(request.client.host if request.client else None)
+    token = settings.live_token
+    query = "" if token is None else f"?token={token if local else '<FTIN_LIVE_TOKEN>'}"
+    lan = lan_address()
+    note = (
+        "The app listens on 127.0.0.1 unless started with --host 0.0.0.0 (uvicorn); a phone on the LAN "
+        "also needs FTIN_LIVE_TOKEN set, and the token in the URL."
+        if token is None
+        else "Pushes must carry the token; a phone on the LAN reaches the app when it was started with "
+        "--host 0.0.0.0."
+    )
+    body: dict[str, Any] = {
+        "push_path": PUSH_PATH,
+        "local_url": f"http://127.0.0.1:{port}{PUSH_PATH}{query}",
+        "lan_url": None if lan is None else f"http://{lan}:{port}{PUSH_PATH}{query}",
+        "token_required": token is not None,
+        "token_shown": token is not None and local,
+        "note": note,
+        "sessions": [LiveSessionInfo(**s) for s in services.live.sessions()],
+    }
+    return LiveInfoResponse(**body)

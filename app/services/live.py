@@ -1,0 +1,410 @@
+"""Live phone sessions: Sensor Logger's HTTP Push messages in, runs that grow as the person walks.
+
+``LiveService.check_access`` and ``accept`` run for each ``POST /live/sensorlogger`` (in the
+request's thread: checks and parsing only); one worker thread does the rest (``ftin.live``: order,
+clock, orientation, model) and hands every live run's trajectory so far to the run store
+(``RunStore.update``), so ``GET /runs/{run_id}/trajectory.*`` and the 3D scene see it grow.
+
+Decisions:
+- One session per (``sessionId``, ``deviceId``); it is a run from its first window on. A session
+  without messages for ``FTIN_LIVE_IDLE_S`` ends and stays an ordinary run; so does one that reached
+  ``FTIN_LIVE_MAX_SESSION_S`` or ``FTIN_MAX_SAMPLES`` (later messages of it get 409). A message of an
+  idle-ended session starts a new part (a phone that lost the network for a while).
+- Safety: a push from another machine than this one is refused (403) unless ``FTIN_LIVE_TOKEN`` is
+  set, and with a token every push must carry it (``?token=`` in the push URL, or a bearer header).
+  Bodies (``FTIN_LIVE_MAX_BODY_KB``), sessions (``FTIN_LIVE_MAX_SESSIONS``) and the queue
+  (``FTIN_LIVE_QUEUE_MESSAGES``) are bounded: beyond them a push gets 413 or 429 at once, and the
+  message is lost as on a bad network (which a session tolerates). The route parses in at most
+  ``PARSERS`` worker threads at a time, so a flood cannot take the threads uploads run in, and
+  ``/health`` stays on the event loop.
+- The worker uses every message queued before it publishes, so a backlog costs one publication, not
+  one per message; a publication costs O(1) (views of the growing arrays).
+- Live inference does not take an inference slot (``InferenceSlots``): a long upload would stall
+  the walk for its whole duration; both share the CPU instead.
+- Latency: from a message's arrival to the publication (to the scene's drawing when a scene shows
+  it: ``drawn``) of a trajectory that covers its last sample.
+"""
+
+from __future__ import annotations
+
+import hmac
+import ipaddress
+import json
+import logging
+import queue
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+from app.services.errors import (
+    BusyError,
+    ConflictError,
+    ForbiddenError,
+    InvalidInputError,
+    NotFoundError,
+    PayloadTooLargeError,
+    StartupError,
+    UnauthorizedError,
+)
+from app.services.features import ModelInput
+from app.services.runs import Run, RunStore
+from app.settings import Settings
+from ftin.data.errors import DataFormatError
+from ftin.live.messages import MessageError, PushMessage, parse_push
+from ftin.live.session import LiveSession
+
+log = logging.getLogger(__name__)
+
+PARSERS = 2  # push bodies parsed at once (threads); the rest wait on the event loop
+TICK_S = 0.05  # the worker's look at held messages and idle sessions
+DRAIN_MESSAGES = 256  # messages used before one publication
+CLOSED_KEPT = 20
+PLATFORMS = ("android", "ios")
+
+Key = tuple[str, str]
+
+
+@dataclass
+class _Item:
+    message: PushMessage
+    arrival_s: float
+    model: str | None
+    platform: str | None
+
+
+@dataclass
+class _Live:
+    session: LiveSession
+    part: int
+    run_id: str | None = None
+    name: str = ""
+    model_name: str = ""
+    state: str = "live"  # "live", "ended", "failed"
+    ended_because: str | None = None
+
+
+def is_local(host: str | None) -> bool:
+    """Whether a client address is this machine (no address or a test client's name: local too)."""
+    if not host:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host in ("testclient", "localhost")
+
+
+class LiveService:
+    def __init__(self, settings: Settings, models: Any, runs: RunStore) -> None:
+        self.settings = settings
+        self.models = models  # app.services.checkpoint_store.ModelStore
+        if settings.live_model is not None:
+            try:
+                models.get(settings.live_model)
+            except NotFoundError as exc:
+                raise StartupError(f"FTIN_LIVE_MODEL: {exc}") from None
+        self.runs = runs
+        self._queue: queue.Queue[_Item] = queue.Queue(maxsize=settings.live_queue_messages)
+        self._sessions: dict[Key, _Live] = {}
+        self._closed: deque[_Live] = deque(maxlen=CLOSED_KEPT)
+        self._too_long: deque[Key] = deque(maxlen=1024)  # keys that may not continue
+        self._lock = threading.Lock()  # sessions and their figures
+        self._stop = threading.Event()
+        self._worker: threading.Thread | None = None
+        self.scene_reports_drawing = False  # the 3D scene calls drawn(): latency to the drawing
+        self.followed_run_id: str | None = None  # the run the scene follows (set by the scene)
+        self.test_pushes = 0
+        self.refused = 0
+
+    # --- the request side ------------------------------------------------------------------------
+
+    def check_access(self, client_host: str | None, token: str | None) -> None:
+        expected = self.settings.live_token
+        if expected is None:
+            if not is_local(client_host):
+                raise ForbiddenError(
+                    f"live pushes from other machines ({client_host}) are refused until a token is set: "
+                    "start the app with FTIN_LIVE_TOKEN=<a secret of 8+ characters> and put "
+                    "?token=<it> at the end of Sensor Logger's push URL"
+                )
+            return
+        if token is None or not hmac.compare_digest(token.encode(), expected.encode()):
+            raise UnauthorizedError(
+                "this app needs the live token: add ?token=<FTIN_LIVE_TOKEN> to the push URL "
+                "(the upload page shows the whole URL)"
+                if token is None
+                else "wrong live token: copy the push URL from the upload page again"
+            )
+
+    @property
+    def max_body_bytes(self) -> int:
+        return int(self.settings.live_max_body_kb * 1024)
+
+    def accept(
+        self, body: bytes, arrival_s: float, model: str | None = None, platform: str | None = None
+    ) -> dict[str, Any]:
+        """Check and queue one push body; the answer for the phone (raises 4xx service errors)."""
+        if len(body) > self.max_body_bytes:
+            raise PayloadTooLargeError(
+                f"push message of {len(body) / 1024:.0f} KiB; the limit is "
+                f"{self.settings.live_max_body_kb:g} KiB (FTIN_LIVE_MAX_BODY_KB): shorten Sensor Logger's "
+                "batch period or tick fewer sensors"
+            )
+        if platform is not None and platform.lower() not in PLATFORMS:
+            raise InvalidInputError(f"platform must be one of {', '.join(PLATFORMS)}; got {platform!r}")
+        try:
+            decoded = json.loads(body)
+        except (ValueError, RecursionError) as exc:
+            raise InvalidInputError(f"the body is not JSON ({exc}); Sensor Logger pushes JSON") from None
+        try:
+            message = parse_push(decoded)
+        except MessageError as exc:
+            raise InvalidInputError(str(exc)) from None
+        if message.is_test:
+            self.test_pushes += 1
+            return {"status": "ok", "test": True, "detail": "FTIN Studio received the test push"}
+        if model is not None:
+            self.models.get(model)  # 404 for an unknown model now, not in the worker
+        key = (message.session_id, message.device_id)
+        with self._lock:
+            known = key in self._sessions
+            if key in self._too_long:
+                raise ConflictError(
+                    f"live session {message.session_id} reached its limit (FTIN_LIVE_MAX_SESSION_S "
+                    f"{self.settings.live_max_session_s:g} s, FTIN_MAX_SAMPLES) and was ended: "
+                    "start a new recording"
+                )
+            if not known and len(self._sessions) >= self.settings.live_max_sessions:
+                self.refused += 1
+                raise BusyError(
+                    f"{len(self._sessions)} live sessions are running, the most this app takes "
+                    "(FTIN_LIVE_MAX_SESSIONS); stop one or wait until it ends"
+                )
+            live = self._sessions.get(key)
+            run_id = live.run_id if live is not None else None
+        try:
+            self._queue.put_nowait(_Item(message, arrival_s, model, platform and platform.lower()))
+        except queue.Full:
+            self.refused += 1
+            raise BusyError(
+                f"the live queue is full ({self.settings.live_queue_messages} messages waiting, "
+                "FTIN_LIVE_QUEUE_MESSAGES): this message was dropped"
+            ) from None
+        self._ensure_worker()
+        return {"status": "ok", "test": False, "run_id": run_id, "queued": self._queue.qsize()}
+
+    # --- figures -----------------------------------------------------------------------------------
+
+    def sessions(self) -> list[dict[str, Any]]:
+        """Running sessions first, then the latest ended ones."""
+        with self._lock:
+            lives = [*self._sessions.values(), *reversed(self._closed)]
+            return [self._summary(live) for live in lives]
+
+    def session_for_run(self, run_id: str) -> dict[str, Any] | None:
+        with self._lock:
+            for live in [*self._sessions.values(), *self._closed]:
+                if live.run_id == run_id:
+                    return self._summary(live)
+        return None
+
+    def _summary(self, live: _Live) -> dict[str, Any]:
+        s = live.session
+        latency = s.latency_summary()
+        return {
+            "session_id": s.session_id,
+            "device_id": s.device_id,
+            "part": live.part,
+            "run_id": live.run_id,
+            "name": live.name,
+            "model": live.model_name,
+            "state": live.state,
+            "ended_because": live.ended_because,
+            "samples": s.n_samples,
+            "duration_s": round(s.duration_s, 2),
+            "rate_hz": s.rate_hz(),
+            "latency_s": latency["median_s"],
+            "latency_p95_s": latency["p95_s"],
+            "latest_latency_s": s.latest_latency_s,
+            "messages": s.messages,
+            "dropped_messages": s.dropped_messages,
+            "duplicate_messages": s.order.duplicates,
+            "distance_m": round(s.distance_m(), 2),
+            "steps": s.steps,
+            "orientation": s.orientation.source,
+            "warnings": s.warnings(),
+        }
+
+    def is_running(self, run_id: str) -> bool:
+        with self._lock:
+            return any(live.run_id == run_id for live in self._sessions.values())
+
+    def drawn(self, run_id: str, covered_s: float | None) -> None:
+        """The scene has drawn ``run_id`` up to ``covered_s`` (seconds of its data)."""
+        now = time.monotonic()
+        with self._lock:
+            for live in self._sessions.values():
+                if live.run_id == run_id:
+                    live.session.mark_effect(covered_s, now)
+
+    # --- the worker --------------------------------------------------------------------------------
+
+    def _ensure_worker(self) -> None:
+        if self._worker is None or not self._worker.is_alive():
+            with self._lock:
+                if self._worker is None or not self._worker.is_alive():
+                    self._stop.clear()
+                    self._worker = threading.Thread(target=self._work, name="ftin-live", daemon=True)
+                    self._worker.start()
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        """End the worker; running sessions end as runs."""
+        self._stop.set()
+        if self._worker is not None:
+            self._worker.join(timeout_s)
+        with self._lock:
+            keys = list(self._sessions)
+        for key in keys:
+            self._end(key, "the app stopped")
+
+    def wait_idle(self, timeout_s: float = 30.0) -> None:
+        """Wait until every queued message is used (tests, the benchmark)."""
+        deadline = time.monotonic() + timeout_s
+        while self._queue.unfinished_tasks and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+    def end_all(self, reason: str = "ended on request") -> None:
+        """End every running session now (tests, the replay's end)."""
+        self.wait_idle()
+        with self._lock:
+            keys = list(self._sessions)
+        for key in keys:
+            self._end(key, reason)
+
+    def _work(self) -> None:
+        while not self._stop.is_set():
+            touched: set[Key] = set()
+            try:
+                items = [self._queue.get(timeout=TICK_S)]
+            except queue.Empty:
+                items = []
+            while items and len(items) < DRAIN_MESSAGES:
+                try:
+                    items.append(self._queue.get_nowait())
+                except queue.Empty:
+                    break
+            for item in items:
+                try:
+                    key = self._use(item)
+                    if key is not None:
+                        touched.add(key)
+                except Exception:  # a bug must not stop every session
+                    log.exception("live message could not be used")
+                finally:
+                    self._queue.task_done()
+            try:
+                self._housekeeping(touched)
+            except Exception:
+                log.exception("live housekeeping failed")
+
+    def _use(self, item: _Item) -> Key | None:
+        key = (item.message.session_id, item.message.device_id)
+        with self._lock:
+            live = self._sessions.get(key)
+            if live is None:
+                if key in self._too_long:
+                    return None
+                entry = self.models.get(item.model or self.settings.live_model)
+                part = 1 + sum(1 for c in self._closed if (c.session.session_id, c.session.device_id) == key)
+                session = LiveSession(
+                    key[0], key[1], entry.loaded, platform=item.platform, now_s=item.arrival_s
+                )
+                live = _Live(session, part, model_name=entry.name)
+                live.name = _session_name(key[1], part)
+                self._sessions[key] = live
+            try:
+                live.session.receive(item.message, item.arrival_s)
+            except DataFormatError as exc:
+                live.state, live.ended_because = "failed", str(exc)
+        return key
+
+    def _housekeeping(self, touched: set[Key]) -> None:
+        now = time.monotonic()
+        with self._lock:
+            lives = dict(self._sessions)
+        for key, live in lives.items():
+            s = live.session
+            if live.state == "failed":
+                self._end(key, live.ended_because or "failed")
+                continue
+            try:
+                if s.tick(now):
+                    touched.add(key)
+            except DataFormatError as exc:
+                live.state, live.ended_because = "failed", str(exc)
+                self._end(key, str(exc))
+                continue
+            if key in touched:
+                self._publish(live)
+            if now - s.last_message_s > self.settings.live_idle_s:
+                self._end(key, f"no message for {self.settings.live_idle_s:g} s (FTIN_LIVE_IDLE_S)")
+            elif s.duration_s >= self.settings.live_max_session_s or s.n_samples >= self.settings.max_samples:
+                self._too_long.append(key)
+                self._end(key, "reached FTIN_LIVE_MAX_SESSION_S / FTIN_MAX_SAMPLES")
+
+    def _run(self, live: _Live) -> Run:
+        s = live.session
+        p = s.predictor
+        model_input = ModelInput(p.imu_world(), p.window_starts(), p.window) if not p.streams else None
+        return Run(
+            live.run_id or "",
+            live.model_name,
+            s.sequence(live.name),
+            s.prediction(),
+            "live",
+            None,
+            model_input,
+        )
+
+    def _publish(self, live: _Live) -> None:
+        s = live.session
+        if not s.has_trajectory:
+            return
+        if live.run_id is None:
+            live.run_id = self.runs.new_id()
+            self.runs.start(live.run_id, live.model_name, live.name)
+        with self._lock:
+            run = self._run(live)
+        self.runs.update(run)
+        if not self.scene_reports_drawing or live.run_id != self.followed_run_id:
+            with self._lock:
+                s.mark_effect(s.predictor.covered_until_s, time.monotonic())
+
+    def _end(self, key: Key, reason: str) -> None:
+        with self._lock:
+            live = self._sessions.pop(key, None)
+            if live is None:
+                return
+            try:
+                live.session.finish(time.monotonic())
+            except DataFormatError as exc:
+                live.state, reason = "failed", str(exc)
+            if live.state == "live":
+                live.state = "ended"
+            live.ended_because = reason
+            self._closed.append(live)
+        if live.session.has_trajectory:
+            if live.run_id is None:
+                live.run_id = self.runs.new_id()
+                self.runs.start(live.run_id, live.model_name, live.name)
+            with self._lock:
+                run = self._run(live)
+            self.runs.update(run)  # viewers draw the last of it as they drew the rest
+            self.runs.finish(run)
+        log.info("live session %s ended: %s", live.name, reason)
+
+
+def _session_name(device_id: str, part: int) -> str:
+    stamp = time.strftime("%H:%M:%S")
+    return f"live {device_id[:12]} {stamp}" + (f" part {part}" if part > 1 else "")

@@ -1,0 +1,215 @@
+"""One phone's live recording: push messages in, a growing trajectory and its figures out.
+
+``LiveSession.receive(message, now)`` takes one parsed message (in any order, duplicates included),
+``tick(now)`` gives up on messages that stay missing, ``finish()`` uses what is left. After each,
+``prediction()`` is the trajectory so far (views of the growing arrays, no copies) once the first
+window has run.
+
+Latency (``latencies_s``, per sample): from the arrival of the message that carried a sample to the
+moment the trajectory covers it, i.e. a window (or, for streaming models, a frame) ending at or after
+it was integrated and the result was handed on (``mark_effect``, called by whoever shows it). Samples
+are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from ftin.checkpoint import LoadedModel
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.infer import FRAME_DEVICE_WORLD, Prediction
+from ftin.live.grid import SensorStreams
+from ftin.live.incremental import IncrementalPredictor
+from ftin.live.messages import PushMessage
+from ftin.live.ordering import MessageOrder
+from ftin.live.orientation import ONLINE_FILTER, CausalOrientation
+from ftin.live.steps import StepCounter
+
+LATENCIES_KEPT = 2048
+DATASET = "sensorlogger-live"
+
+
+class LiveSession:
+    def __init__(
+        self,
+        session_id: str,
+        device_id: str,
+        loaded: LoadedModel,
+        *,
+        platform: str | None = None,
+        hold_s: float = 0.5,
+        now_s: float | None = None,
+    ) -> None:
+        now_s = time.monotonic() if now_s is None else now_s
+        self.session_id, self.device_id = session_id, device_id
+        self.model_name = loaded.name
+        self.source = f"live stream {device_id}/{session_id}"
+        self.order = MessageOrder(hold_s)
+        self.streams = SensorStreams(loaded.imu_rate_hz, platform, self.source)
+        self.orientation = CausalOrientation(loaded.imu_rate_hz)
+        self.predictor = IncrementalPredictor(loaded)
+        self.step_counter = StepCounter()
+        self.started_s = now_s
+        self.last_message_s = now_s
+        self.messages = 0
+        self.test_pushes = 0
+        self.skipped: dict[str, int] = {}
+        self.error: str | None = None
+        # Per message not yet covered: [first, last sample time, samples, arrival, samples settled].
+        self._marks: deque[list[float]] = deque()
+        self.latencies_s: deque[tuple[float, int]] = deque(maxlen=LATENCIES_KEPT)
+        self.latest_latency_s: float | None = None
+
+    # --- input -----------------------------------------------------------------------------------
+
+    def receive(self, message: PushMessage, now_s: float) -> bool:
+        """Take one message; True when the trajectory grew."""
+        self.messages += 1
+        self.last_message_s = now_s
+        for name, count in message.skipped.items():
+            if len(self.skipped) < 32 or name in self.skipped:
+                self.skipped[name] = self.skipped.get(name, 0) + count
+        return self._use(self.order.push(message, now_s), now_s)
+
+    def tick(self, now_s: float) -> bool:
+        """Give up on missing messages that waited long enough; True when the trajectory grew."""
+        return self._use(self.order.due(now_s), now_s)
+
+    def finish(self, now_s: float) -> bool:
+        return self._use(self.order.due(now_s, flush=True), now_s)
+
+    def _use(self, messages: list[PushMessage], now_s: float) -> bool:
+        for message in messages:
+            self.streams.add(message)
+            gyro = message.sensors.get("Gyroscope", message.sensors.get("GyroscopeUncalibrated"))
+            if gyro is not None and len(gyro.t_ns) and self.streams.origin_ns is not None:
+                first, last = ((gyro.t_ns[[0, -1]] - self.streams.origin_ns) * 1e-9).tolist()
+                self._marks.append([first, last, len(gyro.t_ns), now_s, 0])
+        grew = False
+        while (chunk := self.streams.take()) is not None:
+            q = self.orientation.update(chunk)
+            grew |= self.predictor.extend(chunk.t_s, chunk.gyro_rad_s, chunk.acc_m_s2, q) > 0
+            self.step_counter.update(chunk.t_s, chunk.acc_m_s2)
+        return grew
+
+    def mark_effect(self, covered_s: float | None, now_s: float) -> None:
+        """The trajectory up to ``covered_s`` is shown now: settle the latency of the messages in it."""
+        if covered_s is None:
+            return
+        while self._marks and self._marks[0][0] <= covered_s + 1e-9:
+            first, last, n, arrival, settled = self._marks[0]
+            if covered_s + 1e-9 >= last:
+                now_covered = n
+                self._marks.popleft()
+            else:  # part of the message: its samples are evenly spread over [first, last]
+                now_covered = min(n, int((covered_s - first) / (last - first) * (n - 1)) + 1)
+                self._marks[0][4] = now_covered
+            if now_covered > settled:
+                self.latest_latency_s = now_s - arrival
+                self.latencies_s.append((self.latest_latency_s, int(now_covered - settled)))
+            if now_covered < n:
+                break
+        while len(self._marks) > LATENCIES_KEPT:  # messages the model never covers (a stalled sensor)
+            self._marks.popleft()
+
+    # --- output ----------------------------------------------------------------------------------
+
+    @property
+    def has_trajectory(self) -> bool:
+        return self.predictor.n_spans > 0
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.predictor)
+
+    @property
+    def duration_s(self) -> float:
+        t = self.predictor.t_s()
+        return float(t[-1] - t[0]) if len(t) > 1 else 0.0
+
+    @property
+    def dropped_messages(self) -> int:
+        return self.order.lost + self.order.late
+
+    @property
+    def steps(self) -> int:
+        return self.step_counter.steps
+
+    def distance_m(self) -> float:
+        """Horizontal path length so far."""
+        return self.predictor.path_length_m()
+
+    def rate_hz(self) -> float:
+        """The phone's gyroscope rate as it arrives."""
+        rates = self.streams.sensor_rates_hz()
+        return float(rates.get("Gyroscope", rates.get("GyroscopeUncalibrated", 0.0)))
+
+    def latency_summary(self) -> dict[str, float | None]:
+        if not self.latencies_s:
+            return {"median_s": None, "p95_s": None}
+        values, weights = np.asarray(self.latencies_s).T
+        return {
+            "median_s": weighted_quantile(values, weights, 0.5),
+            "p95_s": weighted_quantile(values, weights, 0.95),
+        }
+
+    def warnings(self) -> list[str]:
+        notes = list(self.streams.warnings)
+        if self.orientation.source == "estimated":
+            notes.append(
+                f"{self.source}: no orientation streamed; estimated causally with VQF online (6-D), so the "
+                "heading drifts: tick Orientation in Sensor Logger for the phone's own"
+            )
+        if self.dropped_messages:
+            notes.append(
+                f"{self.dropped_messages} push message(s) lost or too late; "
+                f"{self.streams.gaps_filled} sensor gap(s) filled with the stretch before them"
+            )
+        return notes
+
+    def sequence(self, name: str) -> ImuSequence:
+        """What was received, on the model's clock (views; the run's sequence)."""
+        t = self.predictor.t_s()
+        gyro, acc, q = self.predictor.imu()
+        rate = float(self.predictor.loaded.imu_rate_hz)
+        meta: dict[str, Any] = {
+            "dataset": DATASET,
+            "source": self.source,
+            "rate_hz": rate,
+            "carry": "unknown",
+            "frame": "device_world",
+            "orientation_source": self.orientation.source or "device",
+            "sensor_rates_hz": self.streams.sensor_rates_hz(),
+            "warnings": self.warnings(),
+        }
+        if self.orientation.source == "estimated":
+            meta["orientation_filter"] = ONLINE_FILTER
+        return ImuSequence(name, t, gyro, acc, q, None, meta)
+
+    def prediction(self) -> Prediction:
+        p = self.predictor
+        t = p.t_s()
+        mid, span_t = p.span_times()
+        _, _, velocity = p.spans()
+        return Prediction(
+            trajectory=Trajectory(t, p.positions(), p.imu()[2]),
+            window_t_s=mid,
+            velocity_m_s=velocity,
+            orientation_source=self.orientation.source or "device",
+            frame=FRAME_DEVICE_WORLD,
+            warnings=self.warnings(),
+            features=None,
+            span_t_s=span_t,
+        )
+
+
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
+    """The ``q`` quantile of ``values`` each repeated ``weights`` times (the lower one at a tie)."""
+    order = np.argsort(values)
+    cumulative = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    index = int(np.searchsorted(cumulative, q * cumulative[-1]))
+    return float(np.asarray(values)[order][min(index, len(order) - 1)])

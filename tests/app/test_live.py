@@ -1,0 +1,266 @@
+"""POST /live/sensorlogger end to end: the test push, bad bodies (4xx that say what is wrong),
+the token and LAN rules, the limits, and real Sensor Logger exports replayed as push messages: the
+live trajectory grows as a run and ends within 10 % of the offline /predict path of the same export,
+and lost, duplicated and reordered messages change it by less than 5 %."""
+
+from __future__ import annotations
+
+import io
+import math
+import threading
+import time
+import zipfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from app.main import create_app
+from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from ftin.data.readers.generic_csv import read
+from ftin.live.replay import Push, export_messages, perturb, send, sequence_messages
+from tests.utils.paths import CHECKPOINTS
+
+PUSH = "/live/sensorlogger"
+T0 = 1_700_000_000 * 10**9
+EXPORTS = ("sensorlogger/inhand-20-steps-Zyf", "sensorlogger/2022-09-16_11-15-46.zip")
+
+
+def push_body(session: str = "s1", message_id: int = 0) -> dict[str, Any]:
+    entries = [
+        {"name": "gyroscope", "time": T0 + i * 10**7, "values": {"x": 0, "y": 0, "z": 0}} for i in range(5)
+    ]
+    return {"messageId": message_id, "sessionId": session, "deviceId": "phone", "payload": entries}
+
+
+@pytest.fixture(scope="module")
+def app_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    with TestClient(create_app(make_settings(live_max_sessions=2, live_max_body_kb=64))) as client:
+        yield client
+
+
+def _post_with(client: TestClient) -> Callable[[str, dict[str, Any]], tuple[int, str]]:
+    def post(url: str, body: dict[str, Any]) -> tuple[int, str]:
+        response = client.post(url, json=body)
+        return response.status_code, response.text
+
+    return post
+
+
+def test_the_test_push_is_answered_and_opens_no_session(app_client: TestClient) -> None:
+    body = {"messageId": 0, "sessionId": "t", "deviceId": "phone", "payload": [{"name": "test"}]}
+    response = app_client.post(PUSH, json=body)
+    assert response.status_code == 200
+    assert response.json()["test"] is True and "received the test push" in response.json()["detail"]
+    assert all(s["session_id"] != "t" for s in app_client.get("/live/sessions").json())
+
+
+@pytest.mark.parametrize(
+    ("content", "status", "words"),
+    [
+        (b"{not json", 422, "not JSON"),
+        (b"[1, 2]", 422, "JSON object"),
+        (b'{"sessionId": "a", "payload": []}', 422, "deviceId is missing"),
+        (b'{"sessionId": "a", "deviceId": "b", "payload": [{"name": "gyroscope", "time": 1}]}', 422, "time"),
+        (b"x" * (65 * 1024), 413, "FTIN_LIVE_MAX_BODY_KB"),
+    ],
+)
+def test_bad_bodies_get_a_4xx_that_says_why(
+    app_client: TestClient, content: bytes, status: int, words: str
+) -> None:
+    response = app_client.post(PUSH, content=content, headers={"Content-Type": "application/json"})
+    assert response.status_code == status
+    assert words in response.json()["detail"]
+
+
+def test_bad_options_get_a_4xx(app_client: TestClient) -> None:
+    assert app_client.post(PUSH, params={"platform": "symbian"}, json=push_body()).status_code == 422
+    response = app_client.post(PUSH, params={"model": "no-such-model"}, json=push_body())
+    assert response.status_code == 404 and "unknown model" in response.json()["detail"]
+
+
+def test_sessions_are_bounded(app_client: TestClient) -> None:
+    for name in ("a1", "a2"):
+        assert app_client.post(PUSH, json=push_body(name)).status_code == 200
+    app_client.app.state.services.live.wait_idle()
+    response = app_client.post(PUSH, json=push_body("a3"))
+    assert response.status_code == 429 and "FTIN_LIVE_MAX_SESSIONS" in response.json()["detail"]
+    app_client.app.state.services.live.end_all()
+    assert app_client.post(PUSH, json=push_body("a3")).status_code == 200
+    app_client.app.state.services.live.end_all()
+
+
+def test_the_lan_needs_a_token(make_settings: Callable[..., Settings]) -> None:
+    app = create_app(make_settings())
+    with TestClient(app, client=("192.168.1.20", 50000)) as lan:
+        response = lan.post(PUSH, json=push_body())
+        assert response.status_code == 403 and "FTIN_LIVE_TOKEN" in response.json()["detail"]
+    app = create_app(make_settings(live_token="s3cret-token"))
+    with TestClient(app, client=("192.168.1.20", 50000)) as lan:
+        assert lan.post(PUSH, json=push_body()).status_code == 401
+        assert lan.post(PUSH, params={"token": "wrong-token"}, json=push_body()).status_code == 401
+        assert lan.post(PUSH, params={"token": "s3cret-token"}, json=push_body()).status_code == 200
+        ok = lan.post(PUSH, json=push_body("b"), headers={"Authorization": "Bearer s3cret-token"})
+        assert ok.status_code == 200
+        info = lan.get("/live/info").json()
+        assert info["token_required"] and not info["token_shown"] and "s3cret" not in str(info)
+        app.state.services.live.end_all()
+    with TestClient(app) as local:
+        info = local.get("/live/info").json()
+        assert info["token_shown"] and info["local_url"].endswith("/live/sensorlogger?token=s3cret-token")
+
+
+def _finished_run(client: TestClient, session_id: str) -> tuple[dict[str, Any], np.ndarray]:
+    client.app.state.services.live.end_all()
+    session = next(s for s in client.get("/live/sessions").json() if s["session_id"] == session_id)
+    assert session["state"] == "ended" and session["run_id"], session
+    assert client.get(f"/runs/{session['run_id']}").json()["state"] == "done"
+    return session, _tum(client, session["run_id"])
+
+
+def _tum(client: TestClient, run_id: str) -> np.ndarray:
+    response = client.get(f"/runs/{run_id}/trajectory.tum")
+    assert response.status_code == 200
+    return np.loadtxt(io.StringIO(response.text), comments="#")
+
+
+def _path_m(tum: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(tum[:, 1:3], axis=0), axis=1).sum())
+
+
+def test_a_stream_grows_as_a_run_and_ends_as_one(make_settings: Callable[..., Settings], wait_for) -> None:
+    """A simulated walk (the bundled sample) pushed in two halves: the run's TUM export grows."""
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 2000).with_(gt=None)
+    messages = sequence_messages(seq, 0.5, session_id="grow")
+    with TestClient(create_app(make_settings(live_idle_s=1.0))) as client:
+        live = client.app.state.services.live
+        send(messages[:20], PUSH, math.inf, _post_with(client))
+
+        def first() -> list[dict[str, Any]]:
+            return [s for s in client.get("/live/sessions").json() if s["session_id"] == "grow"]
+
+        wait_for(lambda: first() and first()[0]["run_id"] is not None, what="the first window")
+        run_id = first()[0]["run_id"]
+        assert client.get(f"/runs/{run_id}").json()["state"] == "running"
+        wait_for(lambda: first()[0]["samples"] >= 900, what="half the walk")
+        rows_half = len(_tum(client, run_id))
+        send(messages[20:], PUSH, math.inf, _post_with(client))
+        live.wait_idle()
+        wait_for(lambda: first()[0]["state"] == "ended", timeout_s=15, what="the idle end")
+        session = first()[0]
+        assert session["ended_because"].startswith("no message for")
+        assert len(_tum(client, run_id)) > rows_half + 900
+        assert session["samples"] >= 1900 and session["dropped_messages"] == 0
+        assert session["latency_s"] is not None and session["rate_hz"] == pytest.approx(100, rel=0.05)
+        assert client.get(f"/runs/{run_id}").json()["state"] == "done"
+
+
+@pytest.fixture(scope="module")
+def real_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    """The shipped checkpoints (default ftin-pedestrian): real models on real exports."""
+    settings = make_settings(checkpoint_dir=CHECKPOINTS, default_model="ftin-pedestrian")
+    with TestClient(create_app(settings)) as client:
+        yield client
+
+
+def _zip_bytes(path: Path) -> bytes:
+    if path.is_file():
+        return path.read_bytes()
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for file in sorted(path.iterdir()):
+            archive.write(file, file.name)
+    return buffer.getvalue()
+
+
+def _replay(client: TestClient, messages: list[Push]) -> tuple[dict[str, Any], np.ndarray]:
+    report = send(messages, PUSH, math.inf, _post_with(client))
+    assert report.statuses == {200: report.sent}, report.errors
+    return _finished_run(client, messages[0].body["sessionId"])
+
+
+@pytest.mark.parametrize("export", EXPORTS)
+def test_a_replayed_export_ends_near_the_offline_prediction(
+    real_client: TestClient, shared_data: Path, export: str
+) -> None:
+    path = shared_data / "phone" / export
+    offline = real_client.post(
+        "/predict", files={"file": (path.name + ".zip", _zip_bytes(path), "application/zip")}
+    )
+    assert offline.status_code == 200, offline.text
+    trajectory = offline.json()["trajectory"]
+    offline_xy = np.column_stack([trajectory["x"], trajectory["y"]])
+    offline_path = float(np.linalg.norm(np.diff(offline_xy, axis=0), axis=1).sum())
+    session, tum = _replay(real_client, export_messages(path, 1.0, session_id=f"replay-{path.stem}"))
+    assert _path_m(tum) == pytest.approx(offline_path, rel=0.10)
+    end_error = float(np.linalg.norm(tum[-1, 1:3] - offline_xy[-1]))
+    assert end_error <= 0.02 * offline_path, (end_error, offline_path)  # 2 m per 100 m walked
+    assert session["orientation"] == "device" and session["steps"] > 5
+    if "20-steps" in export:  # the recording's name says how many steps it holds
+        assert 17 <= session["steps"] <= 23, session["steps"]
+
+
+def test_loss_duplicates_and_reordering_change_the_path_by_less_than_5_percent(
+    real_client: TestClient, shared_data: Path
+) -> None:
+    path = shared_data / "phone" / EXPORTS[0]
+    clean = _path_m(_replay(real_client, export_messages(path, 0.2, session_id="clean"))[1])
+    for seed in range(3):
+        messages = perturb(export_messages(path, 0.2, session_id=f"lossy-{seed}"), 0.1, 0.05, 0.05, seed)
+        session, tum = _replay(real_client, messages)
+        assert session["dropped_messages"] > 0 and session["duplicate_messages"] > 0
+        assert _path_m(tum) == pytest.approx(clean, rel=0.05), seed
+
+
+def test_a_flood_of_pushes_starves_neither_health_nor_uploads(
+    make_settings: Callable[..., Settings], server_control, csv_without_gt: bytes
+) -> None:
+    """Eight clients push as fast as they can into a small queue: pushes get 200 or 429 (never 5xx),
+    while /health answers at once and an upload still runs."""
+    server = server_control.start(make_settings(live_queue_messages=8, live_max_sessions=8))
+    statuses: list[int] = []
+    stop = threading.Event()
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 1000).with_(gt=None)
+    bodies = [m.body for m in sequence_messages(seq, 0.5)]
+
+    def flood(client_index: int) -> None:
+        with httpx.Client(base_url=server.base_url, timeout=30) as http:
+            i = 0
+            while not stop.is_set():
+                body = {**bodies[i % len(bodies)], "sessionId": f"flood-{client_index}", "messageId": i}
+                statuses.append(http.post(PUSH, json=body).status_code)
+                i += 1
+
+    threads = [threading.Thread(target=flood, args=(k,), daemon=True) for k in range(8)]
+    try:
+        for thread in threads:
+            thread.start()
+        time.sleep(1.0)
+        health_s = []
+        with httpx.Client(base_url=server.base_url, timeout=30) as http:
+            for _ in range(5):
+                t0 = time.monotonic()
+                assert http.get("/health").status_code == 200
+                health_s.append(time.monotonic() - t0)
+                time.sleep(0.2)
+            upload = http.post("/predict", files={"file": ("imu.csv", csv_without_gt, "text/csv")})
+        assert upload.status_code == 200, upload.text
+        assert max(health_s) < 1.0, health_s
+    finally:
+        stop.set()
+        for thread in threads:
+            thread.join(30)
+        server_control.stop(server)
+    assert statuses and set(statuses) <= {200, 429}, set(statuses)
+
+
+def test_an_unknown_live_model_stops_the_start(make_settings: Callable[..., Settings]) -> None:
+    from app.services import Services
+    from app.services.errors import StartupError
+
+    with pytest.raises(StartupError, match="FTIN_LIVE_MODEL: unknown model 'nope'"):
+        Services.build(make_settings(live_model="nope"))

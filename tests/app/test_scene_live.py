@@ -1,0 +1,63 @@
+"""The 3D scene follows a live session: the walk appears in the Sequence menu as "(live)", its drawn
+trajectory grows with the data, the status line names the phone, rate, distance and steps, and the
+latency the service reports ends when the scene has drawn."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+from app.services import Services
+from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from app.viz.live import LIVE
+from app.viz.scene import DashboardScene
+from ftin.data.readers.generic_csv import read
+from ftin.live.replay import sequence_messages
+
+
+@pytest.fixture(scope="module")
+def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
+    services = Services.build(make_settings())
+    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
+    try:
+        yield dashboard
+    finally:
+        services.live.stop()
+        dashboard.stop()
+
+
+def _push(scene: DashboardScene, bodies: list[dict]) -> None:
+    for body in bodies:
+        scene.services.live.accept(json.dumps(body).encode(), time.monotonic())
+    scene.services.live.wait_idle()
+    time.sleep(0.3)  # the worker publishes after using its batch
+    scene.flush()
+
+
+def test_the_scene_follows_a_live_walk(scene: DashboardScene, wait_for) -> None:
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 2000).with_(gt=None)
+    bodies = [m.body for m in sequence_messages(seq, 0.5, session_id="scene-walk", device_id="pixel-7")]
+    live = scene.services.live
+    _push(scene, bodies[:16])
+    wait_for(lambda: any(s["run_id"] for s in live.sessions()), what="the first window")
+    _push(scene, [])
+    run_id = live.sessions()[0]["run_id"]
+    assert run_id in scene.shown_run_ids()
+    assert f"/runs/{run_id}/pred" in scene.node_names()
+    assert scene.gui_sequence.value.endswith(LIVE) and scene.gui_sequence.value in scene.gui_sequence.options
+    first_len = len(scene._views[run_id].trajectory)
+    first_max = scene.gui_time.max
+    _push(scene, bodies[16:])
+    wait_for(lambda: len(scene._views[run_id].trajectory) > first_len + 1000, what="the walk to grow")
+    assert scene.gui_time.max > first_max and scene.gui_time.value == scene.gui_time.max  # follows the end
+    status = scene.gui_live.content
+    assert "pixel-7" in status and "Hz" in status and " m** walked" in status and "steps" in status
+    info = live.sessions()[0]
+    assert info["latency_s"] is not None and info["latency_s"] < 5.0
+    live.end_all()
+    scene.flush()
+    assert scene.services.runs.status(run_id).state.value == "done"
+    assert "(ended)" in scene.gui_live.content
