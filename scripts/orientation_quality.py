@@ -35,6 +35,7 @@ import torch
 from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data import frames
+from ftin.data.discovery import read_sequence
 from ftin.data.orientation_choice import (
     OrientationEvidence,
     choose_orientation,
@@ -42,7 +43,7 @@ from ftin.data.orientation_choice import (
     orientation_evidence,
 )
 from ftin.data.preprocess import estimate_orientation
-from ftin.data.readers import inria_attitude, read_sequence
+from ftin.data.readers import inria_attitude
 from ftin.data.types import ImuSequence
 from ftin.evaluate import score
 from ftin.infer import predict_trajectory
@@ -50,7 +51,6 @@ from ftin.infer import predict_trajectory
 ALIGN_S = 5.0
 HEADINGS = 4
 SOURCES = ("device", "vqf", "vqf6d", "auto")  # auto: whichever of the others the rule picks
-VALIDATION_PHONES = ("nexus5", "iphone5")  # Inria: the iPhone 4S walks are the test part
 
 
 def validation_recordings(data_root: Path) -> list[tuple[str, Path]]:
@@ -61,7 +61,7 @@ def validation_recordings(data_root: Path) -> list[tuple[str, Path]]:
     inria = data_root / "inria_attitude"
     if inria.is_dir():
         for path in inria_attitude.discover(inria):
-            if path.name.split("_")[1].lower() in VALIDATION_PHONES:
+            if path.name.split("_")[1] != protocol.INRIA_TEST_PHONE:  # the test part: never read here
                 found.append(("inria", path))
     return found
 

@@ -16,6 +16,7 @@ from ftin.cli import app
 from ftin.data import frames
 from ftin.data.discovery import detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
+from ftin.data.io import qualisys
 from ftin.data.readers import inria_attitude
 from ftin.data.windows import WindowDataset, window_starts
 
@@ -99,7 +100,7 @@ def test_rotation_glitches_and_nan_frames_are_marked_and_repaired(datasets):
     mat = datasets / "qualisys" / f"{GLITCHY.split('/')[1]}.mat"
     raw = next(v for k, v in loadmat(mat, squeeze_me=True, struct_as_record=False).items() if k[0] != "_")
     nan_frames = int(np.isnan(raw.RigidBodies.Positions).any(axis=0).sum())
-    mocap = inria_attitude.read_mocap(mat)
+    mocap = qualisys.read_mocap(mat)
     assert mocap.untracked_frames == nan_frames > 100
     assert mocap.glitch_frames > 50
     assert np.isfinite(mocap.p_m).all() and np.isfinite(mocap.q_world_body_wxyz).all()
