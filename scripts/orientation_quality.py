@@ -129,5 +129,6 @@ def main() -> None:
         table = summary + "\n\nPer sequence:\n\n" + "\n".join(per_seq)
         args.out.write_text(f"{head}<!-- table:start -->\n{table}\n<!-- table:end -->{tail}")
 
+
 if __name__ == "__main__":
     main()

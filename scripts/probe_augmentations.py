@@ -195,12 +195,16 @@ def best_arm(results: list[dict[str, Any]]) -> str:
     return min(seed0, key=lambda r: r["mean_walker_ate"])["arm"]
 
 
+def mean_velocity_error(result: dict[str, Any]) -> float:
+    return float(np.mean([w["velocity_error"] for w in result["walkers"].values()]))
+
+
 def summary(results: list[dict[str, Any]]) -> str:
     walkers = sorted({w for r in results for w in r["walkers"]})
     base = [r["mean_walker_ate"] for r in results if r["arm"] == BASELINE]
     base_mean = float(np.mean(base)) if base else float("nan")
     head = "| arm | seed | " + " | ".join(f"{w} ATE / ratio / vel err" for w in walkers)
-    lines = [head + " | mean ATE | vs yaw only |", "|" + "---|" * (len(walkers) + 4)]
+    lines = [head + " | mean ATE | vs yaw only | mean vel err |", "|" + "---|" * (len(walkers) + 5)]
     for r in sorted(results, key=lambda r: (list(ARMS).index(r["arm"]), r["seed"])):
         cells = [
             "{ate:.2f} / {path_ratio:.2f} / {velocity_error:.3f}".format(**r["walkers"][w]) for w in walkers
@@ -209,14 +213,18 @@ def summary(results: list[dict[str, Any]]) -> str:
         lines.append(
             f"| {r['arm']} | {r['seed']} | "
             + " | ".join(cells)
-            + f" | {r['mean_walker_ate']:.3f} | {change:+.1f} % |"
+            + f" | {r['mean_walker_ate']:.3f} | {change:+.1f} % | {mean_velocity_error(r):.3f} |"
         )
     means = []
     for arm in ARMS:
         ates = [r["mean_walker_ate"] for r in results if r["arm"] == arm]
         if len(ates) > 1:
             each = ", ".join(f"{a:.3f}" for a in ates)
-            means.append(f"- {arm}: {len(ates)} seeds, mean walker ATE {np.mean(ates):.3f} m (seeds {each})")
+            vel = np.mean([mean_velocity_error(r) for r in results if r["arm"] == arm])
+            means.append(
+                f"- {arm}: {len(ates)} seeds, mean walker ATE {np.mean(ates):.3f} m (seeds {each}), "
+                f"mean velocity error {vel:.3f} m/s"
+            )
     return "\n".join(lines) + ("\n\nArms with several seeds:\n" + "\n".join(means) if means else "") + "\n"
 
 
@@ -225,7 +233,9 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--phase", choices=("arms", "best", "summary"), required=True)
-    parser.add_argument("--arms", nargs="*", default=None, help="only these arms (phase arms)")
+    parser.add_argument(
+        "--arms", nargs="*", default=None, help="only these arms (default: all; best: the best)"
+    )
     parser.add_argument("--out", type=Path, default=RUNS / "summary.md")
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -241,7 +251,7 @@ def main() -> None:
         arms = [arm for arm in (args.arms or ORDER) if arm != BASELINE]
         plan = [(BASELINE, 0), *[(arm, 0) for arm in arms], (BASELINE, 1)]
     else:
-        plan = [(best_arm(finished()), 1)]
+        plan = [(arm, 1) for arm in (args.arms or [best_arm(finished())])]
     for arm, seed in plan:
         run_arm(arm, seed, train_seqs, val_seqs)
 

@@ -44,12 +44,14 @@ def main() -> None:
         for name in (OXIOD, RIDI)
     }
     columns, results = [], {}
-    for path in args.checkpoint:
+    stems = [Path(p).name.removesuffix(".safetensors") for p in args.checkpoint]
+    for path, stem in zip(args.checkpoint, stems, strict=True):
         loaded = load_model(path)
+        label = stem if stems.count(stem) == 1 else f"{Path(path).parent.name}/{stem}"  # same stems
         predict = window_predictor(loaded)
         for name, sequences in datasets.items():
             prepared = [prepare(s, loaded.imu_rate_hz) for s in sequences]
-            column = f"{loaded.name} on {name}"
+            column = f"{label} on {name}"
             columns.append(column)
             results[column] = speed_cue_probe(predict, prepared, loaded.window, args.stride)
             print(f"{column}: {results[column][0].windows} windows", flush=True)
