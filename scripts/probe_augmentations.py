@@ -5,7 +5,7 @@
     PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
 
 A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
-Adam 1e-3, ``EPOCHS`` epochs (about 390 steps, ~2.5 min of one thread), ground-truth orientation, yaw
+Adam 1e-3, ``EPOCHS`` epochs (390 steps, about 4 min of one thread), ground-truth orientation, yaw
 augmentation always; one arm per augmentation (``ARMS``), all of them together, and the yaw-only
 baseline. Walker-held-out split (no test recording of ``ftin.protocol`` is read):
 - train: OxIOD handheld/data1 imu2, imu4 and the trolley training recordings; RIDI walkers dan and
