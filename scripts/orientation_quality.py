@@ -239,5 +239,6 @@ def main() -> None:
             replace_between(args.out, "ate", ates)
 
 
+
 if __name__ == "__main__":
     main()

@@ -18,6 +18,7 @@ import torch
 import typer
 
 from ftin.cli.common import MODEL_ERRORS, ThreadsOption, app, config_options, user_errors
+from ftin.train.augment import AUGMENTATIONS, parse_augment
 from ftin.train.config import ConfigError, TrainConfig
 from ftin.train.loop import run_training
 from ftin.train.state import CONFIG_FILE
@@ -51,6 +52,15 @@ def _model_kwargs(text: str | None) -> dict[str, Any] | None:
     if not isinstance(value, dict):
         raise ConfigError(f"--model-kwargs must be a JSON object like '{{\"window\": 100}}', got {text!r}")
     return value
+
+
+def _augment(items: list[str] | None) -> dict[str, float | None] | None:
+    if not items:
+        return None
+    try:
+        return parse_augment(items)
+    except ValueError as exc:
+        raise ConfigError(f"--augment: {exc}") from None
 
 
 def _config_file_options(path: Path) -> dict[str, Any]:
@@ -156,6 +166,17 @@ def train_command(
             "--orientation", help="ground_truth or device, for readers that offer both (OxIOD, RIDI)."
         ),
     ] = None,
+    augment_items: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--augment",
+            help=(
+                "Augmentation beyond yaw, NAME or NAME=MAGNITUDE (repeatable): "
+                + ", ".join(f"{name} ({value:g})" for name, value in AUGMENTATIONS.items())
+                + ". Default: none."
+            ),
+        ),
+    ] = None,
     config_file: Annotated[
         Path | None,
         typer.Option("--config", help="Training options as a JSON object (config.json keys); flags win."),
@@ -171,6 +192,7 @@ def train_command(
             "data": _paths(data),
             "val": _paths(val),
             "model_kwargs": _model_kwargs(model_kwargs),
+            "augment": _augment(augment_items),
             "weights_dtype": "float16" if half else None,
         }
         options = {key: value for key, value in options.items() if value is not None}

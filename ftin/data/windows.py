@@ -33,7 +33,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -44,6 +44,9 @@ from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.gaps import starts_outside_holes
 from ftin.data.types import ImuSequence
+
+if TYPE_CHECKING:
+    from ftin.train.augment import WindowAugmenter
 
 N_CHANNELS = 6  # gyro xyz, acc xyz
 
@@ -219,7 +222,8 @@ def fit_normalization(imu_arrays: Sequence[np.ndarray], kind: Normalization) -> 
 
 
 class WindowDataset(torch.utils.data.Dataset):
-    """Windows of several sequences (already oriented and resampled) with seeded yaw augmentation.
+    """Windows of several sequences (already oriented and resampled) with seeded yaw augmentation
+    and, with an ``augmenter``, the other training augmentations (``ftin.train.augment``).
 
     Items are ``(x (6, L), v (K, D))`` float32 tensors, K = ``parts`` (the model's
     ``target_parts(window)``; 1 for window models, whose single part is the window's target);
@@ -237,6 +241,7 @@ class WindowDataset(torch.utils.data.Dataset):
         parts: int = 1,
         augment_yaw: bool = True,
         seed: int = 0,
+        augmenter: WindowAugmenter | None = None,
     ) -> None:
         _check_window_args(window, stride)
         if not sequences:
@@ -245,7 +250,7 @@ class WindowDataset(torch.utils.data.Dataset):
             raise ValueError(f"out_dim must be 2 (horizontal) or 3, got {out_dim}")
         if parts < 1 or window % parts:
             raise ValueError(f"a window of {window} samples cannot be cut into {parts} equal parts")
-        imu_parts, start_parts, t_parts, p_parts = [], [], [], []
+        imu_parts, start_parts, t_parts, p_parts, bound_parts = [], [], [], [], []
         offset = 0
         for seq in sequences:
             _check_training_sequence(seq, window)
@@ -256,10 +261,13 @@ class WindowDataset(torch.utils.data.Dataset):
             t_parts.append(np.asarray(seq.t_s, dtype=np.float64))
             p_parts.append(np.asarray(seq.gt.p_world_m[:, :out_dim], dtype=np.float64))
             start_parts.append(starts + offset)
+            last = len(seq) - 1 - window  # the last start whose end sample exists
+            bound_parts.append(np.broadcast_to([[offset, offset + last]], (len(starts), 2)))
             offset += len(seq)
         self.imu = np.concatenate(imu_parts, axis=0)  # (N_total, 6) float32
         self.imu_per_sequence = imu_parts
         self.starts = np.concatenate(start_parts)  # (M,) index into self.imu
+        self._start_bounds = np.concatenate(bound_parts)  # (M, 2): a window's sequence, for shifts
         # Ground truth of every sample; a window's part bounds stay inside its own sequence.
         self._t_s = np.concatenate(t_parts)  # (N_total,)
         self._p_world_m = np.concatenate(p_parts, axis=0)  # (N_total, D)
@@ -268,6 +276,7 @@ class WindowDataset(torch.utils.data.Dataset):
         self.stride = stride
         self.out_dim = out_dim
         self.augment_yaw = augment_yaw
+        self.augmenter = augmenter if augmenter else None  # ftin.train.augment; None: yaw only
         self.seed = seed
         self.names = [seq.name for seq in sequences]
         self._angles = np.zeros(len(self.starts))
@@ -285,7 +294,9 @@ class WindowDataset(torch.utils.data.Dataset):
 
     def targets(self, indices: Sequence[int] | np.ndarray) -> np.ndarray:
         """``(B, K, D)`` float32 part velocity targets of window indices (before augmentation)."""
-        starts = self.starts[np.asarray(indices, dtype=np.int64)]
+        return self._targets_at(self.starts[np.asarray(indices, dtype=np.int64)])
+
+    def _targets_at(self, starts: np.ndarray) -> np.ndarray:
         return part_velocity_targets(
             self._t_s, self._p_world_m, starts, self.window, self.parts, self.out_dim
         )
@@ -293,11 +304,19 @@ class WindowDataset(torch.utils.data.Dataset):
     def get_batch(self, indices: Sequence[int] | np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
         """``(x (B, 6, L), v (B, K, D))`` float32 tensors for window indices."""
         indices = np.asarray(indices, dtype=np.int64)
-        rows = self.starts[indices][:, None] + np.arange(self.window)[None, :]  # (B, L)
+        starts, aug = self.starts[indices], self.augmenter
+        if aug is not None:
+            bounds = self._start_bounds[indices]
+            starts = aug.shift_starts(starts, bounds[:, 0], bounds[:, 1], indices, self.epoch)
+        rows = starts[:, None] + np.arange(self.window)[None, :]  # (B, L)
         x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
-        v = self.targets(indices)
+        v = self._targets_at(starts)
+        if aug is not None:
+            x = aug.before_yaw(x, indices, self.epoch)
         if self.augment_yaw:
             x, v = rotate_yaw(x, v, self._angles[indices])
+        if aug is not None:
+            x = aug.after_yaw(x, indices, self.epoch)
         return torch.from_numpy(np.ascontiguousarray(x)), torch.from_numpy(np.ascontiguousarray(v))
 
     def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:

@@ -21,6 +21,8 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
 - ``orientation``: the orientation source asked of readers that offer one (OxIOD, RIDI):
   ``ground_truth`` (motion capture / Tango: the network alone) or ``device`` (the phone's attitude);
   ``None`` keeps each reader's default.
+- ``augment``: the augmentations beyond yaw (``ftin.train.augment``), name -> magnitude (``None``:
+  its default); empty by default, as the shipped models were trained.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
   there are two or more) is held out whole, so no validation window overlaps a training window.
 """
@@ -36,6 +38,7 @@ from typing import Any
 
 from ftin.data.windows import Normalization
 from ftin.files import atomic_write_text
+from ftin.train.augment import resolve_augment
 
 
 class ConfigError(ValueError):
@@ -75,6 +78,7 @@ class TrainConfig:
     seed: int = 0
     normalization: Normalization = Normalization.NONE
     augment_yaw: bool = True
+    augment: dict[str, float | None] = field(default_factory=dict)  # ftin.train.augment
     loss: LossKind = LossKind.AUTO
     nll_warmup_epochs: int = 10
     early_stop_patience: int | None = None  # epochs without validation improvement; None: never
@@ -90,6 +94,7 @@ class TrainConfig:
         object.__setattr__(self, "val", tuple(str(p) for p in self.val))
         object.__setattr__(self, "log_std_range", tuple(float(v) for v in self.log_std_range))
         object.__setattr__(self, "model_kwargs", dict(self.model_kwargs))
+        object.__setattr__(self, "augment", dict(self.augment or {}))
         for name, kind in (("normalization", Normalization), ("loss", LossKind)):
             try:
                 object.__setattr__(self, name, kind(getattr(self, name)))
@@ -127,6 +132,10 @@ class TrainConfig:
             raise ConfigError(f"out_dim must be 2 (horizontal velocity) or 3, got {self.out_dim}")
         if self.weights_dtype not in ("float32", "float16"):
             raise ConfigError(f"weights_dtype must be 'float32' or 'float16', got {self.weights_dtype!r}")
+        try:
+            resolve_augment(self.augment)
+        except ValueError as exc:
+            raise ConfigError(f"augment: {exc}") from None
         low, high = self.log_std_range
         if not low < high:
             raise ConfigError(f"log_std_range must be (low, high) with low < high, got {self.log_std_range}")

@@ -3,7 +3,8 @@
 ``training_data(config, train_sequences, val_sequences, ...)``: without validation sequences a seeded
 ``val_fraction`` of whole training sequences is held out (``ftin.data.loading.split_validation``); every
 sequence is prepared for the config's rate (``ftin.data.prepare.prepare``, as inference prepares it)
-and cut into ``WindowDataset``s with per-part targets; the input normalisation is fitted on the
+and cut into ``WindowDataset``s with per-part targets (the training windows with the config's
+augmentations, ``ftin.train.augment``); the input normalisation is fitted on the
 training windows; each of N processes takes ``ceil(batch_size / N)`` windows per step, in the order
 of a ``DistributedSampler`` (also with one process) seeded by ``config.seed`` and the epoch.
 """
@@ -24,6 +25,7 @@ from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence
 from ftin.data.windows import InputNormalization, WindowDataset, fit_normalization
 from ftin.models.base import VelocityModel
+from ftin.train.augment import WindowAugmenter
 from ftin.train.config import TrainConfig
 from ftin.train.distributed import Distributed
 from ftin.train.losses import block_means, validation_blocks
@@ -84,6 +86,7 @@ def training_data(
         parts=parts,
         augment_yaw=config.augment_yaw,
         seed=config.seed,
+        augmenter=WindowAugmenter(config.augment, config.stride, config.seed),
     )
     val = None
     if val_sequences:

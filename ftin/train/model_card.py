@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ftin.metrics import HEADLINE_METRIC, Better, get_metric, list_metrics
+from ftin.train.augment import resolve_augment
 
 _CITATION = {
     "oxiod": "OxIOD (Chen et al., 'OxIOD: The Dataset for Deep Inertial Odometry', 2018), research use",
@@ -46,7 +47,8 @@ def render_model_card(meta: dict[str, Any], evaluation: dict[str, Any] | None = 
         f"output {meta['out_dim']}-D velocity",
         f"- **Hyper-parameters:** Adam lr {config.get('lr')}, batch {config.get('batch_size')}, "
         f"plateau factor {config.get('plateau_factor')} / patience {config.get('plateau_patience')}, "
-        f"random yaw augmentation {config.get('augment_yaw')}, seed {config.get('seed')}, "
+        f"random yaw augmentation {config.get('augment_yaw')}{_more_augmentations(config)}, "
+        f"seed {config.get('seed')}, "
         f"budget {config.get('max_minutes')} min on CPU",
         # The checkpoint kept is the best one, so these count up to it, not to the end of the run.
         f"- **Best checkpoint:** epoch {meta['epochs']}, {meta['steps']} steps, "
@@ -102,7 +104,8 @@ def render_campaign_card(
         f"- **Training:** Adam lr {config.get('lr')}, batch {config.get('batch_size')}, plateau factor "
         f"{config.get('plateau_factor')} / patience {config.get('plateau_patience')}, early stop after "
         f"{config.get('early_stop_patience')} epochs without a new best, at most {config.get('max_epochs')} "
-        f"epochs, yaw augmentation, loss `{config.get('loss')}`, seed {training['seed']} (best of "
+        f"epochs, yaw augmentation{_more_augmentations(config)}, loss `{config.get('loss')}`, "
+        f"seed {training['seed']} (best of "
         f"{len(seeds)} seed(s) on validation)",
         f"- **Run:** stopped by `{training['stop_reason']}` after {training['epochs']} epochs "
         f"({(training['wall_time_s'] or 0) / 60:.0f} min on 1 CPU thread); "
@@ -177,3 +180,9 @@ def main(argv: list[str] | None = None) -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def _more_augmentations(config: dict[str, Any]) -> str:
+    """`` + tilt 5, vertical 0.3`` for the augmentations beyond yaw (``ftin.train.augment``), else ''."""
+    augment = resolve_augment(config.get("augment") or {})
+    return "".join(f" + {name} {value:g}" for name, value in augment.items())

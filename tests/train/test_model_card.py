@@ -69,3 +69,12 @@ def test_card_says_when_the_curve_may_not_have_flattened():
     record = _record(0, 0.01, 0.8)
     record["training"]["lr_decays"] = 0
     assert "no decay: the curve may not have flattened" in render_campaign_card(META, record, [record])
+
+
+def test_campaign_card_names_augmentations_beyond_yaw():
+    shipped = _record(0, 0.01, 0.8)
+    plain = render_campaign_card(META, shipped, [shipped], "ordered")
+    assert "yaw augmentation, loss" in plain
+    config = {**META["train_config"], "augment": {"vertical": None, "tilt": 2.0}}
+    card = render_campaign_card({**META, "train_config": config}, shipped, [shipped], "ordered")
+    assert "yaw augmentation + vertical 0.3 + tilt 2, loss" in card

@@ -1,0 +1,1 @@
+"""Analyses of trained models: what they read from their input (``speed_cues``)."""

@@ -1,0 +1,260 @@
+"""Which training augmentations (``ftin.train.augment``) help on walkers the model has never seen?
+
+    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase arms
+    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase best
+    PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
+
+A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
+Adam 1e-3, ``EPOCHS`` epochs (390 steps, about 4 min of one thread), ground-truth orientation, yaw
+augmentation always; one arm per augmentation (``ARMS``), all of them together, and the yaw-only
+baseline. Walker-held-out split (no test recording of ``ftin.protocol`` is read):
+- train: OxIOD handheld/data1 imu2, imu4 and the trolley training recordings; RIDI walkers dan and
+  hao (the protocol's training part);
+- validation walkers: OxIOD user2 (imu4, imu5), RIDI hang and ma (every recording of theirs outside
+  the test part). The best epoch is picked on them too (the same rule for every arm).
+Each run lands in ``runs/probes/augment/<arm>-s<seed>/`` with ``result.json``: per validation walker
+the mean ATE (``ftin.evaluate.score``, RoNIN's convention), the mean path ratio and the mean error of
+the predicted window velocities (m/s). Phase ``arms`` trains every arm with seed 0 and the baseline
+with seeds 0 and 1 (``ORDER``); phase ``best`` adds seed 1 of the arm with the lowest mean ATE at seed 0;
+``summary`` writes the table (``--out``). Finished runs are skipped, so phases can be re-run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from ftin.checkpoint import load_model
+from ftin.data.loading import load_sequences
+from ftin.evaluate import score
+from ftin.infer import predict_trajectory
+from ftin.train.config import TrainConfig
+from ftin.train.loop import train
+
+DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+RUNS = Path("runs/probes/augment")
+EPOCHS = 6
+TRAIN = {
+    "oxiod": (
+        "handheld/data1/syn/imu2.csv",
+        "handheld/data1/syn/imu4.csv",
+        "trolley/data1/syn/imu7.csv",
+        "trolley/data2/syn/imu1.csv",
+        "trolley/data2/syn/imu2.csv",
+        "trolley/data2/syn/imu4.csv",
+    ),
+    "ridi": (
+        "dan_bag1",
+        "dan_bag2",
+        "dan_body1",
+        "dan_body2",
+        "dan_handheld1",
+        "dan_handheld2",
+        "dan_leg1",
+        "hao_body1",
+        "hao_body2",
+    ),
+}
+VAL = {
+    "oxiod": ("multi users/user2/syn/imu4.csv", "multi users/user2/syn/imu5.csv"),
+    "ridi": (
+        "hang_bag_side1",
+        "hang_body_test1",
+        "hang_body_fast1",
+        "hang_handheld_side_test2",
+        "ma_body1",
+        "ma_body2",
+        "ma_handheld3",
+    ),
+}
+ARMS: dict[str, dict[str, float | None]] = {
+    "yaw_only": {},
+    "shift": {"shift": None},
+    "bias": {"acc_bias": None, "gyro_bias": None},
+    "tilt": {"tilt": None},
+    "noise": {"acc_noise": None, "gyro_noise": None},
+    "vertical": {"vertical": None},
+    "orientation": {"orientation": None},
+    "all": {
+        "shift": None,
+        "acc_bias": None,
+        "gyro_bias": None,
+        "tilt": None,
+        "acc_noise": None,
+        "gyro_noise": None,
+        "vertical": None,
+        "orientation": None,
+    },
+}
+BASELINE = "yaw_only"
+ORDER = ("vertical", "all", "orientation", "tilt", "bias", "noise", "shift")  # the likeliest first
+
+
+def paths(split: dict[str, tuple[str, ...]], root: Path) -> list[Path]:
+    return [root / dataset / rel for dataset, rels in split.items() for rel in rels]
+
+
+def walker(name: str) -> str:
+    """``multi users/user2/imu4`` -> ``oxiod user2``; ``hang_bag_side1`` -> ``ridi hang``."""
+    if "/" in name:
+        return "oxiod " + name.split("/")[-2]
+    return "ridi " + name.split("_")[0]
+
+
+def velocity_error(prediction) -> float:
+    """Mean |predicted - true| mean velocity over the prediction spans (m/s, horizontal)."""
+    seq = prediction.prepared.seq
+    t0, t1 = prediction.span_t_s[:, 0], prediction.span_t_s[:, 1]
+    p = seq.gt.p_world_m[:, :2]
+    true = np.stack([(np.interp(t1, seq.t_s, p[:, k]) - np.interp(t0, seq.t_s, p[:, k])) for k in (0, 1)], 1)
+    true /= (t1 - t0)[:, None]
+    return float(np.linalg.norm(prediction.velocity_m_s[:, :2] - true, axis=1).mean())
+
+
+def evaluate_run(checkpoint: Path, val_sequences) -> dict[str, Any]:
+    loaded = load_model(checkpoint)
+    rows = []
+    for seq in val_sequences:
+        prediction = predict_trajectory(loaded, seq)
+        metrics = score(prediction).metrics
+        rows.append(
+            {
+                "name": seq.name,
+                "walker": walker(seq.name),
+                "ate": metrics.ate,
+                "path_ratio": metrics.path_length_ratio,
+                "velocity_error": velocity_error(prediction),
+            }
+        )
+    walkers: dict[str, dict[str, float]] = {}
+    for name in sorted({r["walker"] for r in rows}):
+        mine = [r for r in rows if r["walker"] == name]
+        walkers[name] = {
+            k: float(np.mean([r[k] for r in mine])) for k in ("ate", "path_ratio", "velocity_error")
+        }
+    mean_ate = float(np.mean([w["ate"] for w in walkers.values()]))
+    return {"sequences": rows, "walkers": walkers, "mean_walker_ate": mean_ate}
+
+
+def run_arm(arm: str, seed: int, train_seqs, val_seqs) -> dict[str, Any]:
+    folder = RUNS / f"{arm}-s{seed}"
+    result_path = folder / "result.json"
+    if result_path.exists():
+        return json.loads(result_path.read_text())
+    if folder.exists():  # an interrupted run: start it again
+        shutil.rmtree(folder)
+    config = TrainConfig(
+        model="ronin_resnet",
+        data=tuple(str(p) for p in paths(TRAIN, DATA_ROOT)),
+        val=tuple(str(p) for p in paths(VAL, DATA_ROOT)),
+        out_dir=str(folder),
+        name="model",
+        imu_rate_hz=100.0,
+        window=100,
+        stride=20,
+        batch_size=128,
+        lr=1e-3,
+        plateau_factor=0.3,
+        plateau_patience=3,
+        max_epochs=EPOCHS,
+        seed=seed,
+        augment_yaw=True,
+        augment=ARMS[arm],
+        orientation="ground_truth",
+    )
+    trained = train(config, train_seqs, val_seqs, progress=False)
+    if not trained.finished:  # stopped by a signal: no result, so a re-run trains it again
+        raise SystemExit(f"{arm} s{seed}: stopped ({trained.stop_reason}) before its {EPOCHS} epochs")
+    result = {
+        "arm": arm,
+        "seed": seed,
+        "augment": ARMS[arm],
+        "steps": trained.steps,
+        "epochs": trained.epochs_done,
+        "best_val_mse": trained.best_val_loss,
+        "train_seconds": trained.history[-1]["elapsed_s"] if trained.history else None,
+        **evaluate_run(trained.checkpoint, val_seqs),
+    }
+    result_path.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"{arm} s{seed}: mean walker ATE {result['mean_walker_ate']:.3f} m", flush=True)
+    return result
+
+
+def finished() -> list[dict[str, Any]]:
+    return [json.loads(p.read_text()) for p in sorted(RUNS.glob("*/result.json"))]
+
+
+def best_arm(results: list[dict[str, Any]]) -> str:
+    seed0 = [r for r in results if r["seed"] == 0 and r["arm"] != BASELINE]
+    return min(seed0, key=lambda r: r["mean_walker_ate"])["arm"]
+
+
+def mean_velocity_error(result: dict[str, Any]) -> float:
+    return float(np.mean([w["velocity_error"] for w in result["walkers"].values()]))
+
+
+def summary(results: list[dict[str, Any]]) -> str:
+    walkers = sorted({w for r in results for w in r["walkers"]})
+    base = [r["mean_walker_ate"] for r in results if r["arm"] == BASELINE]
+    base_mean = float(np.mean(base)) if base else float("nan")
+    head = "| arm | seed | " + " | ".join(f"{w} ATE / ratio / vel err" for w in walkers)
+    lines = [head + " | mean ATE | vs yaw only | mean vel err |", "|" + "---|" * (len(walkers) + 5)]
+    for r in sorted(results, key=lambda r: (list(ARMS).index(r["arm"]), r["seed"])):
+        cells = [
+            "{ate:.2f} / {path_ratio:.2f} / {velocity_error:.3f}".format(**r["walkers"][w]) for w in walkers
+        ]
+        change = 100.0 * (r["mean_walker_ate"] / base_mean - 1.0)
+        lines.append(
+            f"| {r['arm']} | {r['seed']} | "
+            + " | ".join(cells)
+            + f" | {r['mean_walker_ate']:.3f} | {change:+.1f} % | {mean_velocity_error(r):.3f} |"
+        )
+    means = []
+    for arm in ARMS:
+        ates = [r["mean_walker_ate"] for r in results if r["arm"] == arm]
+        if len(ates) > 1:
+            each = ", ".join(f"{a:.3f}" for a in ates)
+            vel = np.mean([mean_velocity_error(r) for r in results if r["arm"] == arm])
+            means.append(
+                f"- {arm}: {len(ates)} seeds, mean walker ATE {np.mean(ates):.3f} m (seeds {each}), "
+                f"mean velocity error {vel:.3f} m/s"
+            )
+    return "\n".join(lines) + ("\n\nArms with several seeds:\n" + "\n".join(means) if means else "") + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--phase", choices=("arms", "best", "summary"), required=True)
+    parser.add_argument(
+        "--arms", nargs="*", default=None, help="only these arms (default: all; best: the best)"
+    )
+    parser.add_argument("--out", type=Path, default=RUNS / "summary.md")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    if args.phase == "summary":
+        text = summary(finished())
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(text)
+        return
+    train_seqs = load_sequences(paths(TRAIN, DATA_ROOT), orientation="ground_truth")
+    val_seqs = load_sequences(paths(VAL, DATA_ROOT), orientation="ground_truth")
+    if args.phase == "arms":
+        arms = [arm for arm in (args.arms or ORDER) if arm != BASELINE]
+        plan = [(BASELINE, 0), *[(arm, 0) for arm in arms], (BASELINE, 1)]
+    else:
+        plan = [(arm, 1) for arm in (args.arms or [best_arm(finished())])]
+    for arm, seed in plan:
+        run_arm(arm, seed, train_seqs, val_seqs)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,89 @@
+"""What do checkpoints read walking speed from? The speed-cue probe (``ftin.analysis.speed_cues``).
+
+    PYTHONPATH=$PWD .venv/bin/python scripts/probe_speed_cues.py \
+        --checkpoint checkpoints/ftin-pedestrian --checkpoint checkpoints/ronin_resnet-oxiod \
+        --out docs/results/probes/speed_cues.md
+
+Windows: the validation recordings of ``ftin.protocol`` (OxIOD and RIDI, ground-truth orientation,
+never the test part), each at the checkpoint's rate, every ``--stride`` samples, kept where the
+walker moves. For every checkpoint and dataset, the change of the mean predicted speed when the
+zero-mean part of one acceleration component is scaled (x0, x0.5, x1.5), and when the window is
+time-warped so the step frequency changes (x0.8, x1.25) at unchanged amplitudes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import torch
+
+from ftin.analysis.speed_cues import speed_cue_probe, window_predictor
+from ftin.checkpoint import load_model
+from ftin.data.loading import load_sequences
+from ftin.data.prepare import prepare
+from ftin.protocol import OXIOD, RIDI, split_paths
+
+DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+LABELS = {"vertical": "vertical bounce", "cross_track": "cross-track swing", "along_track": "along-track"}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--checkpoint", action="append", required=True, help="checkpoint (repeatable)")
+    parser.add_argument("--data-root", type=Path, default=DATA_ROOT)
+    parser.add_argument("--stride", type=int, default=20, help="samples between probed windows")
+    parser.add_argument("--out", type=Path, default=None, help="markdown table (default: print only)")
+    parser.add_argument("--title", default="Speed-cue probe")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    datasets = {
+        name: load_sequences(split_paths(args.data_root, name, "val"), orientation="ground_truth")
+        for name in (OXIOD, RIDI)
+    }
+    columns, results = [], {}
+    stems = [Path(p).name.removesuffix(".safetensors") for p in args.checkpoint]
+    for path, stem in zip(args.checkpoint, stems, strict=True):
+        loaded = load_model(path)
+        label = stem if stems.count(stem) == 1 else f"{Path(path).parent.name}/{stem}"  # same stems
+        predict = window_predictor(loaded)
+        for name, sequences in datasets.items():
+            prepared = [prepare(s, loaded.imu_rate_hz) for s in sequences]
+            column = f"{label} on {name}"
+            columns.append(column)
+            results[column] = speed_cue_probe(predict, prepared, loaded.window, args.stride)
+            print(f"{column}: {results[column][0].windows} windows", flush=True)
+    first = results[columns[0]]
+    lines = [
+        f"# {args.title}",
+        "",
+        "Change of the mean predicted speed (%) over moving windows (true speed >= 0.3 m/s) of the "
+        "protocol's validation recordings (OxIOD: "
+        + ", ".join(s.name for s in datasets[OXIOD])
+        + "; RIDI: "
+        + ", ".join(s.name for s in datasets[RIDI])
+        + "), world frame, ground-truth "
+        "orientation. Amplitude rows scale only the zero-mean part of one acceleration component; "
+        "cadence rows resample the window from a span x0.8 / x1.25 as long, so the step frequency "
+        "changes by that factor while amplitudes stay (a model reading speed from rhythm at a fixed "
+        "stride length would move by -20 % / +25 %). Made by `scripts/probe_speed_cues.py`.",
+        "",
+        "| cue | factor | " + " | ".join(columns) + " |",
+        "|---|---|" + "---|" * len(columns),
+    ]
+    for i, row in enumerate(first):
+        label = LABELS.get(row.probe, "cadence (time warp)")
+        cells = " | ".join(f"{results[c][i].speed_change_pct:+.1f}" for c in columns)
+        lines.append(f"| {label} | x{row.factor:g} | {cells} |")
+    lines.append("| windows | | " + " | ".join(str(results[c][0].windows) for c in columns) + " |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
