@@ -338,7 +338,44 @@ def campaign_jobs(ftin_variant: str | None = None) -> list[Job]:
     return jobs
 
 
-CAMPAIGNS = {"table1": campaign_jobs}  # job lists by name (``ftin campaign plan --jobs``)
+# The generalisation campaign's first stage: the choices it has to make, each decided on walkers the
+# run never trained on (``WALKER_FOLDS`` of the walking dataset). Arms: FTIN with either TDL sequence
+# and RoNIN ResNet under our recipe and yaw augmentation only; both with ``GENERALISATION_AUGMENT``
+# (the walker-held-out probe's two candidates, docs/results/probes/augmentations.md: white noise,
+# which had the lowest ATE on one seed, and the bounce scaling, which halves how much the model reads
+# speed from the bounce); both under the paper's optimiser settings. Seed 0 of every arm on both
+# folds comes first, so that a session's worth of jobs already answers each question once.
+GENERALISATION_AUGMENT: dict[str, float | None] = {"acc_noise": None, "gyro_noise": None, "vertical": None}
+
+
+def generalisation_jobs(_variant: str | None = None) -> list[Job]:
+    """Stage one of the generalisation campaign: walker-wise cross-validation (module comment above)."""
+    arms: list[tuple[str, str | None, str, dict[str, Any]]] = [
+        ("ftin", "ordered", "yaw", {}),
+        ("ronin_resnet", None, "yaw", {}),
+        ("ftin", "ordered", "aug", {"augment": dict(GENERALISATION_AUGMENT)}),
+        ("ronin_resnet", None, "aug", {"augment": dict(GENERALISATION_AUGMENT)}),
+        ("ftin", "mixed", "yaw", {}),
+        ("ftin", "ordered", "paper", dict(RECIPES["paper"])),
+        ("ronin_resnet", None, "paper", dict(RECIPES["paper"])),
+    ]
+    jobs: list[Job] = []
+    for seed in (0, 1):
+        for fold in FOLDS:
+            for model, variant, arm, extra in arms:
+                if seed and arm == "paper":
+                    continue  # the recipe question gets one seed per fold
+                options = {**model_options(model, WALKING), **extra}
+                if variant:
+                    options["model_kwargs"] = {**options.get("model_kwargs", {}), **FTIN_VARIANTS[variant]}
+                label = f"{model}{f'-{variant}' if variant else ''}-{arm}"
+                jobs.append(
+                    Job(f"walking-f{fold}/{label}-s{seed}", model, WALKING, seed, variant, options, fold)
+                )
+    return jobs
+
+
+CAMPAIGNS = {"table1": campaign_jobs, "generalisation": generalisation_jobs}  # by name (``plan --jobs``)
 
 
 # --- the campaign's policy -------------------------------------------------------------------------

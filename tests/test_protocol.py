@@ -171,3 +171,22 @@ def test_the_gate_refuses_what_has_not_learned_to_walk():
     assert protocol.validation_gate(_record(1.0, 1.0, 2.0))["refused"] is None
     assert "path ratio" in protocol.validation_gate(_record(0.7, 1.0, 2.0))["refused"]
     assert "standing still" in protocol.validation_gate(_record(1.0, 2.5, 2.0))["refused"]
+
+
+def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
+    jobs = protocol.generalisation_jobs()
+    assert len({job.name for job in jobs}) == len(jobs) == 24
+    assert jobs[0].name == "walking-f0/ftin-ordered-yaw-s0"
+    assert all(job.fold in protocol.FOLDS for job in jobs)
+    for job in jobs:
+        train = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "train")}
+        val = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "val")}
+        assert train and val and not train & val, job.name
+    arms = {job.name.split("/")[1].rsplit("-s", 1)[0] for job in jobs}
+    assert {"ftin-ordered-aug", "ronin_resnet-paper", "ftin-mixed-yaw"} <= arms
+
+
+def _members(job, part):
+    for dataset in protocol.COMBINED[job.dataset]:
+        for path in job.paths(Path("/data"), part, dataset):
+            yield dataset, path.relative_to(Path("/data") / protocol.DATA_FOLDERS[dataset]).as_posix()
