@@ -46,7 +46,9 @@ def plan_command(
     ] = Path("../shared/data"),
     jobs: Annotated[
         str,
-        typer.Option("--jobs", help="A protocol campaign (table1, generalisation) or a JSON file of job specs."),
+        typer.Option(
+            "--jobs", help="A protocol campaign (table1, generalisation) or a JSON file of job specs."
+        ),
     ] = "table1",
     refresh_code: Annotated[
         bool,

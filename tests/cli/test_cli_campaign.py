@@ -59,7 +59,8 @@ def test_bad_plans_fail_cleanly(tmp_path):
     bad.write_text('[{"name": "x", "model": "ftin"}]')
     args = ["campaign", "plan", "--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--jobs"]
     fails_cleanly(runner.invoke(app, [*args, str(bad)]), "missing ['dataset']")
-    fails_cleanly(runner.invoke(app, [*args, "table9"]), "neither a protocol campaign (table1, generalisation)")
+    message = "neither a protocol campaign (table1, generalisation)"
+    fails_cleanly(runner.invoke(app, [*args, "table9"]), message)
 
 
 def test_run_without_ray_says_how_to_install_it(tmp_path, monkeypatch):
