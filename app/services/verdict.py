@@ -132,3 +132,15 @@ def judge(
 
 def _finite(value: float | None) -> float | None:
     return None if value is None or not np.isfinite(value) else float(value)
+
+
+def z_note(run: Any) -> str | None:
+    """Why z is a constant in ``run``'s trajectory (an ``app.services.runs.Run``) when its model
+    predicts horizontal velocity only; None where z is predicted."""
+    v = np.asarray(run.prediction.velocity_m_s)
+    if v.ndim == 2 and v.shape[1] > 2:
+        return None
+    p = np.asarray(run.prediction.trajectory.p_world_m)
+    z = float(p[0, 2]) if len(p) else 0.0
+    where = "the ground truth's start height" if run.sequence.gt is not None else "no ground truth: 0"
+    return f"z is constant, {z:.3f} m ({where}): {run.model_name} predicts horizontal motion only"
