@@ -28,6 +28,7 @@ MODEL_COLORS: tuple[RGB, ...] = tuple(
 TRUTH_COLOR: RGB = (60, 60, 60)
 WINDOW_COLOR: RGB = (255, 200, 0)  # the current window, on every trajectory
 START_COLOR: RGB = (0, 170, 90)
+GPS_COLOR: RGB = (123, 50, 148)  # the export's GPS fixes (static/util.js: GPS_COLOR)
 
 
 def darker(rgb: RGB, factor: float = 0.7) -> RGB:
