@@ -13,13 +13,17 @@ function downloadLink(href, text) {
   return a;
 }
 
+let keptRequest = 0; // answers that arrive out of order must not overwrite a newer list
+
 async function refreshKeptRuns() {
+  const ticket = ++keptRequest;
   let runs;
   try {
     runs = await fetch("/runs").then((r) => r.json());
   } catch (_) {
     return;
   }
+  if (ticket !== keptRequest) return;
   const list = $("kept-list");
   list.textContent = "";
   $("kept").hidden = !runs.length;

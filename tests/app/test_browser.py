@@ -150,7 +150,7 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
     run_id = page.get_attribute("#scene-link", "data-run-id")
     assert page.get_attribute("#download-link", "href") == f"/runs/{run_id}/trajectory.csv"
     download = httpx.get(f"{live_server.base_url}/runs/{run_id}/trajectory.csv", timeout=10)
-    assert download.text.startswith("t_s,x_m,y_m,z_m")
+    assert download.text.startswith("# z is constant") and "\nt_s,x_m,y_m,z_m\n" in download.text
     scene_href = page.get_attribute("#scene-link", "href")
     assert scene_href.rstrip("/") == live_server.scene.url
     live_server.scene.flush()
@@ -209,9 +209,9 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
     live_server.scene.gui_time.value = 12.0  # move the timeline: markers and spectra follow
     live_server.scene._update_time()
     page.wait_for_function("() => document.body.innerText.includes('Spectra')", timeout=30_000)
-    page.wait_for_function("() => document.body.innerText.includes('ATE m')", timeout=30_000)
+    page.wait_for_function("() => document.body.innerText.includes('ATE [m]')", timeout=30_000)
     body = page.inner_text("body")
-    assert "FTIN Studio" in body and "ATE m" in body and "PDE %" in body and "path" in body
+    assert "FTIN Studio" in body and "ATE [m]" in body and "PDE [%]" in body and "path" in body
     assert "On walk:" in body and DEFAULT_SHOWN in body
     assert run_id in live_server.scene.shown_run_ids()
     if SCREENSHOT_DIR:

@@ -64,7 +64,11 @@ def test_predict_without_ground_truth_estimates_orientation(
     assert body["model"] == OTHER_MODEL
     assert body["metrics"] is None and body["ground_truth"] is None
     assert body["orientation_source"] == "estimated" and body["frame"] == "device_world"
-    assert any("AHRS" in w for w in body["warnings"])
+    # The filter used is information, said once (the drifting heading with it), not a warning.
+    assert [n for n in body["notes"] if "orientation estimated by" in n] == [
+        "orientation estimated by the VQF filter (6-D, without magnetometer): heading is arbitrary and drifts"
+    ]
+    assert not any("orientation" in w and "estimated" in w for w in body["warnings"])
     assert body["trajectory"]["x"][0] == 0.0  # no ground truth: starts at the origin
 
 
