@@ -34,6 +34,7 @@ MAX_PATH_RATIO = 2.0
 STILL_RADIUS_M = 1.0
 WALK_MIN_M = 5.0
 
+
 def unique(messages: list[str]) -> list[str]:
     return list(dict.fromkeys(str(m) for m in messages))
 

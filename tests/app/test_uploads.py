@@ -139,6 +139,7 @@ def test_run_exports_tum_metrics_and_input_timestamps(client: TestClient, csv_wi
     own = client.get(f"/runs/{run['run_id']}/trajectory.csv", params={"timestamps": "input"})
     model = client.get(f"/runs/{run['run_id']}/trajectory.csv")
     assert own.status_code == 200
+
     def rows(text: str) -> int:  # data rows: not the "# z is constant" comment, not the header
         return len([line for line in text.splitlines() if not line.startswith("#")]) - 1
 
