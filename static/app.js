@@ -219,6 +219,7 @@ function setUp() {
   const models = loadModels().catch(() => showError("Could not load the model list from the server."));
   const samples = loadSamples().catch(() => { /* the sample list is optional */ });
   Promise.all([models, samples]).then(() => {
+    $("sample-select").dispatchEvent(new Event("change")); // its model's name, now that names are known
     refreshKeptRuns();
     return showFirstScreen();
   }).catch(() => { /* the first screen is a courtesy */ });

@@ -77,7 +77,9 @@ const FtinPlot = (() => {
       item(`<svg width="12" height="12"><circle cx="6" cy="6" r="3.5" fill="#666" stroke="#fff"/></svg>`,
         "predicted start, where alignment moved it (in the model's colour)");
     }
-    item(`<svg width="14" height="14"><rect x="2" y="2" width="10" height="10" fill="#fff" stroke="${TRUTH_END}" stroke-width="2"/></svg>`, "true end");
+    if (series.some((s) => s.truth)) {
+      item(`<svg width="14" height="14"><rect x="2" y="2" width="10" height="10" fill="#fff" stroke="${TRUTH_END}" stroke-width="2"/></svg>`, "true end");
+    }
     item(`<svg width="14" height="14"><path d="M 7 1 L 13 12 L 1 12 Z" fill="#666"/></svg>`, "predicted end (in the model's colour)");
   }
 

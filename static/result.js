@@ -84,9 +84,8 @@ function showVerdict(m) {
   const box = $("verdict");
   box.hidden = !(m && m.standing_still_text);
   box.className = "verdict" + (isWorseThanStill(m) ? " bad" : " good");
-  box.textContent = m && m.standing_still_text
-    ? (isWorseThanStill(m) ? "⚠ Worse than standing still: " : "Better than standing still: ") + m.standing_still_text
-    : "";
+  // The sentence names the verdict itself ("Worse than standing still: ATE ... against ...").
+  box.textContent = m && m.standing_still_text ? (isWorseThanStill(m) ? "⚠ " : "") + m.standing_still_text : "";
   $("scope-note").textContent = (m && m.scope_note) || "";
   $("scope-note").hidden = !(m && m.scope_note);
 }
@@ -132,7 +131,7 @@ function showResult(result, label) {
   const duration = t[t.length - 1] - t[0];
   const m = result.metrics;
   showVerdict(m);
-  fillTable($("metrics"), [...metricsRows(result), ["Duration", `${duration.toFixed(1)} s`, "", false]]);
+  fillTable($("metrics"), metricsRows(result)); // the duration is among the plausibility figures
   $("convention").textContent = convention(m, duration);
   showPlausibility(result.plausibility);
   // Each message once: the plausibility panel shows its own warnings.

@@ -86,7 +86,7 @@ def draw_gps(scene: viser.SceneApi, p_m: np.ndarray, z_m: float, marker_radius: 
             "/gps/fixes",
             points,
             GPS_COLOR,
-            point_size=marker_radius,
+            point_size=0.3 * marker_radius,  # small: fixes a second apart must not hide the path
             point_shape="circle",
             precision="float32",
         )

@@ -77,7 +77,8 @@ class SceneOverlay:
         entry = self.services.models.entries.get(run.model_name)
         loaded = entry.loaded if entry is not None else None
         window_s = float(loaded.window) / float(loaded.imu_rate_hz) if loaded is not None else 1.0
-        view = RunView.from_run(run, self._colors.color(run.model_name), window_s, loaded)
+        shown = entry.display_name if entry is not None else run.model_name
+        view = RunView.from_run(run, self._colors.color(run.model_name), window_s, loaded, shown)
         with self._lock, self.server.atomic():
             if run.run_id in self._views:
                 return
@@ -231,7 +232,7 @@ class SceneOverlay:
         self.errors.clear()
 
     def _run_label(self, view: RunView) -> str:
-        return f"{view.model_name} on {view.sequence.name}"
+        return f"{view.shown_name} on {view.sequence.name}"
 
     def _plotted_view(self) -> RunView | None:
         label = self.spectra.gui_run.value

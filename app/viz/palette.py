@@ -16,7 +16,7 @@ def rgb_from_hex(code: str) -> RGB:
 # (its light yellow and grey left out), so that all the shipped checkpoints (about twenty: nine
 # models per dataset) overlaid at once still get distinct colours; colours repeat only after 20.
 # No model colour is the yellow of the current window; the end cube of a path takes the path's
-# own colour (a red end cube read as a fourth model's path). static/app.js holds the same list.
+# own colour (a red end cube read as a fourth model's path). static/util.js holds the same list.
 MODEL_COLORS: tuple[RGB, ...] = tuple(
     rgb_from_hex(code)
     for code in (

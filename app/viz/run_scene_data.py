@@ -62,9 +62,12 @@ class RunView:
     stand_still: dict[str, float | None] | None = None  # the table metrics of never moving
     scope_note: str | None = None  # why ATE means little on this recording, if it does
     plausibility: Any = None  # ftin.metrics.plausibility.Plausibility: figures without ground truth, GPS
+    display_name: str = ""  # the model's name people know ("RNIN · OxIOD"); model_name is the API's
 
     @classmethod
-    def from_run(cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None) -> RunView:
+    def from_run(
+        cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None, display_name: str = ""
+    ) -> RunView:
         pred = run.prediction
         t = np.asarray(pred.window_t_s, dtype=np.float64)
         spans = pred.span_t_s
@@ -105,7 +108,12 @@ class RunView:
             stand_still=verdict.stand_still,
             scope_note=verdict.scope_note,
             plausibility=run.plausibility,
+            display_name=display_name,
         )
+
+    @property
+    def shown_name(self) -> str:
+        return self.display_name or self.model_name
 
     @property
     def t0_s(self) -> float:

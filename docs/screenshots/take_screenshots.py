@@ -220,6 +220,9 @@ def main() -> None:
             _close_notifications(scene_page)
             scene_page.wait_for_timeout(SCENE_FADE_MS)
             _close_notifications(scene_page)
+            for folder in ("Models", "Run", "Timeline"):  # folded: the Runs folder's figures show
+                scene_page.get_by_text(folder, exact=True).first.click()
+            scene_page.wait_for_timeout(1_500)
             scene_page.screenshot(path=str(out / "scene_phone_walk.png"))
             browser.close()
     finally:

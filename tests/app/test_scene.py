@@ -107,7 +107,7 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
     )
     assert np.allclose(segments[0, 0], start, atol=1e-4)
     # Spectra of that window: FTIN has FDL, so both heatmaps and the raw IMU spectrum are filled.
-    assert scene.spectra.gui_run.value == f"{DEFAULT_MODEL} on walk_gt"
+    assert scene.spectra.gui_run.value == f"{DEFAULT_SHOWN} on walk_gt"
     raw_freq = scene.spectra.gui_raw.data[0]
     assert len(scene.spectra.gui_raw.data) == 7 and raw_freq[-1] == pytest.approx(50.0)
     channel, temporal = view.spectra_at(index)  # recomputed for this window only
@@ -121,7 +121,7 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
     assert np.all(position_error >= 0) and 10.0 in error_t
     assert np.nanmin(cursor) == 0.0 and np.nanmax(cursor) == 1.0 and error_t[np.nanargmax(cursor)] == 10.0
     assert f"{view.position_error_m[index]:.2f} m" in scene.errors.gui_now.content
-    assert DEFAULT_MODEL in scene.errors.gui_now.content and DEFAULT_MODEL in scene.errors.gui_title.content
+    assert DEFAULT_SHOWN in scene.errors.gui_now.content and DEFAULT_SHOWN in scene.errors.gui_title.content
 
 
 def test_several_models_overlay_and_another_sequence_replaces_them(scene: DashboardScene) -> None:
@@ -134,7 +134,7 @@ def test_several_models_overlay_and_another_sequence_replaces_them(scene: Dashbo
     assert len(colors) == 2  # distinct colours per model
     assert OTHER_MODEL in scene.gui_legend.content and "| resnet-tiny" in scene.gui_metrics.content
     # The spectra keep following the FTIN run: the ResNet has no FDL to show.
-    assert scene.spectra.gui_run.value.startswith(DEFAULT_MODEL)
+    assert scene.spectra.gui_run.value.startswith(DEFAULT_SHOWN)
     other = predictor.predict_sequence("walks--more-imu_only", DEFAULT_MODEL)
     scene.flush()
     assert scene.shown_run_ids() == [other.run_id]
@@ -268,8 +268,8 @@ def test_clear_empties_the_plots_the_timeline_and_the_status(scene: DashboardSce
     scene.gui_clear_scene()
     assert scene.gui_time.disabled and scene.gui_time.value == 0.0 and scene.gui_play.disabled
     assert scene.spectra.gui_run.options == ("(no run)",) and not scene.spectra.gui_channel.visible
-    assert DEFAULT_MODEL not in scene.spectra.gui_info.content
-    assert DEFAULT_MODEL not in scene.errors.gui_title.content and scene.errors.gui_now.content == ""
+    assert DEFAULT_SHOWN not in scene.spectra.gui_info.content
+    assert DEFAULT_SHOWN not in scene.errors.gui_title.content and scene.errors.gui_now.content == ""
     assert len(scene.errors.gui_position.series) == 2  # x and an empty placeholder
     assert "cleared" in scene.gui_status.content and "Nothing shown" in scene.gui_legend.content
 
