@@ -80,7 +80,9 @@ def draw_gps(scene: viser.SceneApi, p_m: np.ndarray, z_m: float, marker_radius: 
     root = scene.add_frame("/gps", show_axes=False)
     points = np.column_stack([p_m, np.full(len(p_m), z_m)]).astype(np.float32)
     if len(points) > 1:
-        scene.add_line_segments("/gps/track", polyline_segments(points), GPS_COLOR, thickness=1.5)
+        scene.add_line_segments(
+            "/gps/track", polyline_segments(points), GPS_COLOR, thickness=1.5, thickness_units="screen"
+        )
     if len(points):
         scene.add_point_cloud(
             "/gps/fixes",
