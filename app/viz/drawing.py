@@ -76,7 +76,7 @@ def draw_path(
 
 def draw_gps(scene: viser.SceneApi, p_m: np.ndarray, z_m: float, marker_radius: float) -> Any:
     """The export's GPS fixes ``(K, 2)`` (the prediction's frame, aligned at the start) as a thin line
-    through small spheres at height ``z_m``; returns the root frame ``/gps``."""
+    through small dots at height ``z_m``; returns the root frame ``/gps``."""
     root = scene.add_frame("/gps", show_axes=False)
     points = np.column_stack([p_m, np.full(len(p_m), z_m)]).astype(np.float32)
     if len(points) > 1:

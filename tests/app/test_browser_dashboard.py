@@ -29,6 +29,8 @@ def test_the_page_opens_on_the_bundled_samples_result(live_server, page) -> None
     # Models under the names people know, with the API name beside them.
     option = page.inner_text(f"#model-select option[value='{DEFAULT_MODEL}']")
     assert option == f"{DEFAULT_SHOWN} ({DEFAULT_MODEL})"
+    assert page.get_attribute("link[rel=icon]", "href") == "/favicon.ico"
+    assert page.request.get(f"{live_server.base_url}/favicon.ico").status == 200  # no 404 in the console
 
 
 def test_the_page_links_all_four_downloads_and_metrics_json_matches_predict(
@@ -110,6 +112,8 @@ def test_three_uploads_are_kept_and_listed_in_the_scene_with_the_right_menus(
         path.write_bytes(csv_with_gt)
         run_file(page, str(path))
         wait_for_result(page, name)
+        # se2 moves the prediction's start off the true start: one green start, the other in its colour.
+        assert page.eval_on_selector_all("#plot circle.start", "els => els.length") == 1
     page.wait_for_function(
         "() => document.getElementById('kept-list').innerText.includes('garden ·')", timeout=10_000
     )
