@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
+from app.services.verdict import z_note
 from ftin.data import Trajectory
 from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_metrics
 
@@ -38,7 +39,8 @@ class HealthResponse(BaseModel):
 
 
 class ModelInfo(BaseModel):
-    name: str
+    name: str = Field(description="The API name (the checkpoint's file stem): use it in ?model=.")
+    display_name: str = Field(description="The name people know, for menus: 'RNIN · OxIOD'.")
     architecture: str
     trained_on: str | None = Field(description="Training data recorded in the checkpoint.")
     imu_rate_hz: float
@@ -54,6 +56,7 @@ class ModelInfo(BaseModel):
         loaded, meta = entry.loaded, entry.meta
         return cls(
             name=entry.name,
+            display_name=entry.display_name,
             architecture=entry.architecture,
             trained_on=entry.trained_on,
             imu_rate_hz=float(loaded.imu_rate_hz),
@@ -318,6 +321,9 @@ class PredictionResponse(BaseModel):
     )
     metrics_url: str = Field("", description="The metrics as JSON: GET /runs/{run_id}/metrics.json.")
     scene_url: str | None
+    z_note: str | None = Field(
+        None, description="Why z is a constant (a model that predicts horizontal motion only), if it is."
+    )
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
@@ -348,6 +354,43 @@ class PredictionResponse(BaseModel):
             ground_truth_tum_url=None if run.truth is None else f"/runs/{run.run_id}/ground_truth.tum",
             metrics_url=f"/runs/{run.run_id}/metrics.json",
             scene_url=scene_url,
+            z_note=z_note(run),
+        )
+
+
+class RunSummary(BaseModel):
+    """A finished run kept in memory (GET /runs): what it is and where its files are."""
+
+    run_id: str
+    model: str
+    sequence: str
+    source: str = Field(description="upload, json, sequence or viser: the door it came in through.")
+    created_s: float = Field(description="When it finished, seconds since the epoch.")
+    has_ground_truth: bool
+    worse_than_standing_still: bool | None
+    csv_url: str
+    tum_url: str
+    ground_truth_tum_url: str | None
+    metrics_url: str
+    result_url: str = Field(description="The whole POST /predict answer again: GET /runs/{run_id}/result.")
+
+    @classmethod
+    def from_run(cls, run: Run) -> RunSummary:
+        still = run.verdict.still if run.truth is not None else None
+        base = f"/runs/{run.run_id}"
+        return cls(
+            run_id=run.run_id,
+            model=run.model_name,
+            sequence=run.sequence.name,
+            source=run.source,
+            created_s=run.created_s,
+            has_ground_truth=run.truth is not None,
+            worse_than_standing_still=None if still is None else still.worse_than_standing_still,
+            csv_url=f"{base}/trajectory.csv",
+            tum_url=f"{base}/trajectory.tum",
+            ground_truth_tum_url=None if run.truth is None else f"{base}/ground_truth.tum",
+            metrics_url=f"{base}/metrics.json",
+            result_url=f"{base}/result",
         )
 
 

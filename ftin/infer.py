@@ -107,7 +107,8 @@ def predict_trajectory(
     if stride < 1:
         raise ValueError(f"stride must be >= 1 sample, got {stride}")
     prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, stride)
-    notes = list(prepared.notes)
+    notes = list(prepared.notes)  # what preparing did (resampled): information
+    short: list[str] = []  # a model run on less than its window: a warning
     n, t_s = len(prepared), prepared.seq.t_s
     features = None
     if loaded.model.streams:
@@ -117,7 +118,7 @@ def predict_trajectory(
         span_start = np.arange(n - 1)
         span_end = span_start + 1
     else:
-        window, parts = _window_and_parts(loaded, seq, n, notes)
+        window, parts = _window_and_parts(loaded, seq, n, short)
         starts = prepared.starts if window == loaded.window else window_starts(n, window, stride)
         part_velocity, features = run_windows(
             loaded, prepared.imu_world, starts, window, parts, batch_size, progress, return_features
@@ -133,7 +134,7 @@ def predict_trajectory(
         velocity_m_s=velocity,
         orientation_source=str(prepared.seq.meta.get("orientation_source", "device")),
         frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
-        warnings=[*prepared.seq.meta.get("warnings", []), *notes],
+        warnings=[*prepared.seq.meta.get("warnings", []), *short],
         features=features,
         span_t_s=np.column_stack([t_s[span_start], t_s[span_end]]),
         prepared=prepared if keep_prepared else None,
@@ -143,7 +144,7 @@ def predict_trajectory(
         orientation_filter=prepared.seq.meta.get("orientation_filter"),
         imu_world=prepared.imu_world,
         starts=prepared.starts,
-        notes=list(prepared.seq.meta.get("notes", [])),
+        notes=[*prepared.seq.meta.get("notes", []), *notes],
     )
 
 
@@ -155,7 +156,7 @@ def _check_length(loaded: LoadedModel, seq: ImuSequence, n: int, needed: int, wh
         )
 
 
-def _window_and_parts(loaded: LoadedModel, seq: ImuSequence, n: int, notes: list[str]) -> tuple[int, int]:
+def _window_and_parts(loaded: LoadedModel, seq: ImuSequence, n: int, warnings: list[str]) -> tuple[int, int]:
     """The window to run and its number of parts; a multi-part model runs fewer parts on a recording
     shorter than its window (module docstring, step 3)."""
     window = loaded.window
@@ -166,7 +167,7 @@ def _window_and_parts(loaded: LoadedModel, seq: ImuSequence, n: int, notes: list
         return window, parts
     _check_length(loaded, seq, n, part + 1, f"one {part}-sample part of its window and its end")
     short = (n - 1) // part * part
-    notes.append(
+    warnings.append(
         f"{seq.name}: shorter than {loaded.name!r}'s {window}-sample window; ran one window of "
         f"{short // part} of its {parts} parts"
     )

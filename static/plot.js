@@ -1,8 +1,11 @@
 // A small dependency-free SVG plot of 2-D trajectories (x east, y north, equal scale).
-// FtinPlot.render(container, series, legend): series = [{label, color, x: [...], y: [...], dashed, truth}]
-// The legend is HTML beside the plot (never over the data, names never cut). Markers: every path
-// starts at a green circle; the ground truth ends at a hollow grey square, a prediction at a
-// triangle in its own colour.
+// FtinPlot.render(container, series, legend): series = [{label, color, x: [...], y: [...], dashed, truth,
+// gps, accuracy: [...]}]
+// The legend is HTML beside the plot (never over the data, names never cut). Markers: the start is
+// one green circle (the ground truth's, else where the predictions start); a prediction aligned away
+// from it starts at a small circle in its own colour; the ground truth ends at a hollow grey square,
+// a prediction at a triangle in its own colour. GPS fixes are dots on a dotted line, each inside a
+// faint circle of its reported accuracy.
 "use strict";
 
 const FtinPlot = (() => {
@@ -52,7 +55,7 @@ const FtinPlot = (() => {
     return { x0: cx - spanX / 2, x1: cx + spanX / 2, y0: cy - spanY / 2, y1: cy + spanY / 2, scale };
   }
 
-  function renderLegend(legend, series) {
+  function renderLegend(legend, series, ownStarts) {
     legend.textContent = "";
     const item = (swatch, label) => {
       const span = document.createElement("span");
@@ -62,11 +65,21 @@ const FtinPlot = (() => {
       legend.appendChild(span);
     };
     for (const s of series) {
+      if (s.gps) {
+        item(`<svg width="26" height="12"><circle cx="13" cy="6" r="5" fill="${s.color}" fill-opacity="0.15"/><circle cx="13" cy="6" r="2.5" fill="${s.color}"/></svg>`, s.label);
+        continue;
+      }
       const dash = s.dashed ? "stroke-dasharray='6 4'" : "";
       item(`<svg width="26" height="10"><line x1="0" y1="5" x2="26" y2="5" stroke="${s.color}" stroke-width="3" ${dash}/></svg>`, s.label);
     }
     item(`<svg width="12" height="12"><circle cx="6" cy="6" r="5" fill="${START_COLOR}"/></svg>`, "start");
-    item(`<svg width="14" height="14"><rect x="2" y="2" width="10" height="10" fill="#fff" stroke="${TRUTH_END}" stroke-width="2"/></svg>`, "true end");
+    if (ownStarts) {
+      item(`<svg width="12" height="12"><circle cx="6" cy="6" r="3.5" fill="#666" stroke="#fff"/></svg>`,
+        "predicted start, where alignment moved it (in the model's colour)");
+    }
+    if (series.some((s) => s.truth)) {
+      item(`<svg width="14" height="14"><rect x="2" y="2" width="10" height="10" fill="#fff" stroke="${TRUTH_END}" stroke-width="2"/></svg>`, "true end");
+    }
     item(`<svg width="14" height="14"><path d="M 7 1 L 13 12 L 1 12 Z" fill="#666"/></svg>`, "predicted end (in the model's colour)");
   }
 
@@ -99,7 +112,9 @@ const FtinPlot = (() => {
       transform: `rotate(-90 14 ${SIZE.top + (SIZE.height - SIZE.top - SIZE.bottom) / 2})` }, axis)
       .textContent = "y (m)";
 
-    for (const s of series) {
+    const paths = series.filter((s) => !s.gps);
+    for (const s of series.filter((g) => g.gps)) drawGps(svg, s, px, py, b.scale);
+    for (const s of paths) {
       const points = decimate(s.x.length).map((i) => `${px(s.x[i]).toFixed(1)},${py(s.y[i]).toFixed(1)}`);
       el("polyline", {
         points: points.join(" "), fill: "none", stroke: s.color, "stroke-width": s.dashed ? 2 : 2.5,
@@ -107,9 +122,18 @@ const FtinPlot = (() => {
         "data-label": s.label,
       }, svg);
     }
-    for (const s of series) {
+    // One start: the truth's (else the first path's); a path starting elsewhere (aligned) gets its own.
+    const first = paths.find((s) => s.truth) || paths[0];
+    let ownStarts = false;
+    for (const s of paths) {
       const last = s.x.length - 1;
-      el("circle", { cx: px(s.x[0]), cy: py(s.y[0]), r: 5, fill: START_COLOR, class: "start" }, svg);
+      const apart = first && Math.hypot(s.x[0] - first.x[0], s.y[0] - first.y[0]) * b.scale > 3;
+      if (s === first) {
+        el("circle", { cx: px(s.x[0]), cy: py(s.y[0]), r: 5, fill: START_COLOR, class: "start" }, svg);
+      } else if (apart) {
+        ownStarts = true;
+        el("circle", { cx: px(s.x[0]), cy: py(s.y[0]), r: 3.5, fill: s.color, stroke: "#fff", class: "start-own" }, svg);
+      }
       const ex = px(s.x[last]), ey = py(s.y[last]);
       if (s.truth) {
         el("rect", { x: ex - 6, y: ey - 6, width: 12, height: 12, fill: "#fff", stroke: s.color,
@@ -120,8 +144,24 @@ const FtinPlot = (() => {
       }
     }
 
-    if (legend) renderLegend(legend, series);
+    if (legend) renderLegend(legend, series, ownStarts);
     return svg;
+  }
+
+  // GPS fixes: a faint circle of each fix's accuracy (metres, to scale), a dot, a dotted line.
+  function drawGps(svg, s, px, py, scale) {
+    const g = el("g", { class: "gps", "data-label": s.label }, svg);
+    for (let i = 0; i < s.x.length; i++) {
+      const a = s.accuracy ? s.accuracy[i] : null;
+      if (a !== null && a !== undefined && Number.isFinite(a)) {
+        el("circle", { cx: px(s.x[i]), cy: py(s.y[i]), r: Math.max(a * scale, 1), fill: s.color, "fill-opacity": 0.06 }, g);
+      }
+    }
+    const points = s.x.map((x, i) => `${px(x).toFixed(1)},${py(s.y[i]).toFixed(1)}`);
+    el("polyline", { points: points.join(" "), fill: "none", stroke: s.color, "stroke-width": 1.2, "stroke-dasharray": "2 3" }, g);
+    for (let i = 0; i < s.x.length; i++) {
+      el("circle", { cx: px(s.x[i]), cy: py(s.y[i]), r: 2.5, fill: s.color, class: "gps-fix" }, g);
+    }
   }
 
   return { render, decimate, tickStep };

@@ -123,7 +123,7 @@ def test_resamples_to_the_checkpoint_rate():
     seq = _circle_walk(rate_hz=100.0)
     pred = predict_trajectory(_oracle(rate_hz=50.0, window=50, stride=50), seq)
     assert np.allclose(np.diff(pred.trajectory.t_s), 0.02)
-    assert any("resampled from 100 Hz to the checkpoint's 50 Hz" in w for w in pred.warnings)
+    assert any("resampled from 100 Hz to the checkpoint's 50 Hz" in n for n in pred.notes)  # information
     assert score(pred).metrics.ate < 0.05
 
 
@@ -159,7 +159,11 @@ def test_streaming_progress_and_features(tiny_checkpoint, walk):
 def test_missing_orientation_is_estimated_with_a_warning(tiny_checkpoint, walk):
     pred = predict_trajectory(tiny_checkpoint, walk.with_(q_world_device_wxyz=None))
     assert pred.orientation_source == "estimated"
-    assert any("no device orientation" in w for w in pred.warnings)
+    # Said once, as a note naming the filter (no second message in other words among the warnings).
+    messages = pred.notes + pred.warnings
+    assert sum(m.startswith("orientation estimated by the VQF filter") for m in messages) == 1
+    assert any(m.startswith("orientation estimated by") for m in pred.notes)
+    assert not any("no device orientation" in m for m in messages)
 
 
 def test_too_short_input(tiny_checkpoint, walk):

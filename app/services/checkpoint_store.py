@@ -25,6 +25,7 @@ from typing import Any
 
 from app.services.errors import NotFoundError, StartupError
 from app.services.kinds import labels, training_kinds
+from app.services.model_names import display_name
 from ftin.checkpoint import LoadedModel, load_model
 
 log = logging.getLogger(__name__)
@@ -43,6 +44,11 @@ class ModelEntry:
     @property
     def architecture(self) -> str:
         return str(self.loaded.model_name)
+
+    @property
+    def display_name(self) -> str:
+        """The name people know ("RNIN · OxIOD"); ``name`` stays the API's."""
+        return display_name(self.name, self.architecture)
 
     @property
     def meta(self) -> dict[str, Any]:

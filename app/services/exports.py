@@ -10,6 +10,10 @@ Decisions:
   ``timestamps=input``: interpolated at the recording's own timestamps inside the predicted span
   (a 200 Hz upload comes back at 200 Hz; for a phone export, its merged sensor clock).
 - Timestamps are seconds from the start of the recording, as in every other output.
+- A model that predicts horizontal velocity only holds z at its start: the ground truth's start
+  height, else 0. Both files say so in a ``#`` comment first (``z_note``), as the page does.
+- ``metrics.json`` carries what ``POST /predict`` answers about the scores (its ``metrics`` object,
+  field for field, ``plausibility``, ``warnings`` and ``notes``), plus the metric definitions.
 """
 
 from __future__ import annotations
@@ -20,10 +24,12 @@ from typing import Any
 
 import numpy as np
 
+from app.schemas import MetricsPayload, PlausibilityPayload  # the fields POST /predict answers
 from app.services.runs import Run
+from app.services.verdict import z_note
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.data.types import Trajectory
-from ftin.metrics import describe, describe_alignment, list_metrics
+from ftin.metrics import list_metrics
 
 
 class Timestamps(str, Enum):
@@ -39,9 +45,12 @@ def trajectory_at(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> 
 
 
 def trajectory_csv(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:
-    """``t_s,x_m,y_m,z_m`` in the prediction's world frame."""
+    """``t_s,x_m,y_m,z_m`` in the prediction's world frame, after a ``#`` line when z is constant."""
     traj = trajectory_at(run, timestamps)
     buffer = io.StringIO()
+    note = z_note(run)
+    if note is not None:
+        buffer.write(f"# {note}\n")
     table = np.column_stack([traj.t_s, traj.p_world_m])
     np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header="t_s,x_m,y_m,z_m", comments="")
     return buffer.getvalue()
@@ -52,6 +61,9 @@ def trajectory_tum(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) ->
         f"FTIN Studio: {run.model_name} on {run.sequence.name}, {run.prediction.frame} frame, "
         f"orientation {run.prediction.orientation_source}, timestamps: {Timestamps(timestamps).value}"
     )
+    note = z_note(run)
+    if note is not None:
+        comment += f"\n{note}"
     return tum_text(trajectory_at(run, timestamps), comment)
 
 
@@ -65,20 +77,19 @@ def ground_truth_tum(run: Run) -> str | None:
 
 
 def metrics_json(run: Run) -> dict[str, Any]:
-    m = run.metrics
-    out: dict[str, Any] = {
+    """What ``POST /predict`` says about the run's scores, without the trajectories."""
+    metrics = MetricsPayload.from_run(run)
+    return {
         "run_id": run.run_id,
         "model": run.model_name,
         "sequence": run.sequence.name,
         "orientation_source": run.prediction.orientation_source,
         "orientation_filter": run.prediction.orientation_filter,
         "frame": run.prediction.frame,
-        "metrics": None,
+        "metrics": None if metrics is None else metrics.model_dump(),
+        "metric_definitions": [metric.as_dict() for metric in list_metrics()],
+        "plausibility": PlausibilityPayload.from_run(run).model_dump(),
+        "warnings": run.verdict.warnings,
+        "notes": run.verdict.notes,
+        "z_note": z_note(run),
     }
-    if m is not None:
-        out["metrics"] = m.as_dict()
-        out["metric_definitions"] = [metric.as_dict() for metric in list_metrics()]
-        out["convention_text"] = describe(m.convention, m.rte_window_s)
-        if m.alignment is not None:
-            out["alignment_text"] = describe_alignment(m.alignment)
-    return out

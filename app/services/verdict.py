@@ -7,9 +7,9 @@ Decisions:
   true horizontal path over the model's window, ``ftin.metrics``) and a warning naming the path when the
   ratio is below ``MIN_PATH_RATIO`` or above ``MAX_PATH_RATIO``, or when the prediction stays
   within ``STILL_RADIUS_M`` of its start while the truth walks at least ``WALK_MIN_M``.
-- The library reports what it did to the input (time unit detected, columns ignored, resampling)
-  in the same list as real warnings. Those are information: the API returns them as ``notes``,
-  and only the rest as ``warnings``. Both lists are de-duplicated, order kept.
+- Warnings and notes arrive apart (``ftin.data.messages``: readers file a conversion made or a
+  filter used under ``meta["notes"]``, the prediction carries ``notes`` and ``warnings``): the API
+  returns them as they are, each once, order kept; nothing is guessed from the words.
 - The standing-still baseline (``ftin.metrics.stand_still``) is scored with the same convention:
   a model is judged by how far below standing still it gets. ``ftin.metrics.verdicts`` says it in
   words: a model at or above standing still's ATE gets a warning, and a recording too short or too
@@ -33,15 +33,6 @@ MIN_PATH_RATIO = 0.5
 MAX_PATH_RATIO = 2.0
 STILL_RADIUS_M = 1.0
 WALK_MIN_M = 5.0
-
-# Library messages that describe how the input was read, not something that went wrong.
-_INFO_PREFIXES = ("t detected as", "t read in", "used column", "ignored columns", "bridged ", "dropped ")
-_INFO_FRAGMENTS = (": resampled from",)
-
-
-def is_information(message: str) -> bool:
-    text = message.strip()
-    return text.startswith(_INFO_PREFIXES) or any(f in text for f in _INFO_FRAGMENTS)
 
 
 def unique(messages: list[str]) -> list[str]:
@@ -101,9 +92,8 @@ def judge(
     without ground truth), ``truth`` the ground truth as drawn, ``plausibility`` the plausibility
     warnings of the prediction (``ftin.metrics.plausibility``). Nothing is changed."""
     scored_warnings = [] if score is None else list(score.warnings)
-    messages = unique([str(w) for w in [*prediction.warnings, *scored_warnings, *(plausibility or [])]])
-    notes = unique([*getattr(prediction, "notes", []), *(m for m in messages if is_information(m))])
-    warnings = [m for m in messages if not is_information(m)]
+    warnings = unique([str(w) for w in [*prediction.warnings, *scored_warnings, *(plausibility or [])]])
+    notes = unique([str(n) for n in getattr(prediction, "notes", [])])
     metrics = None if score is None else score.metrics
     if truth is None or metrics is None:
         return Verdict(warnings, notes)
@@ -132,3 +122,15 @@ def judge(
 
 def _finite(value: float | None) -> float | None:
     return None if value is None or not np.isfinite(value) else float(value)
+
+
+def z_note(run: Any) -> str | None:
+    """Why z is a constant in ``run``'s trajectory (an ``app.services.runs.Run``) when its model
+    predicts horizontal velocity only; None where z is predicted."""
+    v = np.asarray(run.prediction.velocity_m_s)
+    if v.ndim == 2 and v.shape[1] > 2:
+        return None
+    p = np.asarray(run.prediction.trajectory.p_world_m)
+    z = float(p[0, 2]) if len(p) else 0.0
+    where = "the ground truth's start height" if run.sequence.gt is not None else "no ground truth: 0"
+    return f"z is constant, {z:.3f} m ({where}): {run.model_name} predicts horizontal motion only"

@@ -1,11 +1,20 @@
 """The scene's control panel: GUI folders "Data", "Models", "Run", "Timeline", "Runs" on the left,
 the "Spectra" / "Error" tabs docked on the right, their callbacks, and the actions they start
-(run the ticked models on the selected or uploaded recording; clear the scene)."""
+(run the ticked models on the selected or uploaded recording; clear the scene).
+
+Decisions:
+- Uploaded recordings are a dataset of their own in the Dataset menu ("Uploaded recordings"): every
+  upload whose runs the server still keeps (``RunStore``: FTIN_MAX_RUNS, FTIN_MAX_KEPT_SAMPLES; no
+  copy is held here), named "<name> (uploaded)", with the time of the upload where names repeat.
+- Models are ticked and shown under the names people know ("RNIN · OxIOD"); the hint gives the API
+  name. The menus are set by the scene to what produced the run on screen (``SceneOverlay``).
+"""
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -14,8 +23,8 @@ import viser
 from app.services import Services
 from app.services.errors import ServiceError
 from app.services.runs import Run
+from app.viz.overlay import LIVE, UPLOADED, UPLOADS, sequence_key
 from app.viz.panels import ErrorPanel, SpectraPanel
-from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)
 
@@ -30,7 +39,7 @@ class SceneControls:
     server: viser.ViserServer
     services: Services
     _lock: threading.RLock
-    _uploaded: tuple[str, ImuSequence] | None
+    _uploaded: Run | None
     _sequence_ids: dict[str, str]
     _batch_label: str
     _syncing: bool
@@ -47,14 +56,18 @@ class SceneControls:
         gui = self.server.gui
         catalog, models = self.services.catalog, self.services.models
         with gui.add_folder("Data"):
-            datasets = catalog.dataset_labels() or [NO_DATA]
+            datasets = self._dataset_options()
             self.gui_dataset = gui.add_dropdown("Dataset", datasets, initial_value=datasets[0])
             self.gui_sequence = gui.add_dropdown("Sequence", self._sequence_options(datasets[0]))
         first = next(iter(catalog.entries.values()), None)
         suggested = models.for_kind(first.kind if first is not None else None)
         with gui.add_folder("Models"):
             self.gui_models = {
-                name: gui.add_checkbox(name, initial_value=name == suggested, hint=self._model_hint(name))
+                name: gui.add_checkbox(
+                    models.entries[name].display_name,
+                    initial_value=name == suggested,
+                    hint=self._model_hint(name),
+                )
                 for name in models.names()
             }
             if not self.gui_models:
@@ -84,6 +97,7 @@ class SceneControls:
         with gui.add_folder("Runs"):
             self.gui_legend = gui.add_html("")
             self.gui_metrics = gui.add_markdown("")
+            self.gui_plausibility = gui.add_markdown("")
             self.gui_clear = gui.add_button("Clear scene", icon=viser.Icon.TRASH)
 
         @self.gui_dataset.on_update
@@ -119,7 +133,7 @@ class SceneControls:
     def _model_hint(self, name: str) -> str:
         entry = self.services.models.entries[name]
         trained = f", trained on {entry.trained_on}" if entry.trained_on else ""
-        return f"{entry.architecture}{trained}"
+        return f"{entry.architecture}{trained}; API name {name}"
 
     def _build_plots(self) -> None:
         gui = self.server.gui
@@ -135,7 +149,41 @@ class SceneControls:
         def _(_: viser.GuiEvent) -> None:
             self.request_time_update()
 
+    def _dataset_options(self) -> list[str]:
+        labels = self.services.catalog.dataset_labels()
+        if self._uploads():
+            labels = [*labels, UPLOADS]
+        return labels or [NO_DATA]
+
+    def _uploads(self) -> dict[str, Run]:
+        """Menu label -> the first run of a recording, for every upload the server keeps a run of
+        (oldest first), and the one on screen."""
+        first: dict[tuple[Any, ...], Run] = {}
+        for run in [*self.services.runs.list(), *([self._uploaded] if self._uploaded else [])]:
+            if run.sequence_id is None:
+                first.setdefault(sequence_key(run), run)
+        names = [run.sequence.name for run in first.values()]
+        labels = {}
+        for run in first.values():
+            label = f"{run.sequence.name}{LIVE if run.source == 'live' else UPLOADED}"
+            if names.count(run.sequence.name) > 1:
+                when = time.strftime("%H:%M:%S", time.localtime(run.created_s))
+                label = f"{run.sequence.name} (uploaded {when})"
+            base, n = label, 1
+            while label in labels:  # the same name uploaded twice within a second
+                n += 1
+                label = f"{base[:-1]} #{n})"
+            labels[label] = run
+        return labels
+
+    def upload_label(self, run: Run) -> str | None:
+        """The Sequence menu's label of an uploaded ``run``'s recording."""
+        key = sequence_key(run)
+        return next((label for label, first in self._uploads().items() if sequence_key(first) == key), None)
+
     def _sequence_options(self, dataset_label: str) -> list[str]:
+        if dataset_label == UPLOADS:
+            return list(self._uploads()) or [NO_DATA]
         entries = [e for e in self.services.catalog.list() if (e.dataset_label or e.dataset) == dataset_label]
         names = [e.name for e in entries]
         options = []
@@ -143,11 +191,11 @@ class SceneControls:
             label = e.name if names.count(e.name) == 1 else f"{e.name} ({e.id})"
             self._sequence_ids[label] = e.id
             options.append(label)
-        if self._uploaded is not None:
-            options.insert(0, self._uploaded[0])
         return options or [NO_DATA]
 
     def _selected_entry(self) -> Any:
+        if self.gui_dataset.value == UPLOADS:
+            return None
         seq_id = self._sequence_ids.get(self.gui_sequence.value)
         return None if seq_id is None else self.services.catalog.entries.get(seq_id)
 
@@ -162,9 +210,9 @@ class SceneControls:
 
     def _run_selected(self, client: viser.ClientHandle | None) -> None:
         models = self._checked_models()
-        uploaded = self._uploaded
-        if uploaded is not None and self.gui_sequence.value == uploaded[0] and models:
-            seq = uploaded[1]
+        upload = self._uploads().get(self.gui_sequence.value) if self.gui_dataset.value == UPLOADS else None
+        if upload is not None and models:
+            seq = upload.sequence
             predictor = self.services.predictor
             align = self._align()
             self._run_batch(

@@ -1,5 +1,6 @@
 """Scene nodes for runs and ground truth. Paths: ``/runs/{run_id}/{pred,start,end,marker,window}``,
-``/truth/{path,start,end,marker,window}``, ``/grid`` and its scale label ``/grid_scale``.
+``/truth/{path,start,end,marker,window}``, ``/gps/{track,fixes}``, ``/grid`` and its scale label
+``/grid_scale``.
 
 Sizes are relative to the extent of what is shown (markers ~1 % of it), so a 3 m test walk and a
 300 m trolley run both look right. Lines use screen-space thickness for the same reason.
@@ -13,7 +14,7 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.viz.palette import RGB, START_COLOR, WINDOW_COLOR, darker
+from app.viz.palette import GPS_COLOR, RGB, START_COLOR, WINDOW_COLOR, darker
 from app.viz.spectra import decimate_indices, polyline_segments
 from ftin.data import Trajectory
 
@@ -43,10 +44,17 @@ class PathNodes:
 
 
 def draw_path(
-    scene: viser.SceneApi, prefix: str, path_name: str, traj: Trajectory, color: RGB, marker_radius: float
+    scene: viser.SceneApi,
+    prefix: str,
+    path_name: str,
+    traj: Trajectory,
+    color: RGB,
+    marker_radius: float,
+    start_color: RGB | None = START_COLOR,
 ) -> PathNodes:
-    """Polyline + start (green sphere) and end (cube in the path's own, darker colour) markers + a
-    position marker at the start."""
+    """Polyline + start (a sphere: green for the ground truth, ``start_color``; a prediction's is
+    smaller and in its own colour, so that an aligned prediction's start is no second "start") and
+    end (cube in the path's own, darker colour) markers + a position marker at the start."""
     root = scene.add_frame(prefix, show_axes=False)
     keep = decimate_indices(len(traj), MAX_LINE_POINTS)
     points = traj.p_world_m[keep]
@@ -57,10 +65,34 @@ def draw_path(
         thickness=LINE_PX,
         thickness_units="screen",
     )
-    scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, START_COLOR, position=points[0])
+    if start_color is not None:
+        scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, start_color, position=points[0])
+    else:
+        scene.add_icosphere(f"{prefix}/start", marker_radius * 0.5, color, position=points[0])
     scene.add_box(f"{prefix}/end", darker(color), (marker_radius * 1.6,) * 3, position=points[-1])
     marker = scene.add_icosphere(f"{prefix}/marker", marker_radius, color, position=points[0])
     return PathNodes(prefix, root, marker)
+
+
+def draw_gps(scene: viser.SceneApi, p_m: np.ndarray, z_m: float, marker_radius: float) -> Any:
+    """The export's GPS fixes ``(K, 2)`` (the prediction's frame, aligned at the start) as a thin line
+    through small dots at height ``z_m``; returns the root frame ``/gps``."""
+    root = scene.add_frame("/gps", show_axes=False)
+    points = np.column_stack([p_m, np.full(len(p_m), z_m)]).astype(np.float32)
+    if len(points) > 1:
+        scene.add_line_segments(
+            "/gps/track", polyline_segments(points), GPS_COLOR, thickness=1.5, thickness_units="screen"
+        )
+    if len(points):
+        scene.add_point_cloud(
+            "/gps/fixes",
+            points,
+            GPS_COLOR,
+            point_size=0.3 * marker_radius,  # small: fixes a second apart must not hide the path
+            point_shape="circle",
+            precision="float32",
+        )
+    return root
 
 
 @dataclass(frozen=True)

@@ -30,13 +30,12 @@ import viser
 from app.services import Services
 from app.services.runs import Run
 from app.viz.drawing import PathNodes, draw_path
-from app.viz.overlay import _sequence_key
+from app.viz.overlay import sequence_key
 from app.viz.run_scene_data import RunView
 
-LIVE = " (live)"
 IDLE_TEXT = (
-    "No phone is streaming. In Sensor Logger: Settings > Data Streaming > HTTP Push, paste the push URL "
-    "from the upload page, then record."
+    "No phone is streaming. In Sensor Logger, tap the gear icon on the Logger page, turn HTTP Push on, "
+    "paste the push URL from the upload page, then record."
 )
 
 
@@ -49,7 +48,7 @@ class SceneLive:
     _views: dict[str, RunView]
     _nodes: dict[str, PathNodes]
     _marker_radius: float
-    _uploaded: Any
+    _uploaded: Run | None
     _sequence_key: Any
     _jobs: Any
     gui_sequence: viser.GuiDropdownHandle
@@ -92,11 +91,7 @@ class SceneLive:
 
     def _show_live(self, run: Run) -> None:
         if run.run_id not in self._views:
-            self.show_run(run)
-            with self._lock:
-                self._uploaded = (f"{run.sequence.name}{LIVE}", run.sequence)
-                self.gui_sequence.options = self._sequence_options(self.gui_dataset.value)
-                self.gui_sequence.value = self._uploaded[0]
+            self.show_run(run)  # the Data menus show it among the uploads, "(live)"
         with self._lock, self.server.atomic():
             old = self._views.get(run.run_id)
             if old is None:  # cleared meanwhile ("Clear scene", another recording)
@@ -113,8 +108,8 @@ class SceneLive:
                 warnings=tuple(pred.warnings),
             )
             self._views[run.run_id] = view
-            self._sequence_key = _sequence_key(run)
-            self._uploaded = (f"{run.sequence.name}{LIVE}", run.sequence)
+            self._sequence_key = sequence_key(run)
+            self._uploaded = run
             self._nodes.pop(run.run_id).remove()
             self._nodes[run.run_id] = draw_path(
                 self.server.scene,

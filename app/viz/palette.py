@@ -16,7 +16,7 @@ def rgb_from_hex(code: str) -> RGB:
 # (its light yellow and grey left out), so that all the shipped checkpoints (about twenty: nine
 # models per dataset) overlaid at once still get distinct colours; colours repeat only after 20.
 # No model colour is the yellow of the current window; the end cube of a path takes the path's
-# own colour (a red end cube read as a fourth model's path). static/app.js holds the same list.
+# own colour (a red end cube read as a fourth model's path). static/util.js holds the same list.
 MODEL_COLORS: tuple[RGB, ...] = tuple(
     rgb_from_hex(code)
     for code in (
@@ -28,6 +28,7 @@ MODEL_COLORS: tuple[RGB, ...] = tuple(
 TRUTH_COLOR: RGB = (60, 60, 60)
 WINDOW_COLOR: RGB = (255, 200, 0)  # the current window, on every trajectory
 START_COLOR: RGB = (0, 170, 90)
+GPS_COLOR: RGB = (123, 50, 148)  # the export's GPS fixes (static/util.js: GPS_COLOR)
 
 
 def darker(rgb: RGB, factor: float = 0.7) -> RGB:

@@ -164,7 +164,7 @@ class SpectraPanel:
         t0 = view.t0_s
         span = f"{view.window_start_s[index] - t0:.2f}–{view.window_end_s[index] - t0:.2f} s"
         count = f"window {index + 1}/{len(view.window_t_s)}"
-        where = f"**{view.model_name}** on {view.sequence.name}, {count} ({span})"
+        where = f"**{view.shown_name}** on {view.sequence.name}, {count} ({span})"
         raw = view.raw_spectrum(index)
         self.gui_raw.visible = True
         if raw is not None:
@@ -222,7 +222,7 @@ class ErrorPanel:
             if views:
                 self.gui_title.content = "No ground truth in this recording: no error to show."
             return
-        names = ", ".join(f"**{v.model_name}**" for v in scored)
+        names = ", ".join(f"**{v.shown_name}**" for v in scored)
         self.gui_title.content = f"On {scored[0].sequence.name}: {names}. Cursor at **{t_rel_s:.2f} s**."
         duration = float(scored[0].sequence.t_s[-1] - scored[0].sequence.t_s[0])
         grid = common_time_grid(duration)
@@ -235,7 +235,7 @@ class ErrorPanel:
             series = (
                 {"label": "t (s)"},
                 *(
-                    {"label": v.model_name, "stroke": hex_color(v.color), "width": 1.5, "scale": unit}
+                    {"label": v.shown_name, "stroke": hex_color(v.color), "width": 1.5, "scale": unit}
                     for v in scored
                 ),
                 {"label": "now", "stroke": CURSOR_COLOR, "width": 1.0, "scale": "cursor", "dash": [4, 4]},
@@ -248,7 +248,7 @@ class ErrorPanel:
             self.gui_now.content = ""
             return
         self.gui_now.content = (
-            f"**{selected.model_name}** at window {index + 1} "
+            f"**{selected.shown_name}** at window {index + 1} "
             f"({selected.window_t_s[index] - selected.t0_s:.2f} s): position error "
             f"**{selected.position_error_m[index]:.2f} m**, heading error "
             f"**{selected.heading_error_deg[index]:+.0f}°**, velocity error "

@@ -56,9 +56,18 @@ class RunView:
     model_input: ModelInput | None
     has_spectra: bool  # the model has FDL spectra to show
     alignment: str | None = None  # ftin.metrics.alignment_modes in words, fitted heading (None: no metrics)
+    alignment_mode: str | None = None  # none, start, se2 or se3: what the Alignment menu shows for it
+    worse_than_still: bool | None = None  # its ATE at or above standing still's (None: no baseline)
+    still_text: str | None = None  # the comparison with standing still, in words
+    stand_still: dict[str, float | None] | None = None  # the table metrics of never moving
+    scope_note: str | None = None  # why ATE means little on this recording, if it does
+    plausibility: Any = None  # ftin.metrics.plausibility.Plausibility: figures without ground truth, GPS
+    display_name: str = ""  # the model's name people know ("RNIN · OxIOD"); model_name is the API's
 
     @classmethod
-    def from_run(cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None) -> RunView:
+    def from_run(
+        cls, run: Run, color: RGB, window_s: float, loaded: LoadedModel | None = None, display_name: str = ""
+    ) -> RunView:
         pred = run.prediction
         t = np.asarray(pred.window_t_s, dtype=np.float64)
         spans = pred.span_t_s
@@ -93,11 +102,30 @@ class RunView:
             model_input=model_input,
             has_spectra=has_spectra,
             alignment=_alignment_words(scored),
+            alignment_mode=None if scored is None else scored.alignment,
+            worse_than_still=None if verdict.still is None else verdict.still.worse_than_standing_still,
+            still_text=None if verdict.still is None else verdict.still.text,
+            stand_still=verdict.stand_still,
+            scope_note=verdict.scope_note,
+            plausibility=run.plausibility,
+            display_name=display_name,
         )
+
+    @property
+    def shown_name(self) -> str:
+        return self.display_name or self.model_name
 
     @property
     def t0_s(self) -> float:
         return float(self.sequence.t_s[0])
+
+    @property
+    def flags(self) -> list[str]:
+        """Why this run is flagged (⚠), in words: worse than standing still, a path off the truth's."""
+        return [
+            *(["worse than standing still"] if self.worse_than_still else []),
+            *(["path"] if self.path_warning else []),
+        ]
 
     @property
     def path_warning(self) -> bool:

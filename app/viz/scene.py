@@ -22,9 +22,10 @@ prediction's HTTP response never waits for the scene. ``flush()`` waits until ev
 drawn; ``stop()`` ends the thread.
 
 Decisions:
-- No stale state: the Sequence menu always shows the recording on screen (an uploaded one is
-  added to the menu as "<name> (uploaded)", and Run works on it); the status line names what is
-  shown; "Clear scene" empties the plots and the timeline too.
+- No stale state: the Data menus always show the recording on screen (an uploaded one under
+  "Uploaded recordings" as "<name> (uploaded)", and Run works on it), the Models menu ticks the
+  models on screen and the Alignment menu shows how they were scored; the status line names what is
+  shown; "Clear scene" empties the plots and the timeline (its range too).
 - A repeat replaces its predecessor: a run of a model on the sequence where the same model is
   already shown takes its place (legend, table and plots keep one row per model).
 - Slider moves are coalesced: the drawing thread redraws for the latest time only, so a dragged
@@ -56,7 +57,6 @@ from app.viz.overlay import SceneOverlay
 from app.viz.palette import ColorBook
 from app.viz.run_scene_data import RunView
 from app.viz.timeline import SceneTimeline
-from ftin.data import ImuSequence
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,8 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
         self._grid: GridNodes | None = None
         self._frame_box: tuple[np.ndarray, float] | None = None  # centre, size framed now
         self._sequence_key: tuple[Any, ...] | None = None
-        self._uploaded: tuple[str, ImuSequence] | None = None  # menu label, shown uploaded recording
+        self._uploaded: Run | None = None  # the first run of the uploaded recording on screen
+        self._gps: Any = None  # the GPS fixes drawn for the recording on screen
         self._marker_radius = 0.1
         self._batch_label = ""  # "2/3" while the Run button works through the ticked models
         self._time_pending = False
@@ -180,15 +181,19 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
         with self._lock:
             return list(self._views)
 
+    def shown_name(self, model: str) -> str:
+        """The name people know ("RNIN · OxIOD") of a model's API name."""
+        entry = self.services.models.entries.get(model)
+        return model if entry is None else entry.display_name
+
     # --- RunListener: runs from any door ---------------------------------------------------------
 
     def run_started(self, status: RunStatus) -> None:
         with self.server.atomic():
             self.gui_progress.value = 0.0
             self.gui_progress.visible = True
-            self.gui_status.content = (
-                f"Running **{status.model_name}** on {status.sequence_name}{self._batch_label} ..."
-            )
+            name, label = self.shown_name(status.model_name), self._batch_label
+            self.gui_status.content = f"Running **{name}** on {status.sequence_name}{label} ..."
 
     def run_progress(self, status: RunStatus) -> None:
         if status.total > 0 and status.state is RunState.RUNNING:
@@ -197,14 +202,14 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
     def run_failed(self, status: RunStatus) -> None:
         self.gui_progress.visible = False
         self.gui_status.content = (
-            f"**{status.model_name}** on {status.sequence_name} failed: {status.message}"
+            f"**{self.shown_name(status.model_name)}** on {status.sequence_name} failed: {status.message}"
         )
 
     def run_finished(self, run: Run) -> None:
         def draw() -> None:
             self.show_run(run)
             self.gui_progress.visible = False
-            self.gui_status.content = f"Showing **{run.model_name}** on {run.sequence.name}."
+            self.gui_status.content = f"Showing **{self.shown_name(run.model_name)}** on {run.sequence.name}."
 
         self._jobs.put(draw)
 
@@ -215,8 +220,7 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
                 view = self._views.get(run.run_id)
                 if view is not None:
                     self.spectra.gui_run.value = self._run_label(view)
-            self.gui_status.content = (
-                f"Showing **{run.model_name}** on {run.sequence.name} (from the upload page)."
-            )
+            name = self.shown_name(run.model_name)
+            self.gui_status.content = f"Showing **{name}** on {run.sequence.name} (from the upload page)."
 
         self._jobs.put(draw)

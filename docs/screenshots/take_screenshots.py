@@ -8,8 +8,9 @@ defaults, i.e. the shipped checkpoints in ``checkpoints/`` and the bundled sampl
 port is picked free) and saves, in ``--out``:
 
 - ``scene_start.png``: the 3D scene as it opens, before anything was asked of it;
+- ``upload_first_screen.png``: the upload page as it opens: the bundled sample's result;
 - ``upload_page.png``: the CSV uploaded on the page with the default model, every loaded model
-  compared below it;
+  compared below it (flags in words, the standing-still row), its four downloads;
 - ``scene_3d.png``: every loaded model on the same recording (the upload page's own run repeated
   three times on top), the timeline at ``--time`` seconds;
 - ``scene_error.png``: the Error tab (all models' per-window errors, heading drift);
@@ -19,7 +20,11 @@ port is picked free) and saves, in ``--out``:
   pressed "Download trajectory (CSV)";
 - ``upload_failed.png``: the upload page after a second upload that the server refused;
 - ``upload_path_warning.png``: a recording where the phone lies still while the ground truth
-  walks: the path ratio and the warning naming the path.
+  walks: the path ratio and the warning naming the path;
+- ``upload_phone_walk.png`` and ``scene_phone_walk.png``: a phone walk without ground truth, its
+  plausibility panel and its GPS track beside the prediction. The export is synthetic (Sensor Logger's
+  layout, as ``tests/utils/phone_walk.py`` builds it): the real exports with GPS in the shared data
+  have an empty Location.csv.
 
 Needs Playwright and Debian's chromium (``/usr/bin/chromium``).
 """
@@ -37,6 +42,7 @@ from playwright.sync_api import sync_playwright
 from app.main import create_app
 from app.serve import serve_in_thread
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from tests.utils.phone_walk import sensorlogger_walk_zip
 
 HERE = Path(__file__).resolve().parent
 CHROMIUM_ARGS = [
@@ -51,6 +57,16 @@ SCENE_FADE_MS = 12_000  # viser fades the scene in; software WebGL is slow
 def _close_notifications(page) -> None:
     """Hide viser's notices (the "software WebGL" one comes back after every reload)."""
     page.add_style_tag(content=".mantine-Notifications-root { display: none !important; }")
+
+
+def _wait_for_result(page, caption_start: str, timeout_ms: int = 300_000) -> None:
+    """Wait until the page shows the result of ``caption_start`` (a file or sample name)."""
+    page.wait_for_function(
+        "(start) => !document.getElementById('result').hidden && "
+        "document.getElementById('result-caption').textContent.startsWith(start)",
+        arg=caption_start,
+        timeout=timeout_ms,
+    )
 
 
 def _timed(what: str, start: float) -> None:
@@ -89,9 +105,12 @@ def main() -> None:
             page.goto(base)
             page.wait_for_selector("#model-select option:checked", state="attached")
             print("default model:", page.input_value("#model-select"))
+            page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=300_000)
+            page.wait_for_timeout(500)
+            page.screenshot(path=str(out / "upload_first_screen.png"), full_page=True)
             page.set_input_files("#file-input", str(args.csv))
             page.click("#run-button")
-            page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=300_000)
+            _wait_for_result(page, args.csv.name)
             if page.query_selector("#compare-button"):
                 page.click("#compare-button")
                 page.wait_for_selector("#compare-table tr.done >> nth=-1", timeout=600_000)
@@ -151,6 +170,7 @@ def main() -> None:
             runs.max_runs = 1
             with args.csv.open("rb") as handle:
                 httpx.post(f"{base}/predict", params={"model": default}, files={"file": handle}, timeout=600)
+            page.evaluate("window.scrollTo(0, 0)")
             page.click("#download-link")
             page.wait_for_timeout(1_500)
             page.screenshot(path=str(out / "upload_expired.png"), full_page=True)
@@ -177,10 +197,33 @@ def main() -> None:
             try:
                 page.set_input_files("#file-input", str(still))
                 page.click("#run-button")
-                page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=300_000)
+                _wait_for_result(page, still.name)
                 page.screenshot(path=str(out / "upload_path_warning.png"), full_page=True)
             finally:
                 still.unlink()
+
+            # A phone walk without ground truth: plausibility figures and the GPS track (synthetic export).
+            runs.max_runs = 20
+            walk = out / "phone_walk.zip"
+            walk.write_bytes(sensorlogger_walk_zip(duration_s=60.0))
+            try:
+                page.set_input_files("#file-input", str(walk))
+                page.click("#run-button")
+                _wait_for_result(page, walk.name)
+                page.wait_for_timeout(500)
+                page.screenshot(path=str(out / "upload_phone_walk.png"), full_page=True)
+            finally:
+                walk.unlink()
+            scene.flush(120)
+            scene_page.reload()
+            scene_page.wait_for_selector("canvas")
+            _close_notifications(scene_page)
+            scene_page.wait_for_timeout(SCENE_FADE_MS)
+            _close_notifications(scene_page)
+            for folder in ("Models", "Run", "Timeline"):  # folded: the Runs folder's figures show
+                scene_page.get_by_text(folder, exact=True).first.click()
+            scene_page.wait_for_timeout(1_500)
+            scene_page.screenshot(path=str(out / "scene_phone_walk.png"))
             browser.close()
     finally:
         served.stop()

@@ -100,6 +100,8 @@ def predict_command(
             note = f"ground truth of {input_path}, in {out.name}'s frame"
             atomic_write_text(gt_out, tum_text(shown_gt, note))
     plausibility = assess(prediction.trajectory, seq)
+    for note in dict.fromkeys(prediction.notes):  # how the input was read: information
+        err_console.print(f"[dim]note:[/] {escape(note)}", highlight=False)
     for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")

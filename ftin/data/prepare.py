@@ -67,12 +67,7 @@ def prepare(
 ) -> PreparedSequence:
     """``seq`` oriented and on the ``rate_hz`` grid, with its world-frame IMU and window starts."""
     notes: list[str] = []
-    prepared = ensure_orientation(seq)
-    if seq.q_world_device_wxyz is None:
-        notes.append(
-            f"{seq.name}: the input has no device orientation; it was estimated with an AHRS filter, "
-            "so the heading may drift"
-        )
+    prepared = ensure_orientation(seq)  # its note names the filter and whether the heading drifts
     if not on_grid(prepared, rate_hz):
         if len(prepared) > 1 and abs(prepared.rate_hz - rate_hz) > 0.01 * rate_hz:
             notes.append(

@@ -1,7 +1,8 @@
 """Preprocessing of ``ImuSequence``: resampling and orientation estimation.
 
 Every function returns a new sequence (the types are immutable) with ``meta`` copied, never
-shared, and appends to ``meta["warnings"]`` whatever it assumed.
+shared, and appends to ``meta["warnings"]`` whatever it assumed, to ``meta["notes"]`` what it did
+(``ftin.data.messages``).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.messages import Note, with_messages
 from ftin.data.types import ImuSequence, Trajectory
 
 # Anti-alias low-pass cut-off as a fraction of the new Nyquist frequency (leaves a transition band).
@@ -23,11 +25,9 @@ _ANTIALIAS_ORDER = 4
 
 
 def _meta_with_warning(meta: dict[str, Any], *warnings: str, **updates: Any) -> dict[str, Any]:
-    """A copy of ``meta`` with ``updates`` applied and ``warnings`` appended (input untouched)."""
-    out = dict(meta)
-    out.update(updates)
-    out["warnings"] = [*meta.get("warnings", []), *warnings]
-    return out
+    """A copy of ``meta`` with ``updates`` applied and ``warnings`` appended (input untouched); a
+    ``Note`` among them goes to ``meta["notes"]`` (``ftin.data.messages``)."""
+    return with_messages(meta, warnings, **updates)
 
 
 def _require_increasing_time(seq: ImuSequence) -> None:
@@ -196,14 +196,16 @@ def estimate_orientation(
         filter_name = method.value
     q = frames.make_continuous(q)
 
-    warnings = [f"orientation estimated by {what}"]
+    warnings: list[str] = [Note(f"orientation estimated by {what}")]  # once: prepare says no more
     gt = seq.gt
     if gt is not None and seq.q_world_device_wxyz is not None:
         yaw, _ = frames.yaw_offset_rad(seq.t_s, q, seq.q_world_device_wxyz, align_window_s)
         gt = frames.rotate_trajectory_about_z(gt, yaw)
         warnings.append(
-            f"ground truth turned by {np.degrees(yaw):.1f} deg about z to the estimated world frame "
-            f"(aligned over the first {align_window_s} s)"
+            Note(
+                f"ground truth turned by {np.degrees(yaw):.1f} deg about z to the estimated world frame "
+                f"(aligned over the first {align_window_s} s)"
+            )
         )
     elif gt is not None:
         warnings.append(

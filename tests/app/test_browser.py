@@ -41,12 +41,28 @@ def browser_problem(chromium: Path) -> str | None:
 
 
 DEFAULT_MODEL = "ftin-oxiod"
+DEFAULT_SHOWN = "FTIN · OxIOD"  # its display name
 
 
 def open_upload_page(page, live_server) -> None:
-    """Open the upload page and wait until the model menu is filled."""
-    page.goto(live_server.base_url)
+    """Open the upload page and wait for its first screen: the bundled sample's result."""
+    open_page_at(page, live_server.base_url)
+
+
+def open_page_at(page, base_url: str) -> None:
+    page.goto(base_url)
     page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+    wait_for_result(page, "walk_gt (bundled)")
+
+
+def wait_for_result(page, caption_start: str) -> None:
+    """Wait until the result shown is the one of ``caption_start`` (a file or sample name)."""
+    page.wait_for_function(
+        "(start) => !document.getElementById('result').hidden && "
+        "document.getElementById('result-caption').textContent.startsWith(start)",
+        arg=caption_start,
+        timeout=60_000,
+    )
 
 
 def run_file(page, path: str) -> None:
@@ -114,25 +130,27 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
     page.set_input_files("#file-input", str(sample_csv_path))
     assert "walk.csv" in page.inner_text("#drop-text")
     page.click("#run-button")
-    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series >> nth=1", timeout=60_000)
+    wait_for_result(page, "walk.csv")
 
     labels = page.eval_on_selector_all("#plot polyline.series", "els => els.map(e => e.dataset.label)")
-    assert labels == ["ground truth", DEFAULT_MODEL]
+    assert labels == ["ground truth", DEFAULT_SHOWN]
     points = page.get_attribute("#plot polyline.series >> nth=1", "points")
     assert len(points.split()) == 2000  # every sample of the 20 s walk
     metrics = page.inner_text("#metrics")
     assert "ATE" in metrics and "RTE" in metrics and "PDE" in metrics and " m" in metrics
     assert "Path" in metrics and " %" in metrics  # the path ratio beside them; PDE in %
     assert "No alignment" in page.inner_text("#convention")  # the convention is stated
-    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_MODEL}"
+    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_SHOWN}"
     assert page.is_hidden("#error")
 
-    assert "t detected as" in page.inner_text("#notes") and "t detected" not in page.inner_text("#warnings")
-    assert "frame:" not in page.inner_text("#result") and "ground_truth" not in page.inner_text("#result")
+    # Information in the quiet list (folded), never among the warnings.
+    assert "t detected as" in page.text_content("#notes") and "t detected" not in page.inner_text("#warnings")
+    words = page.inner_text("#result-meta") + page.inner_text("#metrics")
+    assert "frame:" not in words and "ground_truth" not in words  # in words, not enum values
     run_id = page.get_attribute("#scene-link", "data-run-id")
     assert page.get_attribute("#download-link", "href") == f"/runs/{run_id}/trajectory.csv"
     download = httpx.get(f"{live_server.base_url}/runs/{run_id}/trajectory.csv", timeout=10)
-    assert download.text.startswith("t_s,x_m,y_m,z_m")
+    assert download.text.startswith("# z is constant") and "\nt_s,x_m,y_m,z_m\n" in download.text
     scene_href = page.get_attribute("#scene-link", "href")
     assert scene_href.rstrip("/") == live_server.scene.url
     live_server.scene.flush()
@@ -171,8 +189,7 @@ def test_a_file_above_the_upload_limit_is_refused_before_sending(
     big.write_bytes(b"t,gyro_x\n" + b"0" * (200 * 1024))
     live = server_control.start(make_settings(max_upload_mb=0.1, viser_enabled=False))
     try:
-        page.goto(live.base_url)
-        page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+        open_page_at(page, live.base_url)
         page.set_input_files("#file-input", str(big))
         message = page.inner_text("#error")
         assert "big.csv is 0.2 MB" in message and "0.1 MB" in message and "FTIN_MAX_UPLOAD_MB" in message
@@ -192,9 +209,10 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
     live_server.scene.gui_time.value = 12.0  # move the timeline: markers and spectra follow
     live_server.scene._update_time()
     page.wait_for_function("() => document.body.innerText.includes('Spectra')", timeout=30_000)
+    page.wait_for_function("() => document.body.innerText.includes('ATE [m]')", timeout=30_000)
     body = page.inner_text("body")
-    assert "FTIN Studio" in body and "ATE m" in body and "PDE %" in body and "path" in body
-    assert "On walk:" in body and DEFAULT_MODEL in body
+    assert "FTIN Studio" in body and "ATE [m]" in body and "PDE [%]" in body and "path" in body
+    assert "On walk:" in body and DEFAULT_SHOWN in body
     assert run_id in live_server.scene.shown_run_ids()
     if SCREENSHOT_DIR:
         for close in page.query_selector_all("button.mantine-Notification-closeButton"):
@@ -236,9 +254,10 @@ def test_item1_a_model_that_barely_moves_is_flagged_on_the_page(
     still.write_bytes(still_phone_csv(sample_frame))
     open_upload_page(page, live_server)
     run_file(page, str(still))
-    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
-    path_row = page.inner_text("#metrics tr.flagged")
-    assert path_row.startswith("Path") and "m of" in path_row
+    wait_for_result(page, "still.csv")
+    flagged = page.eval_on_selector_all("#metrics tr.flagged", "rows => rows.map((r) => r.innerText)")
+    path_row = next(row for row in flagged if row.startswith("Path"))
+    assert "m of" in path_row
     warnings = page.inner_text("#warnings")
     assert "path" in warnings and "barely moves" in warnings
     assert "No alignment" in page.inner_text("#convention")
@@ -251,8 +270,8 @@ def test_item2_a_failed_second_upload_leaves_no_stale_result(
 ) -> None:
     open_upload_page(page, live_server)
     run_file(page, str(sample_csv_path))
-    page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
-    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_MODEL}"
+    wait_for_result(page, "walk.csv")
+    assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_SHOWN}"
     bad = tmp_path / "notes.csv"
     bad.write_text("time,comment\n0,hello\n")
     run_file(page, str(bad))
@@ -279,10 +298,10 @@ def test_item2_and_3_the_scene_shows_one_row_per_model_and_clears_everything(
     body = page.inner_text("body")
     assert body.count(f"| {DEFAULT_MODEL} |") == 0  # the table is rendered, not raw markdown
     lines = body.splitlines()
-    table_rows = [line for line in lines if line.startswith(f"{DEFAULT_MODEL}\t")]
+    table_rows = [line for line in lines if line.startswith(DEFAULT_SHOWN) and "\t" in line]
     assert len(table_rows) == 1, table_rows  # one table row for four identical runs
-    # The Models checkbox and one legend row (flagged when the tiny model barely moves).
-    names = [line for line in lines if line in (DEFAULT_MODEL, f"{DEFAULT_MODEL} ⚠")]
+    # The Models checkbox and one legend row (flagged in words when the tiny model barely moves).
+    names = [line for line in lines if line == DEFAULT_SHOWN or line.startswith(f"{DEFAULT_SHOWN} ⚠ ")]
     assert len(names) == 2, names
     page.wait_for_function(f"() => ({inputs})().includes('walk (uploaded)')", timeout=10_000)
     page.get_by_text("Clear scene", exact=True).click()
@@ -297,11 +316,10 @@ def test_item4_an_expired_run_says_so_on_the_page(
 ) -> None:
     live = server_control.start(make_settings(max_runs=1, viser_enabled=True))
     try:
-        page.goto(live.base_url)
-        page.wait_for_selector(f"#model-select option[value='{DEFAULT_MODEL}']", state="attached")
+        open_page_at(page, live.base_url)
         page.set_input_files("#file-input", str(sample_csv_path))
         page.click("#run-button")
-        page.wait_for_selector("#result:not([hidden]) #plot svg polyline.series", timeout=60_000)
+        wait_for_result(page, "walk.csv")
         httpx.post(  # another prediction pushes the page's run out of memory
             f"{live.base_url}/predict", files={"file": ("w.csv", csv_with_gt, "text/csv")}, timeout=60
         ).raise_for_status()
@@ -333,6 +351,7 @@ def test_item10_the_scene_opens_on_a_run_of_the_model_trained_for_the_data(
             "() => document.body.innerText.includes('Showing')", timeout=60_000
         )  # nobody pressed Run
         body = page.inner_text("body")
-        assert f"Showing {suggested[0]} on walk_gt" in body and "ground truth" in body
+        shown = scene.shown_name(suggested[0])
+        assert f"Showing {shown} on walk_gt" in body and "ground truth" in body
     finally:
         server_control.stop(live)

@@ -16,6 +16,7 @@ from app.viz.scene import DashboardScene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
+DEFAULT_SHOWN = "FTIN · OxIOD"  # DEFAULT_MODEL's display name (OTHER_MODEL names no architecture: as is)
 
 
 @pytest.fixture(scope="module")
@@ -40,13 +41,16 @@ def run_nodes(scene: DashboardScene, run_id: str) -> set[str]:
 
 
 def run_with_other_model_ticked(scene: DashboardScene) -> None:
-    """Press Run with OTHER_MODEL ticked too (then untick it) and wait for the drawing."""
+    """Press Run with OTHER_MODEL ticked too and wait for the drawing; then tick DEFAULT_MODEL alone
+    (the scene ticks what it shows: both)."""
     scene.gui_models[OTHER_MODEL].value = True
     try:
         scene._run_selected(None)
+        scene.flush()
+        assert scene._checked_models() == [DEFAULT_MODEL, OTHER_MODEL]  # the menu shows what is on screen
     finally:
         scene.gui_models[OTHER_MODEL].value = False
-    scene.flush()
+        scene.gui_models[DEFAULT_MODEL].value = True
 
 
 def test_viser_serves_its_page(scene: DashboardScene) -> None:
@@ -71,10 +75,13 @@ def test_a_run_is_drawn_with_ground_truth_grid_and_markers(scene: DashboardScene
     }
     assert {"/grid", "/truth/path", "/truth/start", "/truth/end", "/truth/marker"} <= set(scene.node_names())
     assert scene.shown_run_ids() == [run.run_id]
-    assert DEFAULT_MODEL in scene.gui_legend.content and "ground truth" in scene.gui_legend.content
-    assert "| ftin-oxiod |" in scene.gui_metrics.content and "ATE" in scene.gui_metrics.content
+    assert DEFAULT_SHOWN in scene.gui_legend.content and "ground truth" in scene.gui_legend.content
+    assert f"| {DEFAULT_SHOWN}" in scene.gui_metrics.content and "ATE" in scene.gui_metrics.content
     assert not scene.gui_time.disabled and scene.gui_time.max == pytest.approx(19.99)
-    assert "Showing **ftin-oxiod** on walk_gt" in scene.gui_status.content and not scene.gui_progress.visible
+    assert (
+        f"Showing **{DEFAULT_SHOWN}** on walk_gt" in scene.gui_status.content
+        and not scene.gui_progress.visible
+    )
 
 
 def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> None:
@@ -100,7 +107,7 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
     )
     assert np.allclose(segments[0, 0], start, atol=1e-4)
     # Spectra of that window: FTIN has FDL, so both heatmaps and the raw IMU spectrum are filled.
-    assert scene.spectra.gui_run.value == f"{DEFAULT_MODEL} on walk_gt"
+    assert scene.spectra.gui_run.value == f"{DEFAULT_SHOWN} on walk_gt"
     raw_freq = scene.spectra.gui_raw.data[0]
     assert len(scene.spectra.gui_raw.data) == 7 and raw_freq[-1] == pytest.approx(50.0)
     channel, temporal = view.spectra_at(index)  # recomputed for this window only
@@ -114,7 +121,7 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
     assert np.all(position_error >= 0) and 10.0 in error_t
     assert np.nanmin(cursor) == 0.0 and np.nanmax(cursor) == 1.0 and error_t[np.nanargmax(cursor)] == 10.0
     assert f"{view.position_error_m[index]:.2f} m" in scene.errors.gui_now.content
-    assert DEFAULT_MODEL in scene.errors.gui_now.content and DEFAULT_MODEL in scene.errors.gui_title.content
+    assert DEFAULT_SHOWN in scene.errors.gui_now.content and DEFAULT_SHOWN in scene.errors.gui_title.content
 
 
 def test_several_models_overlay_and_another_sequence_replaces_them(scene: DashboardScene) -> None:
@@ -125,9 +132,9 @@ def test_several_models_overlay_and_another_sequence_replaces_them(scene: Dashbo
     assert scene.shown_run_ids() == [first.run_id, second.run_id]
     colors = {scene._views[r].color for r in scene.shown_run_ids()}
     assert len(colors) == 2  # distinct colours per model
-    assert OTHER_MODEL in scene.gui_legend.content and "| resnet-tiny |" in scene.gui_metrics.content
+    assert OTHER_MODEL in scene.gui_legend.content and "| resnet-tiny" in scene.gui_metrics.content
     # The spectra keep following the FTIN run: the ResNet has no FDL to show.
-    assert scene.spectra.gui_run.value.startswith(DEFAULT_MODEL)
+    assert scene.spectra.gui_run.value.startswith(DEFAULT_SHOWN)
     other = predictor.predict_sequence("walks--more-imu_only", DEFAULT_MODEL)
     scene.flush()
     assert scene.shown_run_ids() == [other.run_id]
@@ -145,6 +152,9 @@ def test_run_button_runs_every_ticked_model(scene: DashboardScene) -> None:
 
 
 def test_upload_button_uses_the_predict_path(scene: DashboardScene, csv_with_gt: bytes) -> None:
+    scene.gui_clear_scene()
+    scene.gui_models[OTHER_MODEL].value = False
+    scene.gui_models[DEFAULT_MODEL].value = True
     scene._run_upload("my_walk.csv", csv_with_gt, None)
     scene.flush()
     (run_id,) = scene.shown_run_ids()
@@ -204,8 +214,8 @@ def test_a_repeat_replaces_its_predecessor(scene: DashboardScene) -> None:
     scene.flush()
     assert scene.shown_run_ids() == [runs[-1].run_id, other.run_id]
     assert not run_nodes(scene, runs[0].run_id) and not run_nodes(scene, runs[1].run_id)
-    assert scene.gui_metrics.content.count(f"| {DEFAULT_MODEL} |") == 1
-    assert scene.gui_legend.content.count(DEFAULT_MODEL) == 1
+    assert scene.gui_metrics.content.count(f"| {DEFAULT_SHOWN}") == 1
+    assert scene.gui_legend.content.count(DEFAULT_SHOWN) == 1
     assert len(scene.spectra.gui_run.options) == 2
 
 
@@ -233,7 +243,7 @@ def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_move
     frozen = replace(run, run_id="still-run", prediction=standing, score=score(standing))
     assert any("path" in w for w in frozen.verdict.warnings)
     scene.show_run(frozen)
-    assert "⚠" in scene.gui_metrics.content and "**⚠ Path:**" in scene.gui_metrics.content
+    assert "⚠" in scene.gui_metrics.content and "**⚠ path:**" in scene.gui_metrics.content
     assert "⚠" in scene.gui_legend.content
 
 
@@ -258,8 +268,8 @@ def test_clear_empties_the_plots_the_timeline_and_the_status(scene: DashboardSce
     scene.gui_clear_scene()
     assert scene.gui_time.disabled and scene.gui_time.value == 0.0 and scene.gui_play.disabled
     assert scene.spectra.gui_run.options == ("(no run)",) and not scene.spectra.gui_channel.visible
-    assert DEFAULT_MODEL not in scene.spectra.gui_info.content
-    assert DEFAULT_MODEL not in scene.errors.gui_title.content and scene.errors.gui_now.content == ""
+    assert DEFAULT_SHOWN not in scene.spectra.gui_info.content
+    assert DEFAULT_SHOWN not in scene.errors.gui_title.content and scene.errors.gui_now.content == ""
     assert len(scene.errors.gui_position.series) == 2  # x and an empty placeholder
     assert "cleared" in scene.gui_status.content and "Nothing shown" in scene.gui_legend.content
 
@@ -273,7 +283,7 @@ def test_the_sequence_menu_follows_what_is_shown(scene: DashboardScene, csv_with
     predictor.predict_csv(csv_with_gt, "my_walk.csv", DEFAULT_MODEL)  # e.g. from the upload page
     scene.flush()
     assert scene.gui_sequence.value == "my_walk (uploaded)"
-    assert "Showing **ftin-oxiod** on my_walk" in scene.gui_status.content
+    assert f"Showing **{DEFAULT_SHOWN}** on my_walk" in scene.gui_status.content
     # Run on the uploaded recording works from the menu: another model joins it.
     run_with_other_model_ticked(scene)
     assert sorted(scene._views[r].model_name for r in scene.shown_run_ids()) == [DEFAULT_MODEL, OTHER_MODEL]

@@ -12,7 +12,7 @@ import pytest
 
 from app.services import Services
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
-from app.viz.live import LIVE
+from app.viz.overlay import LIVE
 from app.viz.scene import DashboardScene
 from ftin.data.readers.generic_csv import read
 from ftin.live.replay import sequence_messages

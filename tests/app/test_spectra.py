@@ -132,7 +132,7 @@ def test_heading_error_of_a_rotated_walk_is_the_rotation_and_holds_while_standin
 
 
 def test_the_upload_page_colours_models_like_the_scene() -> None:
-    script = (REPO_ROOT / "static" / "app.js").read_text()
+    script = (REPO_ROOT / "static" / "util.js").read_text()  # the page's shared constants
     listed = re.search(r"const MODEL_COLORS = \[(.*?)\];", script, re.S)
     assert listed is not None
     assert re.findall(r'"(#[0-9a-f]{6})"', listed.group(1)) == [hex_color(c) for c in MODEL_COLORS]

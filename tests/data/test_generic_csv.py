@@ -79,7 +79,7 @@ def test_canonical_file_reads_exact_values(data):
     assert seq.meta["dataset"] == "csv"
     assert seq.meta["rate_hz"] == pytest.approx(100.0)
     assert "orientation_source" not in seq.meta
-    assert any("seconds" in w for w in seq.meta["warnings"])
+    assert any("seconds" in w for w in seq.meta["notes"])
 
 
 def test_orientation_and_ground_truth_columns(data):
@@ -101,7 +101,7 @@ def test_column_order_is_free_and_extra_columns_are_reported(data):
     seq = read_text(csv_text(header, rows))
     np.testing.assert_array_equal(seq.gyro_rad_s, data["gyro"])
     np.testing.assert_array_equal(seq.acc_m_s2, data["acc"])
-    assert any("ignored columns: pressure_hpa" in w for w in seq.meta["warnings"])
+    assert any("ignored columns: pressure_hpa" in w for w in seq.meta["notes"])
 
 
 def test_bom_windows_line_endings_and_whitespace_in_headers(data):
@@ -162,7 +162,7 @@ def test_preferred_alias_wins_and_the_other_is_reported(data):
     header = ["seconds_elapsed", "time"] + CANONICAL[1:]
     seq = read_text(csv_text(header, rows))
     np.testing.assert_array_equal(seq.t_s, data["t"])
-    assert any("used column 'seconds_elapsed' for t; ignored 'time'" in w for w in seq.meta["warnings"])
+    assert any("used column 'seconds_elapsed' for t; ignored 'time'" in w for w in seq.meta["notes"])
 
 
 def test_two_columns_with_the_same_meaning_are_refused(data):
@@ -185,21 +185,21 @@ def test_nanosecond_timestamps_are_detected_and_reported(data):
     seq = read_text(csv_text(CANONICAL, rows))
     np.testing.assert_allclose(np.diff(seq.t_s), 0.01, atol=1e-6)
     assert seq.rate_hz == pytest.approx(100.0, rel=1e-4)
-    assert any("t detected as nanoseconds" in w for w in seq.meta["warnings"])
+    assert any("t detected as nanoseconds" in w for w in seq.meta["notes"])
 
 
 def test_millisecond_timestamps_are_detected(data):
     rows = np.column_stack([data["t"] * 1e3, data["gyro"], data["acc"]])
     seq = read_text(csv_text(CANONICAL, rows))
     np.testing.assert_allclose(seq.t_s, data["t"], rtol=1e-12)
-    assert any("milliseconds" in w for w in seq.meta["warnings"])
+    assert any("milliseconds" in w for w in seq.meta["notes"])
 
 
 def test_time_unit_from_header(data):
     rows = np.column_stack([data["t"] * 1e6, data["gyro"], data["acc"]])
     seq = read_text(csv_text(["timestamp [us]"] + CANONICAL[1:], rows))
     np.testing.assert_allclose(seq.t_s, data["t"], rtol=1e-12)
-    assert any("microseconds (unit in header" in w for w in seq.meta["warnings"])
+    assert any("microseconds (unit in header" in w for w in seq.meta["notes"])
 
 
 def test_units_in_header_are_converted(data):
@@ -208,7 +208,7 @@ def test_units_in_header_are_converted(data):
     seq = read_text(csv_text(header, rows))
     np.testing.assert_allclose(seq.gyro_rad_s, data["gyro"], rtol=1e-12)
     np.testing.assert_allclose(seq.acc_m_s2, data["acc"], rtol=1e-12)
-    assert any("gyro converted from deg/s" in w for w in seq.meta["warnings"])
+    assert any("gyro converted from deg/s" in w for w in seq.meta["notes"])
 
 
 # --- one test per violation ----------------------------------------------------------------------
@@ -440,7 +440,7 @@ def test_a_magnetometer_column_reaches_the_orientation_filter_in_microtesla(data
     header = [*CANONICAL, "magnet_x [nT]", "magnet_y [nT]", "magnet_z [nT]"]
     seq = read_text(csv_text(header, np.column_stack([imu_rows(data), field_ut * 1000.0])))
     np.testing.assert_allclose(seq.mag_uT, field_ut)
-    assert "mag converted from nT (unit in header)" in seq.meta["warnings"]
+    assert "mag converted from nT (unit in header)" in seq.meta["notes"]
     for aliases in (["mx", "my", "mz"], ["magnetometer_x", "magnetometer_y", "magnetometer_z"]):
         again = read_text(csv_text([*CANONICAL, *aliases], np.column_stack([imu_rows(data), field_ut])))
         np.testing.assert_allclose(again.mag_uT, field_ut)

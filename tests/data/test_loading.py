@@ -41,7 +41,7 @@ def test_load_sequences_reads_files_and_folders_and_names_the_option(walks, tmp_
 def test_prepare_puts_the_sequence_on_the_rate_grid(walks):
     prepared = prepare(walks[0].with_(q_world_device_wxyz=None), 25.0, window=10, stride=5)
     assert prepared.seq.q_world_device_wxyz is not None
-    assert any("no device orientation" in note for note in prepared.notes)
+    assert any("orientation estimated by" in note for note in prepared.seq.meta["notes"])  # said once
     np.testing.assert_allclose(np.diff(prepared.seq.t_s), 1 / 25.0, rtol=1e-6)
     assert prepared.imu_world.shape == (len(prepared), 6) and prepared.imu_world.dtype == np.float32
     np.testing.assert_array_equal(prepared.starts, np.arange(0, len(prepared) - 10, 5))

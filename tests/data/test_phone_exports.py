@@ -152,8 +152,8 @@ def test_2021_layout_ios_in_g_without_orientation_zip_with_top_folder():
     seq = read_bytes(zip_bytes(files, folder="2021-05-01_10-00-00/"), "2021-05-01_10-00-00.zip")
     assert seq.name == "2021-05-01_10-00-00" and seq.q_world_device_wxyz is None
     check_against_truth(seq)  # units (g) and sign (iOS) derived: specific force +g up
-    assert any("read in g" in w for w in seq.meta["warnings"])
-    assert any("iOS" in w for w in seq.meta["warnings"])
+    assert any("read in g" in w for w in seq.meta["notes"])
+    assert any("iOS" in w for w in seq.meta["notes"])
 
 
 def test_ios_sign_from_the_orientation_alone():
@@ -161,7 +161,7 @@ def test_ios_sign_from_the_orientation_alone():
     ios.pop("Metadata.csv")  # no platform: the orientation alone must tell the sign
     seq = read_bytes(zip_bytes(ios), "ios.zip")
     check_against_truth(seq)
-    assert any("gravity points down" in w for w in seq.meta["warnings"])
+    assert any("gravity points down" in w for w in seq.meta["notes"])
 
 
 def test_android_gyroscope_at_500_hz_beside_a_100_hz_accelerometer():
@@ -248,7 +248,7 @@ def test_phyphox_zip_with_gyroscope_and_magnetometer():
 
     out = estimate_orientation(seq)
     assert out.meta["orientation_filter"] == "vqf-9d"
-    assert any("9-D" in w for w in out.meta["warnings"])
+    assert any("9-D" in w for w in out.meta["notes"])
 
 
 def test_phyphox_folder_without_gyroscope_is_refused_by_name(tmp_path):
@@ -310,7 +310,7 @@ def test_shared_sensor_logger_exports(shared_data):
         assert seq.meta["orientation_source"] == "device"
         f_world = frames.rotate_to_world(seq.q_world_device_wxyz, seq.acc_m_s2).mean(axis=0)
         assert f_world[2] == pytest.approx(9.85, abs=0.1) and np.hypot(*f_world[:2]) < 0.1
-    assert any("iOS" in w for w in ios.meta["warnings"])  # iOS: gravity reported downwards, negated
+    assert any("iOS" in w for w in ios.meta["notes"])  # iOS: gravity reported downwards, negated
     assert android.mag_uT.shape == (len(android), 3)
     for seq in (ios, android):  # rad/s as the app documents it: kept, never read as deg/s
         assert not any("deg/s" in w for w in seq.meta["warnings"])

@@ -136,7 +136,7 @@ def test_estimate_orientation_tilt_matches_truth(method):
     assert np.percentile(tilt_error, 95) < 3.0 and tilt_error.max() < 5.0
     np.testing.assert_allclose(np.linalg.norm(out.q_world_device_wxyz, axis=1), 1.0, atol=1e-9)
     assert out.meta["orientation_source"] == "estimated"
-    assert any("heading is arbitrary" in w for w in out.meta["warnings"])
+    assert any("heading is arbitrary" in w for w in out.meta["notes"])
     assert any("not aligned" in w for w in out.meta["warnings"])  # gt had nothing to align against
     assert seq.q_world_device_wxyz is None and seq.meta["warnings"] == ["from the test"]
     # With the world frame the other way round (a common convention slip), tilt would be way off.
@@ -157,7 +157,7 @@ def test_estimate_orientation_keeps_ground_truth_in_the_new_world_frame():
     assert np.degrees(offset.magnitude()).max() < 5.0
     # Positions were turned with it: path lengths are unchanged.
     assert out.gt.path_length_m == pytest.approx(seq.gt.path_length_m, rel=1e-9)
-    assert any("ground truth turned" in w for w in out.meta["warnings"])
+    assert any("ground truth turned" in w for w in out.meta["notes"])
 
 
 def test_estimate_orientation_rejects_unknown_method_and_zero_gravity():

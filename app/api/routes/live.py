@@ -170,7 +170,7 @@ def lan_address() -> str | None:
 
 @router.get("/live/info", response_model=LiveInfoResponse)
 def info(request: Request, services: ServicesDep) -> LiveInfoResponse:
-    """The push URL to type into Sensor Logger (Settings > Data Streaming > HTTP Push)."""
+    """The push URL to type into Sensor Logger (HTTP Push, behind the gear icon on its Logger page)."""
     settings = services.settings
     port = request.url.port or (443 if request.url.scheme == "https" else 80)
     local = is_local(request.client.host if request.client else None)

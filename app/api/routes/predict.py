@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Request
+from fastapi import APIRouter, Depends, Query, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
@@ -29,6 +29,17 @@ from app.services.prediction import PredictionService, sequence_from_arrays
 from app.services.runs import Run
 
 router = APIRouter(tags=["predict"])
+
+RAW_BODY_LABEL = "request body"
+NameQuery = Annotated[
+    str | None,
+    Query(
+        description="A name for the recording (its label in the scene, the page and the downloads; "
+        "errors name it): for a raw body, which has no file name; a multipart upload defaults to its "
+        "file name.",
+        max_length=200,
+    ),
+]
 
 _CSV_SCHEMA = {
     "type": "string",
@@ -134,7 +145,9 @@ def _predict_json(
         504: {"model": ErrorResponse},
     },
 )
-async def predict(request: Request, services: ServicesDep, options: PredictOptionsDep) -> PredictionResponse:
+async def predict(
+    request: Request, services: ServicesDep, options: PredictOptionsDep, name: NameQuery = None
+) -> PredictionResponse:
     content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
     predictor = services.predictor
     if content_type == "multipart/form-data":
@@ -146,14 +159,13 @@ async def predict(request: Request, services: ServicesDep, options: PredictOptio
                     "Sensor Logger / phyphox ZIP)"
                 )
             data = await upload.read()
-            filename = upload.filename or "upload.csv"
+            filename = name or upload.filename or "upload.csv"
         run = await options.run(predictor.predict_csv, data, filename)
     elif content_type in _RAW_BODY_TYPES:
         data = await request.body()
-        name = {"application/zip": "recording.zip", "application/x-zip-compressed": "recording.zip"}.get(
-            content_type, "recording.csv"
-        )
-        run = await options.run(predictor.predict_csv, data, name)
+        # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
+        # recording is named "upload"): never a name the user did not give.
+        run = await options.run(predictor.predict_csv, data, name or RAW_BODY_LABEL)
     elif content_type == "application/json":
         run = await options.run(_predict_json, predictor, await request.body())
     else:

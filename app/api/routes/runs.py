@@ -1,4 +1,5 @@
-"""GET /runs/{run_id} (progress), its trajectory as CSV, and POST /runs/{run_id}/show (3D scene)."""
+"""GET /runs (the kept runs), GET /runs/{run_id} (progress), its result again, its trajectory as CSV,
+and POST /runs/{run_id}/show (3D scene)."""
 
 from __future__ import annotations
 
@@ -7,11 +8,24 @@ from fastapi.responses import Response
 
 from app.api.deps import ServicesDep
 from app.api.routes.exports import RUN_GONE, RunIdPath, TimestampsQuery, attachment, file_route
-from app.schemas import ErrorResponse, RunStatusResponse
+from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse, RunSummary
 from app.services.exports import Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
 
 router = APIRouter(tags=["runs"])
+
+
+@router.get("/runs", response_model=list[RunSummary])
+def list_runs(services: ServicesDep) -> list[RunSummary]:
+    """The finished runs kept in memory (the latest FTIN_MAX_RUNS, FTIN_MAX_KEPT_SAMPLES samples in
+    all), newest first, with their downloads."""
+    return [RunSummary.from_run(run) for run in reversed(services.runs.list())]
+
+
+@router.get("/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE)
+def run_result(run_id: RunIdPath, services: ServicesDep) -> PredictionResponse:
+    """A kept run's POST /predict answer again (the page shows a kept run with it)."""
+    return PredictionResponse.from_run(services.runs.get(run_id), services.scene_url)
 
 
 @router.get("/runs/{run_id}", response_model=RunStatusResponse, responses={404: {"model": ErrorResponse}})

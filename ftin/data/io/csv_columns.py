@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ftin.data.errors import DataFormatError
+from ftin.data.messages import Note
 from ftin.data.validate import MAX_RATE_HZ, MIN_RATE_HZ, STANDARD_GRAVITY_M_S2
 
 
@@ -289,9 +290,9 @@ def map_columns(headers: Sequence[str], source: str) -> tuple[dict[str, HeaderMa
         chosen[name] = matches[0]
         if len(matches) > 1:
             others = ", ".join(repr(m.header.strip()) for m in matches[1:])
-            warnings.append(f"used column {matches[0].header.strip()!r} for {name}; ignored {others}")
+            warnings.append(Note(f"used column {matches[0].header.strip()!r} for {name}; ignored {others}"))
     if unknown:
-        warnings.append("ignored columns: " + ", ".join(unknown))
+        warnings.append(Note("ignored columns: " + ", ".join(unknown)))
     return chosen, warnings
 
 

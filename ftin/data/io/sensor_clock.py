@@ -24,6 +24,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ftin.data import frames, gaps, validate
 from ftin.data.errors import DataFormatError
+from ftin.data.messages import Note
 
 MIN_OVERLAP_S = 1.0
 
@@ -189,7 +190,7 @@ def acceleration_scale(values: np.ndarray, what: str, source: str, warnings: lis
     """The factor to m/s² of an acceleration that includes gravity, from its magnitude (~1 g at rest)."""
     norm = float(np.median(np.linalg.norm(values, axis=1)))
     if 0.6 <= norm <= 1.6:
-        warnings.append(f"{what}: median magnitude {norm:.3g}: read in g and converted to m/s^2")
+        warnings.append(Note(f"{what}: median magnitude {norm:.3g}: read in g and converted to m/s^2"))
         return STANDARD_GRAVITY_M_S2
     if 6.0 <= norm <= 16.0:
         return 1.0
@@ -266,19 +267,23 @@ def gravity_sign(
             cos_up = f_world[2] / max(float(np.linalg.norm(f_world)), 1e-9)
             if abs(cos_up) >= np.cos(np.radians(20.0)):
                 if note:
-                    warnings.append("orientation quaternions were device-from-world; inverted")
+                    warnings.append(Note("orientation quaternions were device-from-world; inverted"))
                 sign = 1.0 if cos_up > 0 else -1.0
                 if sign < 0:
                     warnings.append(
-                        "acceleration sign: gravity points down in the orientation's world frame "
-                        "(iOS convention): negated to specific force"
+                        Note(
+                            "acceleration sign: gravity points down in the orientation's world frame "
+                            "(iOS convention): negated to specific force"
+                        )
                     )
                 return sign, q
         warnings.append(
             "orientation does not make gravity vertical either way round: ignored, estimated instead"
         )
     if platform in ("ios", "iphone", "ipad"):
-        warnings.append("acceleration sign from the platform (iOS: gravity reported downwards): negated")
+        warnings.append(
+            Note("acceleration sign from the platform (iOS: gravity reported downwards): negated")
+        )
         return -1.0, None
     if platform not in ("android",):
         warnings.append(

@@ -56,6 +56,7 @@ from ftin.data.io.csv_columns import (
     shown,
     sniff_delimiter,
 )
+from ftin.data.messages import Note, with_messages
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
@@ -175,13 +176,15 @@ def _time_unit(t_raw: np.ndarray, match: HeaderMatch, source: str, warnings: lis
         if match.unit not in TO_CANONICAL["t"]:
             raise DataFormatError(f"{source}: column {header!r}: unit {match.unit!r} is not a time unit")
         if match.unit != "s":
-            warnings.append(f"t read in {TIME_UNIT_WORDS[match.unit]} (unit in header {header!r})")
+            warnings.append(Note(f"t read in {TIME_UNIT_WORDS[match.unit]} (unit in header {header!r})"))
         return match.unit
     for unit, scale in TO_CANONICAL["t"].items():
         if MIN_RATE_HZ <= 1.0 / (median_dt * scale) <= MAX_RATE_HZ:
             warnings.append(
-                f"t detected as {TIME_UNIT_WORDS[unit]} (median interval {median_dt:.6g} -> "
-                f"{1.0 / (median_dt * scale):.4g} Hz)"
+                Note(
+                    f"t detected as {TIME_UNIT_WORDS[unit]} (median interval {median_dt:.6g} -> "
+                    f"{1.0 / (median_dt * scale):.4g} Hz)"
+                )
             )
             return unit
     raise DataFormatError(
@@ -206,7 +209,7 @@ def _scaled(group: str, values: np.ndarray, matches: Sequence[HeaderMatch], sour
             f"(expected {' or '.join(factors)})"
         )
     if factors[unit] != 1.0:
-        warnings.append(f"{group} converted from {unit} (unit in header)")
+        warnings.append(Note(f"{group} converted from {unit} (unit in header)"))
     with np.errstate(over="ignore"):  # overflow gives inf, refused by check_physical_range
         return values * factors[unit]
 
@@ -284,8 +287,9 @@ def read_csv(
         in_device_world = q is not None and named.startswith(GT_DEVICE_WORLD_PREFIX)
         meta["gt_frame"] = "device_world" if in_device_world else "unknown"
     mag = stacked("mag") if "mag_x" in chosen else None
-    meta["warnings"] = warnings
-    seq = ImuSequence(name, t_s, stacked("gyro"), stacked("acc"), q, gt, meta, mag)
+    gyro, acc = stacked("gyro"), stacked("acc")  # their unit conversions join the messages first
+    meta = with_messages(meta, warnings)
+    seq = ImuSequence(name, t_s, gyro, acc, q, gt, meta, mag)
     names = ColumnNames(
         chosen["t"].header.strip(),
         headers_of("gyro"),

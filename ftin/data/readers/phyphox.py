@@ -38,6 +38,7 @@ from ftin.data import location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.messages import Note, with_messages
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
@@ -181,8 +182,10 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
     total = sensor_clock.on_clock(acc_series, clock, source, warnings) * acc_scale
     total = total * sensor_clock.acceleration_scale(total, acc_label, source, warnings)
     warnings.append(
-        "acceleration sign: phyphox's convention (Android's, +9.81 up at rest, on every platform); "
-        "no orientation in the export to check it"
+        Note(
+            "acceleration sign: phyphox's convention (Android's, +9.81 up at rest, on every platform); "
+            "no orientation in the export to check it"
+        )
     )
     acc = total
     stated = f"{'rad/s' if gyro_scale == 1.0 else 'deg/s'} (the header of {gyro_label})"
@@ -207,7 +210,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         track = location.phyphox_track(gps_file[1], gps_file[0], float(clock[0]))
         if track is not None:
             meta["gps"] = track
-    meta["warnings"] = warnings
+    meta = with_messages(meta, warnings)
     seq = ImuSequence(name, clock - clock[0], gyro, acc, None, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 

@@ -41,6 +41,7 @@ from ftin.data import frames, location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
+from ftin.data.messages import with_messages
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
@@ -259,7 +260,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         track = location.sensorlogger_track(gps_file[1], gps_file[0], zero_ns, float(clock[0]))
         if track is not None:
             meta["gps"] = track
-    meta["warnings"] = warnings
+    meta = with_messages(meta, warnings)
     seq = ImuSequence(name, clock - clock[0], gyro, acc, q, None, meta, mag)
     return validate_read(seq)  # the checks every reader shares
 

@@ -18,6 +18,18 @@ def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
     assert models[OTHER_MODEL]["trained_on"] == "simulated walks (2 sequences)"  # no developer path
     assert ftin["metrics"] == {"ate": 1.5, "rte": 2.5, "pde": 0.05}
     assert ftin["parameters"] > 1000 and ftin["out_dim"] == 2
+    # Menus show the name people know; a stem that names no architecture is shown as it is.
+    assert ftin["display_name"] == "FTIN · OxIOD" and models[OTHER_MODEL]["display_name"] == OTHER_MODEL
+
+
+def test_display_names_of_the_shipped_stems() -> None:
+    from app.services.model_names import display_name
+
+    assert display_name("rnin-oxiod", "rnin") == "RNIN · OxIOD"  # never "min-oxiod"
+    assert display_name("ftin-pedestrian", "ftin") == "FTIN · pedestrian"
+    assert display_name("ronin_resnet-ridi", "ronin_resnet") == "RoNIN ResNet · RIDI"
+    assert display_name("ftin-sim", "ftin") == "FTIN · simulated walks"
+    assert display_name("my_model", "ftin") == "my_model"
 
 
 def test_unknown_model_is_404_naming_the_valid_ones(client: TestClient, csv_with_gt: bytes) -> None:

@@ -16,6 +16,12 @@ def test_upload_page_and_static_files_are_served(client: TestClient) -> None:
     assert "https://" not in page.text
 
 
+def test_favicon_is_served(client: TestClient) -> None:
+    icon = client.get("/favicon.ico")
+    assert icon.status_code == 200 and icon.headers["content-type"] == "image/x-icon"
+    assert icon.content[:4] == b"\x00\x00\x01\x00"  # an ICO file
+
+
 def test_docs_page_works_offline(client: TestClient) -> None:
     page = client.get("/docs")
     assert page.status_code == 200 and "swagger-ui-bundle.js" in page.text

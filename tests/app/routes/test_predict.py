@@ -46,9 +46,15 @@ def test_predict_csv_upload_with_ground_truth(client: TestClient, csv_with_gt: b
     csv = client.get(body["csv_url"])
     assert csv.status_code == 200 and csv.headers["content-type"].startswith("text/csv")
     assert "attachment" in csv.headers["content-disposition"]
-    table = pd.read_csv(io.StringIO(csv.text))
+    # A 2-D model: the file says first that z is the ground truth's start height, as the answer does.
+    first_line = csv.text.splitlines()[0]
+    assert first_line.startswith("# z is constant") and "start height" in first_line
+    assert body["z_note"] in first_line
+    table = pd.read_csv(io.StringIO(csv.text), comment="#")
     assert list(table.columns) == ["t_s", "x_m", "y_m", "z_m"] and len(table) == 2000
     assert table["x_m"].to_numpy() == pytest.approx(np.array(traj["x"]), abs=1e-6)
+    assert np.ptp(table["z_m"].to_numpy()) == 0.0 and table["z_m"][0] == pytest.approx(gt["z"][0], abs=1e-6)
+    assert body["z_note"] in client.get(body["tum_url"]).text
 
 
 def test_predict_without_ground_truth_estimates_orientation(
@@ -58,7 +64,11 @@ def test_predict_without_ground_truth_estimates_orientation(
     assert body["model"] == OTHER_MODEL
     assert body["metrics"] is None and body["ground_truth"] is None
     assert body["orientation_source"] == "estimated" and body["frame"] == "device_world"
-    assert any("AHRS" in w for w in body["warnings"])
+    # The filter used is information, said once (the drifting heading with it), not a warning.
+    assert [n for n in body["notes"] if "orientation estimated by" in n] == [
+        "orientation estimated by the VQF filter (6-D, without magnetometer): heading is arbitrary and drifts"
+    ]
+    assert not any("orientation" in w and "estimated" in w for w in body["warnings"])
     assert body["trajectory"]["x"][0] == 0.0  # no ground truth: starts at the origin
 
 
@@ -66,7 +76,27 @@ def test_predict_raw_csv_body(client: TestClient, csv_with_gt: bytes) -> None:
     response = client.post("/predict", content=csv_with_gt, headers={"content-type": "text/csv"})
     assert response.status_code == 200, response.text
     assert response.json()["metrics"] is not None
-    assert response.json()["sequence"] == "recording"  # a body without a file name, in a user's word
+    assert response.json()["sequence"] == "request body"  # no file name, and none made up
+
+
+def test_a_raw_body_is_named_by_the_name_parameter(client: TestClient, csv_with_gt: bytes) -> None:
+    named = client.post(
+        "/predict?name=hall_walk.csv", content=csv_with_gt, headers={"content-type": "text/csv"}
+    )
+    assert named.status_code == 200 and named.json()["sequence"] == "hall_walk"
+    # Errors name what the user gave, never a made-up "recording.zip".
+    bad = client.post(
+        "/predict?name=my_export.zip", content=b"PK\x03\x04junk", headers={"content-type": "application/zip"}
+    )
+    assert bad.status_code == 422 and "my_export.zip" in bad.json()["detail"]
+    anonymous = client.post(
+        "/predict", content=b"PK\x03\x04junk", headers={"content-type": "application/zip"}
+    )
+    detail = anonymous.json()["detail"]
+    assert anonymous.status_code == 422 and "request body" in detail and "recording" not in detail
+    # A multipart upload takes the name too (else its file name).
+    form = client.post("/predict?name=lab", files={"file": ("x.csv", csv_with_gt, "text/csv")})
+    assert form.json()["sequence"] == "lab"
 
 
 def test_predict_json_arrays(client: TestClient, sample_frame: pd.DataFrame) -> None:

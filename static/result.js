@@ -1,0 +1,230 @@
+// The shown result: plot (with the export's GPS fixes), verdict, metrics, plausibility, messages and
+// every download of the run.
+"use strict";
+
+const ORIENTATION_WORDS = {
+  device: "orientation from the file",
+  ground_truth: "orientation from the ground truth",
+  estimated: "orientation estimated with the VQF filter (none in the file)",
+};
+const FRAME_WORDS = {
+  ground_truth: "trajectory in the ground truth's frame",
+  device_world: "trajectory in the phone's own world frame (no ground truth)",
+};
+
+// A result whose plot and metrics no longer match the file and model picked: take it away.
+function hideResult() {
+  $("result").hidden = true;
+  state.result = null;
+  state.compared = [];
+}
+
+function median(values) {
+  const v = values.filter((x) => x !== null && Number.isFinite(x)).sort((a, b) => a - b);
+  return v.length ? v[Math.floor(v.length / 2)] : null;
+}
+
+function renderPlot() {
+  const result = state.result;
+  const series = [];
+  if (result.ground_truth) {
+    series.push({ label: "ground truth", color: TRUTH_COLOR, x: result.ground_truth.x, y: result.ground_truth.y, dashed: true, truth: true });
+  }
+  const gps = result.plausibility && result.plausibility.gps;
+  if (gps && gps.x.length) {
+    const acc = median(gps.accuracy_m);
+    const label = `GPS fixes (aligned at the start${acc === null ? "" : `, median accuracy ±${acc.toFixed(0)} m`})`;
+    series.push({ label, color: GPS_COLOR, x: gps.x, y: gps.y, gps: true, accuracy: gps.accuracy_m });
+  }
+  for (const r of [result, ...state.compared]) {
+    series.push({ label: displayName(r.model), color: modelColor(r.model), x: r.trajectory.x, y: r.trajectory.y, model: r.model });
+  }
+  FtinPlot.render($("plot"), series, $("plot-legend"));
+}
+
+// One row per registered metric with a value; the path ratio's row names the lengths it compares.
+function metricsRows(result) {
+  const m = result.metrics;
+  if (!m) return [["Metrics", "no ground truth in the file: see the plausibility figures", "", false]];
+  const ratio = ratioMetric();
+  const figures = pathFigures();
+  const rows = [];
+  for (const def of state.metrics) {
+    if (figures.includes(def)) continue; // shown inside the path ratio's row
+    let text = metricText(def, m[def.name]);
+    if (def === ratio && m[def.name] !== null && figures.length === 2) {
+      text += ` (${metricText(figures[0], m[figures[0].name])} of ${metricText(figures[1], m[figures[1].name])})`;
+    }
+    const flagged = (def === ratio && isPathWarning(m)) || (def === headlineMetric() && isWorseThanStill(m));
+    rows.push([def.label, text, def.description, flagged]);
+  }
+  const headline = headlineMetric();
+  if (m.stand_still && headline) {
+    const still = metricText(headline, m.stand_still[headline.name]);
+    rows.push(["Standing still", `${headline.label} ${still}`, "what a model that never moves scores", false]);
+  }
+  return rows;
+}
+
+function fillTable(table, rows) {
+  table.textContent = "";
+  for (const [name, value, title, flagged] of rows) {
+    const tr = table.insertRow();
+    tr.insertCell().textContent = name;
+    const td = tr.insertCell();
+    td.textContent = value;
+    td.className = "value";
+    if (title) tr.title = title;
+    if (flagged) tr.className = "flagged";
+  }
+}
+
+// Worse than standing still: said first, in words, where nobody can miss it.
+function showVerdict(m) {
+  const box = $("verdict");
+  box.hidden = !(m && m.standing_still_text);
+  box.className = "verdict" + (isWorseThanStill(m) ? " bad" : " good");
+  // The sentence names the verdict itself ("Worse than standing still: ATE ... against ...").
+  box.textContent = m && m.standing_still_text ? (isWorseThanStill(m) ? "⚠ " : "") + m.standing_still_text : "";
+  $("scope-note").textContent = (m && m.scope_note) || "";
+  $("scope-note").hidden = !(m && m.scope_note);
+}
+
+// Figures that need no ground truth: a phone walk's only check (and GPS where the export has it).
+function showPlausibility(p) {
+  const figures = p ? [...p.figures, ...(p.gps ? p.gps.figures : [])] : [];
+  $("plausibility").hidden = !figures.length;
+  const counted = ["steps", "fixes", "deg", "steps/min"];
+  const label = (name) => name.replace(/_/g, " ").replace(/^gps/, "GPS").replace(/^./, (c) => c.toUpperCase());
+  fillTable($("plausibility-table"), figures.map((f) => [
+    label(f.name),
+    f.value === null ? "–" : `${f.value.toFixed(counted.includes(f.unit) ? 0 : 2)} ${f.unit}`,
+    f.description,
+    false,
+  ]));
+  fillList($("plausibility-warnings"), p ? p.warnings : []);
+}
+
+function convention(m, duration) {
+  if (!m) return "";
+  const aligned = m.alignment && m.alignment !== "none"; // alignmentText() states how
+  const units = "Horizontal errors. Headline ATE: RoNIN's RMS over every coordinate; " +
+    "ATE evo: evo's Euclidean RMSE (√2 × ATE); hover a row for its definition.";
+  let text = units;
+  if (!aligned && m.convention === "ronin") {
+    text = `No alignment: the prediction starts at the true start (RoNIN convention). ${units}`;
+  } else if (!aligned) text = `Convention: ${m.convention}. ${m.convention_text}`;
+  const window = m.rte_window_s || 60;
+  if (duration < window) {
+    text += ` This recording is ${duration.toFixed(0)} s, shorter than the ${window} s RTE window: RTE is its whole drift scaled to ${window} s.`;
+  }
+  return [aligned ? alignmentText(m) : "", text].filter(Boolean).join(" ");
+}
+
+function showResult(result, label) {
+  state.result = result;
+  $("result").hidden = false;
+  $("expired").hidden = true;
+  $("result-caption").textContent = `${label || result.sequence} · ${displayName(result.model)}`;
+  renderPlot();
+  const t = result.trajectory.t;
+  const duration = t[t.length - 1] - t[0];
+  const m = result.metrics;
+  showVerdict(m);
+  fillTable($("metrics"), metricsRows(result)); // the duration is among the plausibility figures
+  $("convention").textContent = convention(m, duration);
+  showPlausibility(result.plausibility);
+  // Each message once: the plausibility panel shows its own warnings.
+  const own = new Set(result.plausibility ? result.plausibility.warnings : []);
+  fillList($("warnings"), result.warnings.filter((w) => !own.has(w)));
+  fillList($("notes"), result.notes || []);
+  $("result-meta").textContent = [
+    ORIENTATION_WORDS[result.orientation_source] || `orientation: ${result.orientation_source}`,
+    FRAME_WORDS[result.frame] || result.frame,
+    result.z_note || "",
+  ].filter(Boolean).join(" · ");
+  showDownloads(result);
+  const scene = $("scene-link");
+  scene.hidden = !state.sceneUrl;
+  scene.href = state.sceneUrl || "#";
+  scene.dataset.runId = result.run_id;
+  renderCompareTable();
+}
+
+// --- downloads: CSV, TUM, ground truth TUM, metrics JSON, and how to compare them in evo ----------
+
+function showDownloads(result) {
+  $("download-link").href = result.csv_url;
+  $("download-tum").href = result.tum_url;
+  $("download-metrics").href = result.metrics_url;
+  $("download-gt").hidden = !result.ground_truth_tum_url;
+  $("download-gt").href = result.ground_truth_tum_url || "#";
+  $("evo-line").hidden = !result.ground_truth_tum_url;
+}
+
+function showExpired(message) {
+  const box = $("expired");
+  box.textContent = message;
+  box.hidden = false;
+}
+
+// Fetch first, so that a run dropped from memory says so instead of saving an error page.
+async function download(event) {
+  event.preventDefault();
+  const link = event.currentTarget;
+  try {
+    const r = await fetch(link.getAttribute("href"));
+    if (!r.ok) {
+      showExpired(errorText(r.status, await r.text()));
+      return;
+    }
+    const name = (r.headers.get("content-disposition") || "").match(/filename="([^"]+)"/);
+    const url = URL.createObjectURL(await r.blob());
+    const a = document.createElement("a");
+    a.href = url;
+    a.download = name ? name[1] : link.getAttribute("download") || "download";
+    document.body.appendChild(a);
+    a.click();
+    a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10_000);
+  } catch (_) {
+    showExpired(errorText(0, ""));
+  }
+}
+
+// Bring this run to the front of the 3D scene, then open it; an expired run opens nothing.
+async function openInScene(event) {
+  event.preventDefault();
+  const link = $("scene-link");
+  const tab = window.open("", "_blank"); // opened now, inside the click, so no popup blocker
+  try {
+    const r = await fetch(`/runs/${link.dataset.runId}/show`, { method: "POST" });
+    if (!r.ok) {
+      if (tab) tab.close();
+      showExpired(errorText(r.status, await r.text()));
+      return;
+    }
+    if (tab) tab.location.href = link.href;
+  } catch (_) {
+    if (tab) tab.close();
+    showExpired(errorText(0, ""));
+  }
+}
+
+// --- alignment: the align option of POST /predict, and what was fitted -------------------------
+function alignParam() {
+  const select = $("align-select");
+  return select && select.value ? `&align=${encodeURIComponent(select.value)}` : "";
+}
+
+function alignmentText(m) {
+  if (!m || !m.alignment) return "";
+  const heading = m.heading_deg == null ? "" : ` Fitted heading: ${m.heading_deg.toFixed(1)}°.`;
+  const words = {
+    none: "Aligned: none (raw, RoNIN).",
+    start: `Aligned: start — heading and start fitted on the first ${(m.align_window_s || 0).toFixed(0)} s only; the ground truth is drawn aligned.`,
+    se2: "Aligned: SE(2) over the whole trajectory (like evo --align); the ground truth is drawn aligned.",
+    se3: "Aligned: SE(3) over the whole trajectory (like evo --align); the ground truth is drawn aligned.",
+  };
+  return (words[m.alignment] || `Aligned: ${m.alignment}.`) + heading;
+}
