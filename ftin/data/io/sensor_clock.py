@@ -227,7 +227,10 @@ def gyro_scale_from_gravity(
     du = low_pass(np.gradient(u, t_s, axis=0), t_s)
     model = low_pass(-np.cross(gyro, u), t_s)
     if float(np.sqrt(np.mean(np.sum(model**2, axis=1)))) < _MIN_ROTATION_FOR_GYRO_CHECK_RAD_S:
-        warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
+        if stated_unit is None:
+            warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
+        else:  # the stated unit stands; the check had nothing to say
+            warnings.append(Note(f"gyroscope read in {stated_unit}; the phone hardly tilts to cross-check it"))
         return 1.0
     k = float(np.sum(du * model) / np.sum(model * model))
     if 0.5 <= -k <= 2.0:
