@@ -230,7 +230,7 @@ def gyro_scale_from_gravity(
         if stated_unit is None:
             warnings.append("gyroscope unit and sign not checked against gravity: the phone hardly tilts")
         else:  # the stated unit stands; the check had nothing to say
-            warnings.append(Note(f"gyroscope read in {stated_unit}; the phone hardly tilts to cross-check it"))
+            warnings.append(Note(f"gyroscope read in {stated_unit}; too little tilt to cross-check it"))
         return 1.0
     k = float(np.sum(du * model) / np.sum(model * model))
     if 0.5 <= -k <= 2.0:
