@@ -120,6 +120,14 @@ _REASONS = {
 }
 
 
+def estimated_note(name: str) -> str:
+    """The note for a recording that came without an orientation of its own."""
+    return (
+        f"{name}: the input has no device orientation; it was estimated with an AHRS filter, "
+        "so the heading may drift"
+    )
+
+
 def _with_source(seq: ImuSequence, choice: Orientation, source: str, reason: str) -> ImuSequence:
     if source == Orientation.DEVICE.value:
         if seq.q_world_device_wxyz is None:
@@ -133,6 +141,8 @@ def _with_source(seq: ImuSequence, choice: Orientation, source: str, reason: str
         out = _reference(seq, choice)
     meta: dict[str, Any] = dict(out.meta)
     meta["orientation_choice"] = {"requested": choice.value, "source": source, "reason": reason}
+    if seq.q_world_device_wxyz is None:
+        meta["warnings"] = [*meta.get("warnings", []), estimated_note(seq.name)]
     return out.with_(meta=meta)
 
 

@@ -26,7 +26,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ftin.data.orientation_option import Orientation, apply_orientation
+from ftin.data.orientation_option import Orientation, apply_orientation, estimated_note
 from ftin.data.preprocess import ensure_orientation, resample
 from ftin.data.types import ImuSequence
 from ftin.data.windows import window_starts, world_imu
@@ -77,11 +77,8 @@ def prepare(
     grid, with its world-frame IMU and window starts."""
     notes: list[str] = []
     prepared = ensure_orientation(seq) if orientation is None else apply_orientation(seq, orientation)
-    if orientation is None and seq.q_world_device_wxyz is None:  # a choice says so in its own words
-        notes.append(
-            f"{seq.name}: the input has no device orientation; it was estimated with an AHRS filter, "
-            "so the heading may drift"
-        )
+    if orientation is None and seq.q_world_device_wxyz is None:  # apply_orientation says so itself
+        notes.append(estimated_note(seq.name))
     if not on_grid(prepared, rate_hz):
         if len(prepared) > 1 and abs(prepared.rate_hz - rate_hz) > 0.01 * rate_hz:
             notes.append(
