@@ -142,7 +142,7 @@ function runPrediction() {
   const form = new FormData();
   form.append("file", state.file, state.file.name);
   const xhr = new XMLHttpRequest();
-  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}`);
+  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}${orientationParam()}`);
   xhr.upload.onprogress = (e) => {
     if (e.lengthComputable) setProgress(e.loaded / e.total, `Uploading ${Math.round((100 * e.loaded) / e.total)} %`);
   };
@@ -190,7 +190,7 @@ function hideResult() {
 const ORIENTATION_WORDS = {
   device: "orientation from the file",
   ground_truth: "orientation from the ground truth",
-  estimated: "orientation estimated with the VQF filter (none in the file)",
+  estimated: "orientation estimated with the VQF filter",
 };
 const FRAME_WORDS = {
   ground_truth: "trajectory in the ground truth's frame",
@@ -297,6 +297,7 @@ function showResult(result, fileName) {
     ORIENTATION_WORDS[result.orientation_source] || `orientation: ${result.orientation_source}`,
     FRAME_WORDS[result.frame] || result.frame,
   ].join(" · ");
+  showChoices(result);
   $("download-link").href = result.csv_url;
   const scene = $("scene-link");
   scene.hidden = !state.sceneUrl;
@@ -425,9 +426,9 @@ async function compareModels() {
       if (source.file) {
         const form = new FormData();
         form.append("file", source.file, source.file.name);
-        r = await fetch(`/predict?model=${model}${alignParam()}`, { method: "POST", body: form });
+        r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST", body: form });
       } else {
-        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}`, { method: "POST" });
+        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
       }
       if (state.result !== base) return; // a new prediction replaced this one meanwhile
       if (!r.ok) {
@@ -483,7 +484,8 @@ async function predictSample() {
   showError("");
   setProgress(0, `Running ${model || "the default model"} on ${option.dataset.name} ...`);
   try {
-    const query = model ? `?model=${encodeURIComponent(model)}` : "";
+    // No model named: the server runs the sequence's suggested model and says so (model_choice).
+    const query = `?${orientationParam().slice(1)}`;
     const r = await fetch(`/sequences/${encodeURIComponent(option.value)}/predict${query}`, { method: "POST" });
     const text = await r.text();
     if (!r.ok) {
@@ -507,6 +509,7 @@ function setUp() {
   const zone = $("drop-zone");
   $("file-input").addEventListener("change", (e) => pickFile(e.target.files[0]));
   $("align-select").addEventListener("change", hideResult); // numbers scored another way: stale
+  $("orientation-select").addEventListener("change", hideResult); // another input: stale
   zone.addEventListener("keydown", (e) => {
     if (e.key === "Enter" || e.key === " ") $("file-input").click();
   });
