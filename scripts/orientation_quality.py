@@ -42,6 +42,7 @@ import torch
 from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data import frames
+from ftin.data.discovery import read_sequence
 from ftin.data.orientation_choice import (
     OrientationEvidence,
     choose_orientation,
@@ -49,7 +50,6 @@ from ftin.data.orientation_choice import (
     orientation_evidence,
 )
 from ftin.data.preprocess import estimate_orientation
-from ftin.data.discovery import read_sequence
 from ftin.data.readers import inria_attitude
 from ftin.data.types import ImuSequence
 from ftin.evaluate import score
@@ -101,7 +101,10 @@ def with_sources(seq: ImuSequence, strip: bool = False) -> dict[str, ImuSequence
     with ``strip`` the phone's attitude is removed first and the ground truth keeps its own world)."""
     if strip:
         bare = phone_only(seq)
-        return {"vqf": estimate_orientation(bare), "vqf6d": estimate_orientation(bare, use_magnetometer=False)}
+        return {
+            "vqf": estimate_orientation(bare),
+            "vqf6d": estimate_orientation(bare, use_magnetometer=False),
+        }
     return {
         "device": seq,
         "vqf": estimate_orientation(seq),

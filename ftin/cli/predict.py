@@ -25,7 +25,7 @@ from ftin.cli.common import (
 )
 from ftin.data.errors import DataFormatError
 from ftin.data.loading import read_one
-from ftin.data.orientation_option import Orientation
+from ftin.data.orientation_option import Orientation, apply_orientation
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.files import atomic_write_text
@@ -68,7 +68,8 @@ def predict_command(
 
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
-        seq = read_one(input_path, orientation.value)
+        # Applied before the progress bar, so that a choice the recording cannot give is one clean line.
+        seq = apply_orientation(read_one(input_path, orientation.value), orientation)
         with progress_bar() as bar:
             task = None
 
@@ -94,8 +95,7 @@ def predict_command(
         header = [
             f"ftin predict: checkpoint {loaded.name} ({loaded.model_name}), input {input_path}",
             f"frame: {frame}",
-            f"orientation: {orientation_text(prediction.orientation_choice)}",
-            "units: t in s, x y z in m",
+            f"orientation: {orientation_text(prediction.orientation_choice)}; units: t in s, x y z in m",
         ]
         if out.suffix.lower() == ".tum":
             atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
