@@ -132,3 +132,15 @@ def test_a_phone_export_runs_the_default_pedestrian_model(client: TestClient) ->
     assert entry.name == DEFAULT_MODEL and choice.rule == "upload_kind" and "phone app" in choice.reason
     entry, choice = choose_model(models, None, sequence_kind=None)
     assert entry.name == DEFAULT_MODEL and choice.rule == "default"
+
+
+def test_the_truth_drawn_is_in_the_frame_the_filter_ran_in(
+    client: TestClient, sample_frame: pd.DataFrame
+) -> None:
+    # VQF replaces the file's attitude: the ground truth turns into VQF's world with it (the run keeps
+    # the oriented sequence), so the truth drawn is the one scored, not the file's.
+    data = _with_magnetometer(sample_frame).to_csv(index=False).encode()
+    run = client.app.state.services.predictor.predict_csv(data, "walk.csv", orientation="vqf")
+    scored = run.prediction.truth
+    assert run.prediction.orientation_choice["source"] == "vqf"
+    np.testing.assert_allclose(run.truth.p_world_m[-1], scored.p_world_m[-1], atol=0.05)
