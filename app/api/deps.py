@@ -19,7 +19,11 @@ ServicesDep = Annotated[Services, Depends(get_services)]
 
 ModelQuery = Annotated[
     str | None,
-    Query(description="Model name from GET /models; the default model when omitted.", max_length=200),
+    Query(
+        description="Model name from GET /models. When omitted: a listed sequence's suggested_model, else "
+        "the model trained on an upload's recognised kind, else the default (model_choice says which).",
+        max_length=200,
+    ),
 ]
 RunIdQuery = Annotated[
     str | None,
