@@ -294,6 +294,21 @@ class PlausibilityPayload(BaseModel):
         return cls(figures=[FigurePayload(**vars(f)) for f in p.figures], warnings=p.warnings, gps=gps)
 
 
+class OrientationChoicePayload(BaseModel):
+    requested: str = Field(description="The orientation asked for: auto, device, vqf, vqf6d or ground_truth.")
+    source: str = Field(description="The source that ran: device, vqf, vqf6d or ground_truth.")
+    reason: str = Field(description="Why, in words (for auto: what the recording showed).")
+
+
+class ModelChoicePayload(BaseModel):
+    model: str
+    rule: str = Field(
+        description="requested (named in the request), sequence (the listed sequence's suggested model), "
+        "upload_kind (the model for the upload's recognised kind) or default."
+    )
+    reason: str = Field(description="The rule in words.")
+
+
 class PredictionResponse(BaseModel):
     run_id: str
     model: str
@@ -303,6 +318,12 @@ class PredictionResponse(BaseModel):
     ground_truth: TrajectoryPayload | None
     velocity: VelocityPayload
     orientation_source: str
+    orientation_choice: OrientationChoicePayload | None = Field(
+        None, description="The orientation asked for, the source that ran and why."
+    )
+    model_choice: ModelChoicePayload | None = Field(
+        None, description="Why this model ran: the one named, or the rule that chose it when none was."
+    )
     frame: str
     warnings: list[str] = Field(description="What may be wrong with this result (path length included).")
     notes: list[str] = Field(
@@ -344,6 +365,8 @@ class PredictionResponse(BaseModel):
                 vz=v[:, 2].tolist() if v.shape[1] > 2 else None,
             ),
             orientation_source=str(pred.orientation_source),
+            orientation_choice=pred.orientation_choice,
+            model_choice=None if run.model_choice is None else run.model_choice.to_json(),
             frame=str(pred.frame),
             warnings=verdict.warnings,
             notes=verdict.notes,

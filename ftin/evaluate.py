@@ -52,6 +52,9 @@ class SequenceResult:
     duration_s: float
     warnings: list[str] = field(default_factory=list)
     stand_still: TrajectoryMetrics | None = None  # the predictor that never moves, same ground truth
+    orientation_choice: dict[str, str] | None = (
+        None  # requested, source, reason (ftin.data.orientation_option)
+    )
 
 
 def _values(m: TrajectoryMetrics | None) -> dict[str, Any] | None:
@@ -86,6 +89,7 @@ class EvaluationReport:
                     **_values(r.metrics),
                     "duration_s": r.duration_s,
                     "stand_still": _values(r.stand_still),
+                    "orientation_choice": r.orientation_choice,
                 }
                 for r in self.sequences
             ],
@@ -171,8 +175,12 @@ def evaluate_checkpoint(
     stride: int | None = None,
     on_sequence: Callable[[str], None] | None = None,
     alignment: Alignment | str | None = None,
+    orientation: str | None = None,
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
+
+    ``orientation`` (``ftin.data.orientation_option``) is applied to each sequence before the model;
+    ``None`` keeps each sequence's own.
 
     ``alignment`` (``ftin.metrics.alignment_modes``) sets the convention it implies; ``None`` with the
     RoNIN convention picks each sequence's default (``start`` where the ground truth may be in another
@@ -187,13 +195,24 @@ def evaluate_checkpoint(
             raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
         if on_sequence is not None:
             on_sequence(seq.name)
-        prediction = predict_trajectory(loaded, seq, stride=stride, keep_prepared=False)
+        prediction = predict_trajectory(
+            loaded, seq, stride=stride, keep_prepared=False, orientation=orientation
+        )
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(scored.warnings[-1:])}")
         duration_s = prediction.trajectory.duration_s  # the prepared recording's span
         warnings = [*prediction.warnings, *scored.warnings]
-        results.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings, scored.stand_still))
+        results.append(
+            SequenceResult(
+                seq.name,
+                scored.metrics,
+                duration_s,
+                warnings,
+                scored.stand_still,
+                prediction.orientation_choice,
+            )
+        )
     if not results:
         raise ValueError("evaluate_checkpoint needs at least one sequence")
     stills = [r.stand_still for r in results if r.stand_still is not None]

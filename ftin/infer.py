@@ -3,8 +3,9 @@
 ``predict_trajectory`` is the one function the CLI (``ftin predict``), the evaluation and the app
 call. Steps and decisions:
 
-1-2. Preparation (``ftin.data.prepare.prepare``, shared with training): orientation (the sequence's
-   own, else estimated by an attitude filter, with a note), then the checkpoint's ``imu_rate_hz``
+1-2. Preparation (``ftin.data.prepare.prepare``, shared with training): orientation (the ``orientation``
+   choice applied, ``ftin.data.orientation_option``; without one the sequence's own, else estimated by
+   an attitude filter, with a note), then the checkpoint's ``imu_rate_hz``
    grid (resampled unless already on it), the world-frame IMU and the window starts. The prepared
    sequence comes back as ``Prediction.prepared``: callers read what the model saw from it.
 3. Velocities, as each model's reference tests it (parts and streaming: ``ftin.models.base``):
@@ -57,6 +58,7 @@ import torch
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.gaps import holes_of
+from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
@@ -86,6 +88,8 @@ class Prediction:
     imu_world: np.ndarray | None = None  # (N, 6) float32 world-frame IMU the model read
     starts: np.ndarray | None = None  # (M,) first sample of each of the model's windows
     notes: list[str] = field(default_factory=list)  # how the input was read (gaps bridged, ...)
+    # The orientation asked for, the source that ran and why (ftin.data.orientation_option), when asked.
+    orientation_choice: dict[str, str] | None = None
 
 
 def predict_trajectory(
@@ -97,6 +101,7 @@ def predict_trajectory(
     progress: Callable[[int, int], None] | None = None,
     return_features: bool = False,
     keep_prepared: bool = True,
+    orientation: str | None = None,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
     carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
@@ -106,7 +111,7 @@ def predict_trajectory(
     stride = loaded.stride if stride is None else stride
     if stride < 1:
         raise ValueError(f"stride must be >= 1 sample, got {stride}")
-    prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, stride)
+    prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, stride, orientation)
     notes = list(prepared.notes)  # what preparing did (resampled): information
     short: list[str] = []  # a model run on less than its window: a warning
     n, t_s = len(prepared), prepared.seq.t_s
@@ -145,6 +150,7 @@ def predict_trajectory(
         imu_world=prepared.imu_world,
         starts=prepared.starts,
         notes=[*prepared.seq.meta.get("notes", []), *notes],
+        orientation_choice=choice_of(prepared.seq),
     )
 
 

@@ -19,8 +19,15 @@ averaged over the world turned to ``HEADINGS`` headings (``ate_m``). ``--rows`` 
 ``--json`` (the rule re-applied to its stored evidence; ``--refresh-evidence`` measures it again)
 without the slow predictions.
 
+``--phone-only`` strips the phone's attitude first, as a phone export without orientation gives the
+recording (t, gyroscope, accelerometer, magnetometer): only ``vqf``, ``vqf6d`` and ``auto`` exist
+then; ``--compare`` takes the full study's ``--json`` for the ``device`` ATE the criterion names.
+
     PYTHONPATH=. .venv/bin/python scripts/orientation_quality.py ../shared/data \
         --checkpoint checkpoints/ftin-pedestrian --json runs/orientation_study.json --out docs/orientation.md
+    PYTHONPATH=. .venv/bin/python scripts/orientation_quality.py ../shared/data --phone-only \
+        --checkpoint checkpoints/ftin-pedestrian --json runs/orientation_phone.json \
+        --compare runs/orientation_study.json --out docs/orientation.md
 """
 
 from __future__ import annotations
@@ -51,6 +58,8 @@ from ftin.infer import predict_trajectory
 ALIGN_S = 5.0
 HEADINGS = 4
 SOURCES = ("device", "vqf", "vqf6d", "auto")  # auto: whichever of the others the rule picks
+PHONE_SOURCES = ("vqf", "vqf6d", "auto")  # --phone-only: no phone attitude to choose
+VALIDATION_PHONES = ("nexus5", "iphone5")  # Inria: the iPhone 4S walks are the test part
 
 
 def validation_recordings(data_root: Path) -> list[tuple[str, Path]]:
@@ -81,8 +90,21 @@ def kind_of(dataset: str, seq: ImuSequence) -> str:
     return carry
 
 
-def with_sources(seq: ImuSequence) -> dict[str, ImuSequence]:
-    """The recording with each source's orientation (ground truth turned into that world at the start)."""
+def phone_only(seq: ImuSequence) -> ImuSequence:
+    """The recording as a phone export without orientation gives it: no attitude of its own."""
+    meta = {k: v for k, v in seq.meta.items() if k != "orientation_source"}
+    return seq.with_(q_world_device_wxyz=None, meta=meta)
+
+
+def with_sources(seq: ImuSequence, strip: bool = False) -> dict[str, ImuSequence]:
+    """The recording with each source's orientation (ground truth turned into that world at the start;
+    with ``strip`` the phone's attitude is removed first and the ground truth keeps its own world)."""
+    if strip:
+        bare = phone_only(seq)
+        return {
+            "vqf": estimate_orientation(bare),
+            "vqf6d": estimate_orientation(bare, use_magnetometer=False),
+        }
     return {
         "device": seq,
         "vqf": estimate_orientation(seq),
@@ -106,14 +128,14 @@ def ate_m(model: LoadedModel, seq: ImuSequence, headings: int = HEADINGS) -> flo
     return float(np.mean(ates))
 
 
-def study_row(dataset: str, path: Path, model: LoadedModel | None) -> dict:
+def study_row(dataset: str, path: Path, model: LoadedModel | None, strip: bool = False) -> dict:
     seq = read_sequence(path, orientation="device")
     truth = seq.gt.q_world_body_wxyz
     tracked = seq.gt.tracked_mask
     t = seq.t_s[tracked]
-    sources = with_sources(seq)
+    sources = with_sources(seq, strip)
     estimates = {label: s.q_world_device_wxyz for label, s in sources.items()}
-    evidence = orientation_evidence(seq)
+    evidence = orientation_evidence(phone_only(seq) if strip else seq)
     row = {
         "dataset": dataset,
         "name": seq.name,
@@ -155,16 +177,21 @@ def _mean(members: list[dict], source: str, key: str) -> float:
     return float(np.mean([r[source][key] for r in members]))
 
 
+def _sources(rows: list[dict]) -> tuple[str, ...]:
+    return SOURCES if all("device" in r for r in rows) else PHONE_SOURCES
+
+
 def error_table(rows: list[dict]) -> list[str]:
     """Tilt RMS, heading RMS and heading at the end (deg) per source, mean over each kind's recordings."""
+    sources = _sources(rows)
     lines = [
-        "| dataset | kind | n | " + " | ".join(SOURCES) + " | auto chose |",
-        "|:--|:--|--:|" + "--:|" * len(SOURCES) + ":--|",
+        "| dataset | kind | n | " + " | ".join(sources) + " | auto chose |",
+        "|:--|:--|--:|" + "--:|" * len(sources) + ":--|",
     ]
     for dataset, kind, members in _groups(rows):
         cells = [
             " / ".join(f"{_mean(members, s, k):.1f}" for k in ("tilt_rms", "heading_rms", "heading_end"))
-            for s in SOURCES
+            for s in sources
         ]
         chosen: dict[str, int] = {}
         for r in members:
@@ -188,6 +215,30 @@ def ate_table(rows: list[dict]) -> list[str]:
     return lines
 
 
+def phone_ate_table(rows: list[dict], full: dict[str, dict]) -> list[str]:
+    """Phone-only ATE (m) per kind: ``vqf``, ``vqf6d``, ``auto``, beside the ``device`` and ``vqf`` ATE of
+    the same recordings with the phone's attitude (``full``: the full study's rows by name), and
+    ``auto`` against the better of those two (the criterion)."""
+    lines = [
+        "| dataset | kind | n | vqf | vqf6d | auto | auto chose | device (with attitude) "
+        "| auto / min(device, vqf) |",
+        "|:--|:--|--:|--:|--:|--:|:--|--:|--:|",
+    ]
+    for dataset, kind, members in _groups(rows):
+        ates = {s: _mean(members, s, "ate") for s in PHONE_SOURCES}
+        device = float(np.mean([full[r["name"]]["device"]["ate"] for r in members]))
+        chosen: dict[str, int] = {}
+        for r in members:
+            chosen[r["auto_source"]] = chosen.get(r["auto_source"], 0) + 1
+        picks = ", ".join(f"{k} {v}" for k, v in sorted(chosen.items()))
+        ratio = ates["auto"] / min(device, ates["vqf"])
+        cells = " | ".join(f"{ates[s]:.2f}" for s in PHONE_SOURCES)
+        lines.append(
+            f"| {dataset} | {kind} | {len(members)} | {cells} | {picks} | {device:.2f} | {ratio:.2f} |"
+        )
+    return lines
+
+
 def replace_between(path: Path, marker: str, table: str) -> None:
     """Replace what lies between ``<!-- marker:start -->`` and ``<!-- marker:end -->``; keep the prose."""
     text = path.read_text()
@@ -206,6 +257,12 @@ def main() -> None:
     parser.add_argument(
         "--refresh-evidence", action="store_true", help="with --rows: measure the evidence again"
     )
+    parser.add_argument(
+        "--phone-only", action="store_true", help="strip the phone's attitude first (vqf, vqf6d, auto only)"
+    )
+    parser.add_argument(
+        "--compare", type=Path, default=None, help="with --phone-only: the full study's --json (device ATE)"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     if args.rows is not None:
@@ -216,14 +273,13 @@ def main() -> None:
                 for _, p in validation_recordings(args.data_root)
             }
             for row in rows:
-                row["evidence"] = orientation_evidence(
-                    read_sequence(paths[row["name"]], orientation="device")
-                ).to_json()
+                seq = read_sequence(paths[row["name"]], orientation="device")
+                row["evidence"] = orientation_evidence(phone_only(seq) if args.phone_only else seq).to_json()
     else:
         model = None if args.checkpoint is None else load_model(args.checkpoint)
         rows = []
         for dataset, path in validation_recordings(args.data_root):
-            rows.append(study_row(dataset, path, model))
+            rows.append(study_row(dataset, path, model, args.phone_only))
             print(f"{rows[-1]['name']}: {json.dumps(rows[-1]['evidence'])}", flush=True)
     for row in rows:
         apply_rule(row)
@@ -231,12 +287,18 @@ def main() -> None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(rows, indent=1))
     errors = "\n".join(error_table(rows))
-    ates = "\n".join(ate_table(rows)) if all("ate" in r["device"] for r in rows) else None
+    if args.phone_only:
+        full = {r["name"]: r for r in json.loads(args.compare.read_text())} if args.compare else None
+        ok = full is not None and all("ate" in r["vqf"] for r in rows)
+        ates = "\n".join(phone_ate_table(rows, full)) if ok else None
+    else:
+        ates = "\n".join(ate_table(rows)) if all("ate" in r["device"] for r in rows) else None
     print(errors, ates or "", sep="\n\n")
     if args.out is not None:
-        replace_between(args.out, "sources", errors)
+        prefix = "phone-" if args.phone_only else ""
+        replace_between(args.out, f"{prefix}sources", errors)
         if ates is not None:
-            replace_between(args.out, "ate", ates)
+            replace_between(args.out, f"{prefix}ate", ates)
 
 
 

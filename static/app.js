@@ -96,7 +96,7 @@ function runPrediction() {
   const form = new FormData();
   form.append("file", file, file.name);
   const xhr = new XMLHttpRequest();
-  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}`);
+  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}${orientationParam()}`);
   xhr.upload.onprogress = (e) => {
     if (e.lengthComputable) setProgress(e.loaded / e.total, `Uploading ${Math.round((100 * e.loaded) / e.total)} %`);
   };
@@ -169,7 +169,8 @@ async function predictSample({ auto = false } = {}) {
   showError("");
   setProgress(0, `Running ${model ? displayName(model) : "the default model"} on ${option.dataset.name} ...`);
   try {
-    const query = model ? `?model=${encodeURIComponent(model)}` : "";
+    // No model named: the server runs the sequence's suggested model and says so (model_choice).
+    const query = `?${orientationParam().slice(1)}`;
     const r = await fetch(`/sequences/${encodeURIComponent(option.value)}/predict${query}`, { method: "POST" });
     const text = await r.text();
     if (auto && state.userActed) return; // the user picked something else meanwhile
@@ -196,6 +197,7 @@ function setUp() {
   const zone = $("drop-zone");
   $("file-input").addEventListener("change", (e) => pickFile(e.target.files[0]));
   $("align-select").addEventListener("change", hideResult); // numbers scored another way: stale
+  $("orientation-select").addEventListener("change", hideResult); // another input: stale
   zone.addEventListener("keydown", (e) => {
     if (e.key === "Enter" || e.key === " ") $("file-input").click();
   });

@@ -67,9 +67,9 @@ async function compareModels() {
       if (source.file) {
         const form = new FormData();
         form.append("file", source.file, source.file.name);
-        r = await fetch(`/predict?model=${model}${alignParam()}`, { method: "POST", body: form });
+        r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST", body: form });
       } else if (source.sampleId) {
-        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}`, { method: "POST" });
+        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
       } else {
         showError("This kept run's file is not on the page: upload it again to compare models on it.");
         return;

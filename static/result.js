@@ -5,7 +5,7 @@
 const ORIENTATION_WORDS = {
   device: "orientation from the file",
   ground_truth: "orientation from the ground truth",
-  estimated: "orientation estimated with the VQF filter (none in the file)",
+  estimated: "orientation estimated with the VQF filter",
 };
 const FRAME_WORDS = {
   ground_truth: "trajectory in the ground truth's frame",
@@ -143,6 +143,7 @@ function showResult(result, label) {
     FRAME_WORDS[result.frame] || result.frame,
     result.z_note || "",
   ].filter(Boolean).join(" · ");
+  showChoices(result);
   showDownloads(result);
   const scene = $("scene-link");
   scene.hidden = !state.sceneUrl;

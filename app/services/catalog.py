@@ -23,7 +23,8 @@ from typing import Any
 from app.services.errors import InvalidInputError, NotFoundError
 from app.services.kinds import SIMULATED, kind_of, label
 from ftin.data import DataFormatError, ImuSequence
-from ftin.data.discovery import list_sequences, read_sequence
+from ftin.data.discovery import list_sequences
+from ftin.data.loading import read_one
 
 log = logging.getLogger(__name__)
 
@@ -147,13 +148,14 @@ class SequenceCatalog:
                 f"unknown sequence id {seq_id!r}; GET /sequences lists the valid ids"
             ) from None
 
-    def read(self, seq_id: str) -> ImuSequence:
+    def read(self, seq_id: str, orientation: str | None = None) -> ImuSequence:
+        """The sequence, read as the ``orientation`` choice needs (``ftin.data.loading.read_one``: the
+        phone's attitude or the reference, where a reader holds both)."""
         entry = self.get(seq_id)
-        reader = self.reader
-        if reader is None:
-            reader = read_sequence
         try:
-            return reader(entry.ref)
+            if self.reader is not None:
+                return self.reader(entry.ref)
+            return read_one(entry.ref, orientation)
         except (DataFormatError, OSError) as exc:
             raise InvalidInputError(f"sequence {seq_id!r} cannot be read: {exc}") from exc
 

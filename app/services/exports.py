@@ -85,6 +85,8 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "sequence": run.sequence.name,
         "orientation_source": run.prediction.orientation_source,
         "orientation_filter": run.prediction.orientation_filter,
+        "orientation_choice": run.prediction.orientation_choice,
+        "model_choice": None if run.model_choice is None else run.model_choice.to_json(),
         "frame": run.prediction.frame,
         "metrics": None if metrics is None else metrics.model_dump(),
         "metric_definitions": [metric.as_dict() for metric in list_metrics()],

@@ -18,6 +18,10 @@ Decisions:
   and deadline checks, large enough to cost nothing in speed.
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
   spectra for the window it shows (see ``features``).
+- Orientation (``ftin.data.orientation_option``): every door takes a choice (``auto`` by default); a
+  listed sequence is read as the choice needs (the phone's attitude or the reference), the choice is
+  applied before the run, and the run keeps the oriented sequence, so that the drawn ground truth is
+  in the frame the model ran in. A request without a model runs the one ``model_choice`` picks.
 """
 
 from __future__ import annotations
@@ -34,12 +38,14 @@ from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots
+from app.services.model_choice import ModelChoice, choose_model
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
 from ftin.data.errors import TooManySamplesError
 from ftin.data.from_bytes import read_bytes
+from ftin.data.orientation_option import apply_orientation, parse_orientation
 from ftin.data.validate import validate
 from ftin.evaluate import score
 from ftin.metrics import Alignment
@@ -130,10 +136,12 @@ class PredictionService:
         deadline: Deadline | None = None,
         *,
         align: str | None = None,
+        orientation: str | None = None,
     ) -> Run:
         """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
         Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content)."""
-        entry = self.models.get(model)
+        if model:
+            self.models.get(model)  # an unknown model is refused before the upload is read
         run_id = self.runs.new_id(run_id)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
         # separators), and nothing is ever read or written under it.
@@ -146,7 +154,22 @@ class PredictionService:
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
-        return self.run(seq, entry, run_id, source, deadline=deadline, align=align)
+        entry, choice = choose_model(
+            self.models,
+            model,
+            upload_format=str(seq.meta.get("dataset", "")),
+            upload_texts=(filename, seq.name),
+        )
+        return self.run(
+            seq,
+            entry,
+            run_id,
+            source,
+            deadline=deadline,
+            align=align,
+            orientation=orientation,
+            model_choice=choice,
+        )
 
     def read_upload(self, data: bytes, filename: str) -> ImuSequence:
         """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
@@ -170,12 +193,24 @@ class PredictionService:
         deadline: Deadline | None = None,
         *,
         align: str | None = None,
+        orientation: str | None = None,
     ) -> Run:
-        entry = self.models.get(model)
+        listed = self.catalog.get(sequence_id)
+        entry, choice = choose_model(self.models, model, sequence_kind=listed.kind)
         run_id = self.runs.new_id(run_id)
-        seq = self.catalog.read(sequence_id)
+        seq = self.catalog.read(sequence_id, orientation)
         self.check_sample_count(len(seq), f"sequence {sequence_id!r}")
-        return self.run(seq, entry, run_id, "sequence", sequence_id, deadline, align=align)
+        return self.run(
+            seq,
+            entry,
+            run_id,
+            "sequence",
+            sequence_id,
+            deadline,
+            align=align,
+            orientation=orientation,
+            model_choice=choice,
+        )
 
     def predict_imu(
         self,
@@ -186,11 +221,22 @@ class PredictionService:
         deadline: Deadline | None = None,
         *,
         align: str | None = None,
+        orientation: str | None = None,
     ) -> Run:
         """Run a model on a sequence built by the caller (e.g. from JSON arrays)."""
-        entry = self.models.get(model)
+        entry, choice = choose_model(self.models, model)
         self.check_sample_count(len(seq), f"recording {seq.name!r}")
-        return self.run(seq, entry, self.runs.new_id(run_id), source, deadline=deadline, align=align)
+        run_id = self.runs.new_id(run_id)
+        return self.run(
+            seq,
+            entry,
+            run_id,
+            source,
+            deadline=deadline,
+            align=align,
+            orientation=orientation,
+            model_choice=choice,
+        )
 
     def run(
         self,
@@ -202,8 +248,13 @@ class PredictionService:
         deadline: Deadline | None = None,
         *,
         align: str | None = None,
+        orientation: str | None = None,
+        model_choice: ModelChoice | None = None,
     ) -> Run:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
+
+        ``orientation`` (``ftin.data.orientation_option``; ``auto`` when None) is applied first; the run
+        keeps the oriented sequence. ``model_choice`` says why ``entry`` runs (``app.services.model_choice``).
 
         With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
         where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
@@ -214,6 +265,10 @@ class PredictionService:
         if align is not None and align not in {a.value for a in Alignment}:
             choices = ", ".join(a.value for a in Alignment)
             raise InvalidInputError(f"align must be one of {choices}; got {align!r}")
+        try:
+            orientation = parse_orientation(orientation).value
+        except ValueError as exc:
+            raise InvalidInputError(str(exc)) from None
         what = f"running {entry.name} on {seq.name}"
 
         def progress(done: int, total: int) -> None:
@@ -224,9 +279,15 @@ class PredictionService:
         try:
             with self.slots.acquire(deadline):
                 deadline.check(what)
+                seq = apply_orientation(seq, orientation)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
-                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress, keep_prepared=False
+                    entry.loaded,
+                    seq,
+                    batch_size=BATCH_WINDOWS,
+                    progress=progress,
+                    keep_prepared=False,
+                    orientation=orientation,
                 )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))
@@ -241,6 +302,16 @@ class PredictionService:
         # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
         # the scene recomputes the spectra of the window it shows from it (a streaming model's too).
         model_input = ModelInput(prediction.imu_world, prediction.starts, entry.loaded.window)
-        run = Run(run_id, entry.name, seq, prediction, source, sequence_id, model_input, scored)
+        run = Run(
+            run_id,
+            entry.name,
+            seq,
+            prediction,
+            source,
+            sequence_id,
+            model_input,
+            scored,
+            model_choice=model_choice,
+        )
         self.runs.finish(run)
         return run

@@ -48,6 +48,7 @@ class Run:
     model_input: ModelInput | None = None  # what the model saw, for the scene's feature plots
     score: Any = None  # ftin.evaluate.Scored: metrics, fitted alignment, baseline (None: no ground truth)
     created_s: float = field(default_factory=time.time)
+    model_choice: Any = None  # app.services.model_choice.ModelChoice: which rule chose the model
 
     @property
     def n_samples(self) -> int:

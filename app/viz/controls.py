@@ -23,6 +23,7 @@ import viser
 from app.services import Services
 from app.services.errors import ServiceError
 from app.services.runs import Run
+from app.viz.choices import ORIENTATION_CHOICES
 from app.viz.overlay import LIVE, UPLOADED, UPLOADS, sequence_key
 from app.viz.panels import ErrorPanel, SpectraPanel
 
@@ -86,6 +87,14 @@ class SceneControls:
                 initial_value=ALIGN_CHOICES[0],
                 hint="How a prediction is aligned to the ground truth before scoring (POST /predict's "
                 "align): default = start where the truth may be in another world frame, else none.",
+            )
+            self.gui_orientation = gui.add_dropdown(
+                "Orientation",
+                ORIENTATION_CHOICES,
+                initial_value=ORIENTATION_CHOICES[0],
+                hint="Which orientation the model reads: auto (chosen from the recording), device (the "
+                "phone's attitude), vqf (VQF with the magnetometer), vqf6d (without it), ground_truth "
+                "(motion capture).",
             )
             self.gui_progress = gui.add_progress_bar(0.0, visible=False)
             self.gui_status = gui.add_markdown("Pick a sequence and models, then **Run** (or upload a CSV).")
@@ -214,19 +223,24 @@ class SceneControls:
         if upload is not None and models:
             seq = upload.sequence
             predictor = self.services.predictor
-            align = self._align()
+            align, orientation = self._align(), self.gui_orientation.value
             self._run_batch(
-                models, lambda m: predictor.predict_imu(seq, m, source="viser", align=align), client
+                models,
+                lambda m: predictor.predict_imu(seq, m, source="viser", align=align, orientation=orientation),
+                client,
             )
             return
         sequence_id = self._selected_sequence_id()
         if sequence_id is None or not models:
             self._report_error(client, "Pick a sequence and at least one model first.")
             return
-        align = self._align()
+        align, orientation = self._align(), self.gui_orientation.value
+        predictor = self.services.predictor
         self._run_batch(
             models,
-            lambda model: self.services.predictor.predict_sequence(sequence_id, model, align=align),
+            lambda model: predictor.predict_sequence(
+                sequence_id, model, align=align, orientation=orientation
+            ),
             client,
         )
 
@@ -236,10 +250,12 @@ class SceneControls:
             self._report_error(client, "Tick at least one model before uploading.")
             return
         predictor = self.services.predictor
-        align = self._align()
+        align, orientation = self._align(), self.gui_orientation.value
         self._run_batch(
             models,
-            lambda model: predictor.predict_csv(content, filename, model, source="viser", align=align),
+            lambda model: predictor.predict_csv(
+                content, filename, model, source="viser", align=align, orientation=orientation
+            ),
             client,
         )
 

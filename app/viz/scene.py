@@ -50,6 +50,7 @@ import viser
 from app.services import Services
 from app.services.errors import ServiceError
 from app.services.runs import Run, RunListener, RunState, RunStatus
+from app.viz.choices import choice_markdown
 from app.viz.controls import SceneControls
 from app.viz.drawing import GridNodes, PathNodes
 from app.viz.live import SceneLive
@@ -209,7 +210,8 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
         def draw() -> None:
             self.show_run(run)
             self.gui_progress.visible = False
-            self.gui_status.content = f"Showing **{self.shown_name(run.model_name)}** on {run.sequence.name}."
+            shown = f"Showing **{self.shown_name(run.model_name)}** on {run.sequence.name}."
+            self.gui_status.content = " ".join(filter(None, [shown, choice_markdown(run)]))
 
         self._jobs.put(draw)
 

@@ -25,6 +25,7 @@ from rich.progress import (
 from ftin.campaign import CampaignError
 from ftin.checkpoint import CheckpointError
 from ftin.data.errors import DataFormatError
+from ftin.data.orientation_option import Orientation
 from ftin.metrics import Alignment, Convention
 from ftin.models import UnknownModelError
 from ftin.train.config import ConfigError
@@ -77,6 +78,15 @@ AlignOption = Annotated[
         "Default: start where the ground truth may be in another world frame, else none.",
     ),
 ]
+OrientationOption = Annotated[
+    Orientation,
+    typer.Option(
+        "--orientation",
+        help="auto (chosen from the recording: docs/orientation.md), device (the phone's attitude), vqf "
+        "(VQF 9-D; 6-D without a magnetometer), vqf6d, or ground_truth (motion capture, where the "
+        "recording has it).",
+    ),
+]
 StrideOption = Annotated[
     int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
 ]
@@ -94,6 +104,13 @@ AddressOption = Annotated[
 ThreadsOption = Annotated[
     int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
 ]
+
+
+def orientation_text(choice: dict[str, str] | None) -> str:
+    """``vqf (asked: auto; magnetometer steady ...)``: the source that ran, what was asked and why."""
+    if not choice:
+        return "the recording's own"
+    return f"{choice['source']} (asked: {choice['requested']}; {choice['reason']})"
 
 
 def config_options(config_type: type, params: Mapping[str, Any]) -> dict[str, Any]:

@@ -18,14 +18,17 @@ from ftin.cli.common import (
     AlignOption,
     CheckpointOption,
     ConventionOption,
+    OrientationOption,
     RteWindowOption,
     WorkersOption,
     app,
+    orientation_text,
     out_console,
     progress_bar,
     user_errors,
 )
 from ftin.data.loading import load_sequences
+from ftin.data.orientation_option import Orientation
 from ftin.evaluate import evaluate_checkpoint
 from ftin.files import atomic_write_text
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
@@ -43,19 +46,25 @@ def evaluate_command(
     align: AlignOption = None,
     workers: WorkersOption = None,
     address: AddressOption = None,
+    orientation: OrientationOption = Orientation.AUTO,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
     sequence and their mean, under a stated convention."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
-        sequences = load_sequences(data, "--data")
+        sequences = load_sequences(data, "--data", orientation.value)
         with progress_bar() as bar:
             task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
 
             def advance(name: str) -> None:
                 bar.update(task, description=f"evaluating {escape(name)}", advance=1)
 
-            options = {"convention": convention, "rte_window_s": rte_window_s, "alignment": align}
+            options = {
+                "convention": convention,
+                "rte_window_s": rte_window_s,
+                "alignment": align,
+                "orientation": orientation.value,
+            }
             if workers is not None or address is not None:  # one Ray task per recording
                 from ftin.campaign.scoring import evaluate_checkpoint_on_ray
 
@@ -73,6 +82,7 @@ def evaluate_command(
             atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
     table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
     table.add_column("sequence", overflow="fold")
+    table.add_column("orientation", no_wrap=True)
     shown, headline = list_metrics(in_tables=True), get_metric(HEADLINE_METRIC)
     for header in ("duration", *(m.header for m in shown), f"stand-still {headline.header}"):
         table.add_column(escape(header), justify="right", no_wrap=True)
@@ -84,11 +94,14 @@ def evaluate_command(
         return "-" if m is None else headline.format(m.values.get(headline.name), "-")
 
     for r in report.sequences:
-        table.add_row(escape(r.name), f"{r.duration_s:.0f} s", *cells(r.metrics), still(r.stand_still))
+        source = (r.orientation_choice or {}).get("source", "-")
+        table.add_row(
+            escape(r.name), source, f"{r.duration_s:.0f} s", *cells(r.metrics), still(r.stand_still)
+        )
     table.add_section()
-    table.add_row("mean", "", *cells(report.mean), still(report.stand_still))
+    table.add_row("mean", "", "", *cells(report.mean), still(report.stand_still))
     if report.stand_still is not None:
-        table.add_row("[dim]stand still (never moves)[/]", "", *cells(report.stand_still), "")
+        table.add_row("[dim]stand still (never moves)[/]", "", "", *cells(report.stand_still), "")
     console = out_console()
     console.print(table)
     console.print(report.describe(), highlight=False, soft_wrap=True)
@@ -100,6 +113,10 @@ def evaluate_command(
             for r in aligned
         )
         console.print(f"alignment: {escape(shown)}", highlight=False, soft_wrap=True)
+    for r in report.sequences:
+        if r.orientation_choice:
+            line = f"orientation of {r.name}: {orientation_text(r.orientation_choice)}"
+            console.print(escape(line), highlight=False, soft_wrap=True)
     console.print(
         "stand still = a predictor that never moves, scored the same way: a useful model is well below it.",
         highlight=False,

@@ -15,14 +15,17 @@ from ftin.cli.common import (
     MODEL_ERRORS,
     AlignOption,
     CheckpointOption,
+    OrientationOption,
     StrideOption,
     app,
     err_console,
+    orientation_text,
     progress_bar,
     user_errors,
 )
-from ftin.data.discovery import read_sequence
 from ftin.data.errors import DataFormatError
+from ftin.data.loading import read_one
+from ftin.data.orientation_option import Orientation, apply_orientation
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.files import atomic_write_text
@@ -56,6 +59,7 @@ def predict_command(
         Path | None,
         typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),
     ] = None,
+    orientation: OrientationOption = Orientation.AUTO,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
     CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
@@ -64,7 +68,8 @@ def predict_command(
 
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
-        seq = read_sequence(input_path)
+        # Applied before the progress bar, so that a choice the recording cannot give is one clean line.
+        seq = apply_orientation(read_one(input_path, orientation.value), orientation)
         with progress_bar() as bar:
             task = None
 
@@ -74,7 +79,9 @@ def predict_command(
                     task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
                 bar.update(task, completed=done)
 
-            prediction = predict_trajectory(loaded, seq, stride=stride, progress=report)
+            prediction = predict_trajectory(
+                loaded, seq, stride=stride, progress=report, orientation=orientation.value
+            )
         scored = score(prediction, align)
         shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
         warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
@@ -88,7 +95,7 @@ def predict_command(
         header = [
             f"ftin predict: checkpoint {loaded.name} ({loaded.model_name}), input {input_path}",
             f"frame: {frame}",
-            f"orientation: {prediction.orientation_source}; units: t in s, x y z in m",
+            f"orientation: {orientation_text(prediction.orientation_choice)}; units: t in s, x y z in m",
         ]
         if out.suffix.lower() == ".tum":
             atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
@@ -105,6 +112,7 @@ def predict_command(
     for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
+    typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")
     if scored is not None and scored.metrics is not None:
         m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"

@@ -19,6 +19,7 @@ from ftin.cli.common import (
     REPORT_ERRORS,
     AddressOption,
     ConventionOption,
+    OrientationOption,
     RteWindowOption,
     StrideOption,
     WorkersOption,
@@ -27,6 +28,7 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
+from ftin.data.orientation_option import Orientation
 from ftin.files import atomic_write_text
 from ftin.metrics import Convention
 from ftin.report import evaluate_checkpoints, find_checkpoints, load_checkpoints, load_datasets, write_report
@@ -74,6 +76,7 @@ def table_command(
     stride: StrideOption = None,
     workers: WorkersOption = None,
     address: AddressOption = None,
+    orientation: OrientationOption = Orientation.AUTO,
 ) -> None:
     """The paper's Table 1 (every registered metric per dataset: ATE in both conventions, RTE, drift,
     path ratio; FTIN vs RoNIN ResNet, ablation) plus the drift-error and trajectory figures, for every
@@ -87,7 +90,15 @@ def table_command(
         evaluated = None
         if checkpoints is not None:
             evaluated = _evaluate(
-                checkpoints, dataset or [], pattern or [], convention, rte_window_s, stride, workers, address
+                checkpoints,
+                dataset or [],
+                pattern or [],
+                convention,
+                rte_window_s,
+                stride,
+                workers,
+                address,
+                orientation.value,
             )
         if campaign is not None:
             written = campaign_table(campaign, out, transfer=evaluated)
@@ -107,11 +118,12 @@ def _evaluate(
     stride: int | None,
     workers: int | None = None,
     address: str | None = None,
+    orientation: str | None = None,
 ) -> ReportResults:
     specs = parse_dataset_options(dataset)
     stems = find_checkpoints(checkpoints, pattern)
     loaded = load_checkpoints(stems)
-    datasets = load_datasets(specs)
+    datasets = load_datasets(specs, orientation)
     per_checkpoint = sum(len(d.sequences) for d in datasets)
     total = len(loaded) * per_checkpoint
     with progress_bar() as bar:
@@ -131,13 +143,20 @@ def _evaluate(
                 convention=convention,
                 rte_window_s=rte_window_s,
                 stride=stride,
+                orientation=orientation,
             )
 
         def advance(checkpoint: str, dataset_name: str, sequence: str) -> None:
             bar.update(task, description=escape(f"{checkpoint} on {dataset_name}/{sequence}"), advance=1)
 
         return evaluate_checkpoints(
-            loaded, datasets, convention, rte_window_s=rte_window_s, stride=stride, on_evaluation=advance
+            loaded,
+            datasets,
+            convention,
+            rte_window_s=rte_window_s,
+            stride=stride,
+            on_evaluation=advance,
+            orientation=orientation,
         )
 
 

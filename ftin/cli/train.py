@@ -163,7 +163,9 @@ def train_command(
     orientation: Annotated[
         str | None,
         typer.Option(
-            "--orientation", help="ground_truth or device, for readers that offer both (OxIOD, RIDI)."
+            "--orientation",
+            help="auto, device, vqf, vqf6d or ground_truth: the orientation trained on, applied as at "
+            "inference (default: each reader's own).",
         ),
     ] = None,
     augment_items: Annotated[

@@ -1,7 +1,7 @@
 """Sequences as training and evaluation take them: read from paths, split, prepared for windowing.
 
 * ``load_sequences(paths)``: every sequence in files and folders (the CLI's ``--data``, the report's
-  datasets, the campaign).
+  datasets, the campaign); ``read_one``: one recording, read for an orientation choice.
 * ``split_validation``: a seeded hold-out of whole sequences (training without ``--val``).
 
 Preparing a sequence for a model (orientation, rate, world frame) is ``ftin.data.prepare.prepare``,
@@ -17,10 +17,36 @@ from typing import Any
 
 import numpy as np
 
-from ftin.data.discovery import detect_format, list_sequences, read_sequence
+from ftin.data.discovery import SequenceRef, detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
+from ftin.data.orientation_option import READERS_WITH_REFERENCE, reader_orientation
 from ftin.data.readers import READERS
 from ftin.data.types import ImuSequence
+
+
+def reader_options(fmt: str | None, orientation: str | None) -> dict[str, Any]:
+    """The reader options an orientation choice (``ftin.data.orientation_option``) needs: the phone's
+    attitude or the reference, for the readers that hold both (OxIOD, RIDI, Inria); ``None`` keeps each
+    reader's default."""
+    if orientation is None or fmt not in READERS_WITH_REFERENCE:
+        return {}
+    if "orientation" not in inspect.signature(READERS[fmt].read).parameters:
+        return {}
+    return {"orientation": reader_orientation(orientation)}
+
+
+def read_one(ref_or_path: Any, orientation: str | None = None) -> ImuSequence:
+    """One recording (a ``SequenceRef``, a file or a folder holding one) read as ``orientation`` needs
+    (``reader_options``); applying the choice is ``ftin.data.prepare.prepare``'s."""
+    fmt = ref_or_path.format if isinstance(ref_or_path, SequenceRef) else None
+    if fmt is None and Path(ref_or_path).exists():
+        path = Path(ref_or_path)
+        fmt = detect_format(path)
+        if fmt is None and path.is_dir():
+            refs = list_sequences(path)
+            if len(refs) == 1:
+                ref_or_path, fmt = refs[0], refs[0].format
+    return read_sequence(ref_or_path, **reader_options(fmt, orientation))
 
 
 def load_sequences(
@@ -28,14 +54,13 @@ def load_sequences(
 ) -> list[ImuSequence]:
     """Every sequence in ``paths``: a folder is searched with ``list_sequences``, a file read directly.
 
-    ``orientation`` (``"ground_truth"`` or ``"device"``) goes to the readers that offer that choice
-    (OxIOD, RIDI); the others keep their own. ``option`` names the paths in error messages.
+    ``orientation`` (a choice of ``ftin.data.orientation_option``) picks what the readers that hold a
+    phone attitude and a reference read (``reader_options``); the others keep their own. ``option``
+    names the paths in error messages.
     """
 
     def read(ref_or_path: Any, fmt: str | None) -> ImuSequence:
-        takes = fmt is not None and "orientation" in inspect.signature(READERS[fmt].read).parameters
-        options = {"orientation": orientation} if orientation is not None and takes else {}
-        return read_sequence(ref_or_path, **options)
+        return read_sequence(ref_or_path, **reader_options(fmt, orientation))
 
     sequences: list[ImuSequence] = []
     for raw in paths:

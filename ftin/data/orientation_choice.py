@@ -28,9 +28,14 @@ detect; evidence in ``docs/orientation.md``, ``scripts/orientation_quality.py``)
 2. VQF flags less than ``DISTURBED_FRACTION`` of the recording: ``vqf``;
 3. the 9-D heading stayed within ``HELD_SPLIT_DEG`` of the 6-D one (VQF ignored the magnetometer):
    ``vqf``;
-4. the phone's attitude exists, does not follow the same magnetic north (offset above
+4. no phone attitude (a phone export without orientation) and the 9-D heading pulled less than
+   ``STEADY_PULL_DEG`` from the 6-D one: ``vqf6d``. A small steady pull while VQF flags most of the
+   recording is the offset of steel carried with the phone (trolley, bag), which the gyroscope does not
+   share; a larger one is a varying disturbance VQF partly rejects, or a gyroscope that drifts (the
+   iPhone 5's raw gyroscope: 6-D drifts ~100 deg), where 9-D is the safer heading;
+5. the phone's attitude exists, does not follow the same magnetic north (offset above
    ``SAME_NORTH_DEG``) and is level (tilt gap below ``LEVEL_GAP_DEG``): ``device``;
-5. else ``vqf``: a disturbed magnetometer misleads a magnetometer-referenced phone attitude more than
+6. else ``vqf``: a disturbed magnetometer misleads a magnetometer-referenced phone attitude more than
    VQF, which rejects what it detects, and a mis-levelled one costs more than VQF's heading.
 """
 
@@ -49,6 +54,7 @@ DISTURBED_FRACTION = 0.5
 HELD_SPLIT_DEG = 2.0
 SAME_NORTH_DEG = 20.0
 LEVEL_GAP_DEG = 3.5
+STEADY_PULL_DEG = 9.0  # without a phone attitude: below it, the 9-D heading's pull is steel's steady offset
 START_S = 5.0  # the heading split is measured from its mean over the first seconds
 
 
@@ -140,8 +146,13 @@ def choose_orientation(
             "RMS of VQF 6-D): VQF 9-D"
         )
     pulled = f"{disturbed} and its heading pulled {e.heading_split_deg:.0f} deg RMS from the gyroscope's"
+    if not e.has_device and e.heading_split_deg < STEADY_PULL_DEG:
+        return OrientationSource.VQF6D.value, (
+            f"{pulled}, a steady offset (below {STEADY_PULL_DEG:.0f} deg) as steel carried with the phone "
+            "gives; no phone attitude: VQF 6-D, heading from the gyroscope"
+        )
     if not e.has_device:
-        why = "no phone attitude to fall back on"
+        why = f"no phone attitude, and a pull of {STEADY_PULL_DEG:.0f} deg or more is no steady offset"
     elif e.device_north_deg <= SAME_NORTH_DEG:
         why = f"the phone's attitude follows the same magnetic north ({e.device_north_deg:.0f} deg apart)"
     elif e.device_tilt_gap_deg >= LEVEL_GAP_DEG:

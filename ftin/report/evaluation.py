@@ -37,11 +37,12 @@ from ftin.report.results import (
 )
 
 
-def load_datasets(specs: Sequence[DatasetSpec]) -> list[LoadedDataset]:
-    """Read every sequence of every dataset (folders searched with the readers' discovery)."""
+def load_datasets(specs: Sequence[DatasetSpec], orientation: str | None = None) -> list[LoadedDataset]:
+    """Read every sequence of every dataset (folders searched with the readers' discovery), as the
+    ``orientation`` choice needs them read (``ftin.data.loading.reader_options``)."""
     loaded = []
     for spec in specs:
-        sequences = load_sequences(spec.paths, f"--dataset {spec.name}")
+        sequences = load_sequences(spec.paths, f"--dataset {spec.name}", orientation)
         no_truth = [seq.name for seq in sequences if seq.gt is None]
         if no_truth:
             raise DataFormatError(
@@ -121,8 +122,10 @@ def evaluate_checkpoints(
     rte_window_s: float = 60.0,
     stride: int | None = None,
     on_evaluation: Callable[[str, str, str], None] | None = None,
+    orientation: str | None = None,
 ) -> ReportResults:
-    """Score every checkpoint on every sequence of every dataset, once each.
+    """Score every checkpoint on every sequence of every dataset, once each, with the ``orientation``
+    choice applied (``ftin.data.orientation_option``; ``None``: each sequence's own).
 
     ``on_evaluation(checkpoint, dataset, sequence)`` is called before each of the
     ``len(checkpoints) x total sequences`` evaluations (progress bars).
@@ -141,14 +144,17 @@ def evaluate_checkpoints(
             for seq in dataset.sequences:
                 if on_evaluation is not None:
                     on_evaluation(loaded.name, dataset.name, seq.name)
-                prediction = predict_trajectory(loaded, seq, stride=stride, keep_prepared=False)
+                prediction = predict_trajectory(
+                    loaded, seq, stride=stride, keep_prepared=False, orientation=orientation
+                )
                 scored = score(prediction, None, convention, rte_window_s, default_alignment_rule=False)
                 if scored.metrics is None:
                     reason = "; ".join(scored.warnings[-1:])
                     raise DataFormatError(f"--dataset {dataset.name}, sequence {seq.name!r}: {reason}")
                 warnings = [*prediction.warnings, *scored.warnings]
                 duration_s = prediction.trajectory.duration_s
-                sequences.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings))
+                choice = prediction.orientation_choice
+                sequences.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings, None, choice))
                 ground_truth[dataset.name].setdefault(seq.name, prediction.truth)
                 if loaded.model_name in FIGURE_MODELS:
                     result.trajectories.setdefault(dataset.name, {})[seq.name] = prediction.trajectory
@@ -173,6 +179,7 @@ def evaluate_checkpoints(
             )
             for name, truths in ground_truth.items()
         },
+        orientation=orientation,
     )
 
 

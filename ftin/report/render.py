@@ -208,6 +208,10 @@ def report_markdown(results: ReportResults, table: PaperTable, title: str = TABL
         count = len(results.sequence_names[spec.name])
         paths = ", ".join(f"`{p}`" for p in spec.paths)
         lines.append(f"- {spec.name}: {count} sequence{'s' if count != 1 else ''} from {paths}")
+    if results.orientation is not None:
+        lines.append(
+            f"- orientation: {results.orientation} (the source each sequence ran with, and why: results.json)"
+        )
     lines += ["", table_markdown(table).rstrip("\n"), ""]
     notes = []
     if table.missing:
@@ -232,6 +236,7 @@ def results_json(results: ReportResults, table: PaperTable, representative: dict
             "convention": results.convention.value,
             "rte_window_s": results.rte_window_s,
             "description": results.describe(),
+            "orientation": results.orientation,
             "datasets": [
                 {
                     "name": s.name,

@@ -120,6 +120,7 @@ class ReportResults:
     checkpoints: list[CheckpointResult]
     ground_truth: dict[str, dict[str, Trajectory]]  # dataset -> sequence -> ground truth
     stand_still: dict[str, TrajectoryMetrics] = field(default_factory=dict)  # dataset -> mean
+    orientation: str | None = None  # the orientation choice applied (ftin.data.orientation_option)
 
     def describe(self) -> str:
         return describe(self.convention, self.rte_window_s)

@@ -18,9 +18,11 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
   since ``best_epoch`` tell it, so a stopped run resumed stays stopped. With an NLL loss, the count
   (and the learning-rate plateau's) starts again when the MSE warm-up ends: the switch first raises
   the validation MSE, and the NLL phase deserves the same patience.
-- ``orientation``: the orientation source asked of readers that offer one (OxIOD, RIDI):
-  ``ground_truth`` (motion capture / Tango: the network alone) or ``device`` (the phone's attitude);
-  ``None`` keeps each reader's default.
+- ``orientation``: the orientation the network is trained on (``ftin.data.orientation_option``, applied
+  by ``ftin.data.prepare.prepare`` as at inference): ``ground_truth`` (motion capture / Tango: the
+  network alone), ``device`` (the phone's attitude), ``vqf`` / ``vqf6d`` (VQF from the IMU) or ``auto``
+  (what the app uses by default, so a model can learn on the source it will see); ``None`` keeps each
+  reader's default (as configs written before the option had more choices).
 - ``augment``: the augmentations beyond yaw (``ftin.train.augment``), name -> magnitude (``None``:
   its default); empty by default, as the shipped models were trained.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
@@ -36,6 +38,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
+from ftin.data.orientation_option import CHOICES as ORIENTATION_CHOICES
 from ftin.data.windows import Normalization
 from ftin.files import atomic_write_text
 from ftin.train.augment import resolve_augment
@@ -82,7 +85,7 @@ class TrainConfig:
     loss: LossKind = LossKind.AUTO
     nll_warmup_epochs: int = 10
     early_stop_patience: int | None = None  # epochs without validation improvement; None: never
-    orientation: str | None = None  # reader orientation source: "ground_truth", "device" or None
+    orientation: str | None = None  # ftin.data.orientation_option choice, or None: the readers' default
     log_std_range: tuple[float, float] = (-5.0, 3.0)
     val_fraction: float = 0.1
     device: str = "cpu"
@@ -119,8 +122,10 @@ class TrainConfig:
         for name in ("imu_rate_hz", "max_minutes"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name))
-        if self.orientation not in (None, "ground_truth", "device"):
-            raise ConfigError(f"orientation must be 'ground_truth' or 'device', got {self.orientation!r}")
+        if self.orientation is not None and self.orientation not in ORIENTATION_CHOICES:
+            raise ConfigError(
+                f"orientation must be one of {', '.join(ORIENTATION_CHOICES)}, got {self.orientation!r}"
+            )
         for name in ("window", "max_steps", "early_stop_patience"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name), integer=True)

@@ -79,7 +79,7 @@ def training_data(
         train_sequences, val_sequences = split_validation(train_sequences, config.val_fraction, config.seed)
         val_source = "held_out" if val_sequences else "none"
     train = WindowDataset(
-        [prepare(s, rate_hz).seq for s in train_sequences],
+        [prepare(s, rate_hz, orientation=config.orientation).seq for s in train_sequences],
         window,
         config.stride,
         out_dim,
@@ -90,7 +90,7 @@ def training_data(
     )
     val = None
     if val_sequences:
-        prepared = [prepare(s, rate_hz).seq for s in val_sequences]
+        prepared = [prepare(s, rate_hz, orientation=config.orientation).seq for s in val_sequences]
         val = WindowDataset(prepared, window, config.stride, out_dim, parts=parts, augment_yaw=False)
     split = {"train": train.names, "val": [] if val is None else val.names, "val_source": val_source}
     return TrainData(

@@ -94,8 +94,10 @@ def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
     seq = predictor.read_upload(data, "mocap.csv")
     gt_before = seq.gt.p_world_m.copy()
     first = predictor.predict_imu(seq, DEFAULT_MODEL)
-    # The sequence is the one given, its truth in the file's frame; the aligned truth is the result's.
-    assert first.sequence is seq and set(first.sequence.meta) == set(seq.meta)
+    # The sequence is the one given (its orientation as the choice applied it: auto keeps the file's
+    # without a magnetometer), its truth in the file's frame; the aligned truth is the result's.
+    assert first.sequence.gt is seq.gt and first.sequence.q_world_device_wxyz is seq.q_world_device_wxyz
+    assert set(first.sequence.meta) == set(seq.meta) | {"orientation_choice"}
     np.testing.assert_array_equal(first.sequence.gt.p_world_m, gt_before)
     assert first.score.fit.alignment.value == "start" and first.metrics is first.score.metrics
     assert np.abs(first.truth.p_world_m - gt_before).max() > 1.0

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.orientation_choice import choose_orientation, orientation_evidence
+from ftin.data.orientation_choice import OrientationEvidence, choose_orientation, orientation_evidence
 from ftin.data.types import ImuSequence
 
 RATE_HZ = 100.0
@@ -98,3 +98,27 @@ def test_a_disturbed_field_keeps_vqf_when_the_phones_attitude_is_not_level():
     source, reason = choose_orientation(seq, evidence)
     assert source == "vqf" and "off VQF's level" in reason
     assert orientation_evidence(walk(disturbed_period_s=20.0)).device_tilt_gap_deg < 1.0
+
+
+def test_without_a_phone_attitude_a_steady_pull_means_steel_and_vqf6d():
+    # The evidence of RIDI's bag and OxIOD's trolley walks without orientation (docs/orientation.md)
+    for fraction, split in ((0.5513, 8.3438), (1.0, 6.4956)):
+        evidence = OrientationEvidence(False, True, mag_disturbed_fraction=fraction, heading_split_deg=split)
+        source, reason = choose_orientation(None, evidence)
+        assert source == "vqf6d" and "steady offset" in reason and "no phone attitude" in reason
+    # An iPhone 5 pocket walk: a pull of 72 deg is no steady offset (its raw gyroscope drifts in 6-D).
+    evidence = OrientationEvidence(False, True, mag_disturbed_fraction=0.52, heading_split_deg=72.0)
+    assert choose_orientation(None, evidence)[0] == "vqf"
+    # With the phone's attitude the branch does not apply: the rule falls to the phone's attitude checks.
+    evidence = OrientationEvidence(True, True, 0.5513, 8.3438, device_north_deg=74.0, device_tilt_gap_deg=0.9)
+    assert choose_orientation(None, evidence)[0] == "device"
+
+
+def test_the_ridi_bag_walk_without_its_orientation_gets_vqf6d(shared_data):
+    from ftin.data.discovery import read_sequence
+
+    path = shared_data / "ridi" / "hang_bag_side1"
+    if not path.is_dir():
+        pytest.skip(f"no {path}")
+    seq = read_sequence(path, orientation="device").with_(q_world_device_wxyz=None)
+    assert choose_orientation(seq)[0] == "vqf6d"

@@ -20,13 +20,14 @@ from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
 
-from app.api.deps import AlignQuery, ModelQuery, RunIdQuery, ServicesDep
+from app.api.deps import AlignQuery, ModelQuery, OrientationQuery, RunIdQuery, ServicesDep
 from app.api.errors import BadRequestError, UnsupportedMediaError
 from app.schemas import ArraysPredictRequest, ErrorResponse, PredictionResponse
 from app.services.errors import InvalidInputError
 from app.services.limits import Deadline
 from app.services.prediction import PredictionService, sequence_from_arrays
 from app.services.runs import Run
+from ftin.data.orientation_option import Orientation
 
 router = APIRouter(tags=["predict"])
 
@@ -79,19 +80,30 @@ class PredictOptions:
     run_id: str | None
     align: str | None
     deadline: Deadline
+    orientation: str = "auto"
 
     async def run(self, predict: Callable[..., Run], *args: object) -> Run:
-        """``predict(*args, model=, run_id=, deadline=, align=)`` in the threadpool."""
+        """``predict(*args, model=, run_id=, deadline=, align=, orientation=)`` in the threadpool."""
         return await run_in_threadpool(
-            predict, *args, model=self.model, run_id=self.run_id, deadline=self.deadline, align=self.align
+            predict,
+            *args,
+            model=self.model,
+            run_id=self.run_id,
+            deadline=self.deadline,
+            align=self.align,
+            orientation=self.orientation,
         )
 
 
 def _predict_options(
-    services: ServicesDep, model: ModelQuery = None, run_id: RunIdQuery = None, align: AlignQuery = None
+    services: ServicesDep,
+    model: ModelQuery = None,
+    run_id: RunIdQuery = None,
+    align: AlignQuery = None,
+    orientation: OrientationQuery = Orientation.AUTO,
 ) -> PredictOptions:
     how = None if align is None else align.value
-    return PredictOptions(model, run_id, how, services.predictor.new_deadline())
+    return PredictOptions(model, run_id, how, services.predictor.new_deadline(), orientation.value)
 
 
 PredictOptionsDep = Annotated[PredictOptions, Depends(_predict_options)]
@@ -113,6 +125,7 @@ def _predict_json(
     run_id: str | None,
     deadline: Deadline,
     align: str | None,
+    orientation: str = "auto",
 ) -> Run:
     try:
         body = ArraysPredictRequest.model_validate_json(raw)
@@ -128,7 +141,7 @@ def _predict_json(
         body.gt_p_world_m,
         body.mag_uT,
     )
-    return predictor.predict_imu(seq, model, run_id, deadline=deadline, align=align)
+    return predictor.predict_imu(seq, model, run_id, deadline=deadline, align=align, orientation=orientation)
 
 
 @router.post(

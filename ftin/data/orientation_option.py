@@ -1,0 +1,154 @@
+"""The orientation a user asks for, and that choice applied to a recording: one home for every entry point.
+
+``Orientation`` (what ``POST /predict?orientation=``, the page, the scene, ``ftin predict / evaluate /
+table --orientation`` and ``TrainConfig.orientation`` take):
+
+* ``auto`` (the default): the source :func:`ftin.data.orientation_choice.choose_orientation` picks from
+  the recording alone; a recording whose only orientation is its ground truth (a simulation, EuRoC)
+  keeps it;
+* ``device``: the phone's own attitude, as the recording carries it;
+* ``vqf``: VQF 9-D from the gyroscope, accelerometer and magnetometer (6-D, with a note, without one);
+* ``vqf6d``: VQF without the magnetometer (heading from the gyroscope alone);
+* ``ground_truth``: the recording's reference orientation (motion capture, Tango), where it has one.
+
+:func:`apply_orientation` applies a choice to a sequence (the VQF runs are
+``ftin.data.preprocess.estimate_orientation``'s) and records what ran in
+``meta["orientation_choice"] = {"requested", "source", "reason"}`` beside ``meta["orientation_source"]``
+(``device``, ``estimated``, ``ground_truth``). A choice the recording cannot give raises
+``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
+and a reference (OxIOD, RIDI, the Inria benchmark) read the one the choice needs
+(:func:`reader_orientation`); ``ftin.data.prepare.prepare`` calls :func:`apply_orientation`, so
+training and inference apply a choice the same way.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import Any
+
+from ftin.data.errors import DataFormatError
+from ftin.data.orientation_choice import choose_orientation
+from ftin.data.preprocess import estimate_orientation
+from ftin.data.types import ImuSequence
+
+# Readers whose ``orientation`` option takes "device" or "ground_truth".
+READERS_WITH_REFERENCE = ("oxiod", "ridi", "inria_attitude")
+
+
+class Orientation(str, Enum):
+    AUTO = "auto"
+    DEVICE = "device"
+    VQF = "vqf"
+    VQF6D = "vqf6d"
+    GROUND_TRUTH = "ground_truth"
+
+
+CHOICES = tuple(o.value for o in Orientation)
+CHOICES_TEXT = ", ".join(CHOICES)
+
+
+class OrientationUnavailableError(DataFormatError):
+    """The recording cannot give the orientation asked for; the message names those it can."""
+
+
+def parse_orientation(value: Orientation | str | None) -> Orientation:
+    """``value`` as an ``Orientation`` (``None``: ``auto``); ``ValueError`` naming the choices."""
+    if value is None:
+        return Orientation.AUTO
+    try:
+        return Orientation(value)
+    except ValueError:
+        raise ValueError(f"orientation must be one of {CHOICES_TEXT}; got {value!r}") from None
+
+
+def reader_orientation(choice: Orientation | str | None) -> str:
+    """The ``orientation`` option for readers in ``READERS_WITH_REFERENCE``: the reference for
+    ``ground_truth``, else the phone's attitude (what ``auto``, ``vqf`` and ``vqf6d`` start from)."""
+    return "ground_truth" if parse_orientation(choice) is Orientation.GROUND_TRUTH else "device"
+
+
+def _own_is_reference(seq: ImuSequence) -> bool:
+    return seq.q_world_device_wxyz is not None and seq.meta.get("orientation_source") == "ground_truth"
+
+
+def available_orientations(seq: ImuSequence) -> list[str]:
+    """The choices ``seq`` can give, in ``Orientation`` order."""
+    has_device = seq.q_world_device_wxyz is not None and not _own_is_reference(seq)
+    has_reference = _own_is_reference(seq) or (seq.gt is not None and seq.gt.q_world_body_wxyz is not None)
+    found = [Orientation.AUTO.value]
+    if has_device:
+        found.append(Orientation.DEVICE.value)
+    found += [Orientation.VQF.value, Orientation.VQF6D.value]
+    if has_reference:
+        found.append(Orientation.GROUND_TRUTH.value)
+    return found
+
+
+def _unavailable(seq: ImuSequence, choice: Orientation, why: str) -> OrientationUnavailableError:
+    return OrientationUnavailableError(
+        f"orientation {choice.value!r} is not available for {seq.name!r}: {why}; "
+        f"choose one of {', '.join(available_orientations(seq))}"
+    )
+
+
+def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orientation.AUTO) -> ImuSequence:
+    """``seq`` with the orientation ``choice`` asks for, and ``meta["orientation_choice"]`` saying which
+    source ran and why (module docstring). A sequence that already carries this choice is returned as is."""
+    choice = parse_orientation(choice)
+    done = seq.meta.get("orientation_choice")
+    if isinstance(done, dict) and done.get("requested") == choice.value:
+        return seq
+    if choice is Orientation.AUTO:
+        if _own_is_reference(seq):
+            source = Orientation.GROUND_TRUTH.value
+            reason = "the recording's only orientation is its reference (no phone attitude in it): kept"
+        else:
+            source, reason = choose_orientation(seq)
+    elif choice is Orientation.VQF and seq.mag_uT is None:
+        source = Orientation.VQF6D.value
+        reason = "VQF asked for, but the recording has no magnetometer: VQF 6-D (heading from the gyroscope)"
+    else:
+        source, reason = choice.value, _REASONS[choice]
+    return _with_source(seq, choice, source, reason)
+
+
+_REASONS = {
+    Orientation.DEVICE: "asked for: the phone's own attitude",
+    Orientation.VQF: "asked for: VQF 9-D (heading from the magnetometer)",
+    Orientation.VQF6D: "asked for: VQF 6-D (heading from the gyroscope alone)",
+    Orientation.GROUND_TRUTH: "asked for: the recording's reference orientation",
+}
+
+
+def _with_source(seq: ImuSequence, choice: Orientation, source: str, reason: str) -> ImuSequence:
+    if source == Orientation.DEVICE.value:
+        if seq.q_world_device_wxyz is None:
+            raise _unavailable(seq, choice, "the recording carries no phone attitude")
+        if _own_is_reference(seq):
+            raise _unavailable(seq, choice, "its only orientation is its reference, not a phone's attitude")
+        out = seq
+    elif source in (Orientation.VQF.value, Orientation.VQF6D.value):
+        out = estimate_orientation(seq, use_magnetometer=source == Orientation.VQF.value)
+    else:
+        out = _reference(seq, choice)
+    meta: dict[str, Any] = dict(out.meta)
+    meta["orientation_choice"] = {"requested": choice.value, "source": source, "reason": reason}
+    return out.with_(meta=meta)  # an estimate's own message names the filter and its heading
+
+
+def _reference(seq: ImuSequence, choice: Orientation) -> ImuSequence:
+    """The reference orientation: the sequence's own when its reader read it so, else the ground truth's
+    (which readers keep in the sequence's world: the positions need no turn)."""
+    if _own_is_reference(seq):
+        return seq
+    if seq.gt is None or seq.gt.q_world_body_wxyz is None:
+        raise _unavailable(seq, choice, "the recording has no reference orientation (motion capture, Tango)")
+    meta = dict(seq.meta)
+    meta["orientation_source"] = "ground_truth"
+    return seq.with_(q_world_device_wxyz=seq.gt.q_world_body_wxyz, meta=meta)
+
+
+def choice_of(seq: ImuSequence) -> dict[str, str] | None:
+    """``{"requested", "source", "reason"}`` of the choice applied to ``seq``, or None."""
+    found = seq.meta.get("orientation_choice")
+    return dict(found) if isinstance(found, dict) else None
