@@ -17,6 +17,7 @@ training loop's; plain tasks keep one run folder and one resume state per job.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import signal
 import sys
 import threading
@@ -68,10 +69,9 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
 def train_job(code: str, runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
     """The Ray task: one job on its frozen code. Ray puts the driver's folder first on a worker's
     path (a checkout there would shadow the frozen copy), so the task is pickled by value, puts
-    ``code`` first itself and only then imports ftin."""
-    import importlib
-    import sys
-
+    ``code`` first itself and only then imports ftin. It names nothing of ftin (its module's imports
+    of ftin would be unpickled on the worker before ``code`` is on the path): Ray is imported here,
+    where it is always installed, not through ``import_ray``."""
     import ray
 
     sys.path.insert(0, code)

@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from ftin.campaign.scoring import evaluate_checkpoint_on_ray
 from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
@@ -57,8 +58,6 @@ def evaluate_command(
 
             options = {"convention": convention, "rte_window_s": rte_window_s, "alignment": align}
             if workers is not None or address is not None:  # one Ray task per recording
-                from ftin.campaign.scoring import evaluate_checkpoint_on_ray
-
                 report = evaluate_checkpoint_on_ray(
                     checkpoint,
                     sequences,
