@@ -19,7 +19,7 @@ from ftin.campaign import CampaignError, engine
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
-from ftin.cli.common import REPORT_ERRORS, app, out_console, user_errors
+from ftin.cli.common import REPORT_ERRORS, AddressOption, app, out_console, user_errors
 
 campaign_app = typer.Typer(
     help="The training campaign of the protocol (docs/results/protocol.md) on Ray: plan, run, status, "
@@ -84,12 +84,7 @@ def run_command(
             help="Jobs at a time (default: 2 on a local Ray, the cluster's CPUs with --address).",
         ),
     ] = None,
-    address: Annotated[
-        str | None,
-        typer.Option(
-            "--address", help="An existing Ray cluster (ray start --head), e.g. 10.0.0.1:6379 or auto."
-        ),
-    ] = None,
+    address: AddressOption = None,
     gpus_per_job: Annotated[
         float, typer.Option("--gpus-per-job", min=0.0, help="GPUs per job (trains on cuda); default CPU.")
     ] = 0.0,
