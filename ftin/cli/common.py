@@ -91,7 +91,7 @@ WorkersOption = Annotated[
 AddressOption = Annotated[
     str | None,
     typer.Option(
-        "--address", help="An existing Ray cluster (ray start --head) to work on, e.g. HOST:6379 or auto."
+        "--address", help="Spread the work over this running Ray cluster (ray start --head): HOST:6379, auto."
     ),
 ]
 ThreadsOption = Annotated[
