@@ -91,7 +91,8 @@ WorkersOption = Annotated[
 AddressOption = Annotated[
     str | None,
     typer.Option(
-        "--address", help="Spread the work over this running Ray cluster (ray start --head): HOST:6379, auto."
+        "--address",
+        help="Spread the work over this running Ray cluster (ray start --head), e.g. HOST:6379 or auto.",
     ),
 ]
 ThreadsOption = Annotated[
