@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
 from ftin.evaluate import score
@@ -40,39 +41,21 @@ from ftin.train.loop import train
 DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 RUNS = Path("runs/probes/augment")
 EPOCHS = 6
-TRAIN = {
-    "oxiod": (
-        "handheld/data1/syn/imu2.csv",
-        "handheld/data1/syn/imu4.csv",
-        "trolley/data1/syn/imu7.csv",
-        "trolley/data2/syn/imu1.csv",
-        "trolley/data2/syn/imu2.csv",
-        "trolley/data2/syn/imu4.csv",
-    ),
-    "ridi": (
-        "dan_bag1",
-        "dan_bag2",
-        "dan_body1",
-        "dan_body2",
-        "dan_handheld1",
-        "dan_handheld2",
-        "dan_leg1",
-        "hao_body1",
-        "hao_body2",
-    ),
-}
-VAL = {
-    "oxiod": ("multi users/user2/syn/imu4.csv", "multi users/user2/syn/imu5.csv"),
-    "ridi": (
-        "hang_bag_side1",
-        "hang_body_test1",
-        "hang_body_fast1",
-        "hang_handheld_side_test2",
-        "ma_body1",
-        "ma_body2",
-        "ma_handheld3",
-    ),
-}
+VAL_WALKERS = {protocol.OXIOD: ("user2",), protocol.RIDI: ("hang", "ma")}
+
+
+def walker_split() -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """``(dataset, recording)`` pairs for training and validation: the protocol's training part
+    without the validation walkers, and every recording of theirs outside the test part."""
+    train, val = [], []
+    for dataset, held in VAL_WALKERS.items():
+        parts = protocol.SPLITS[dataset]
+        train += [(dataset, r) for r in parts["train"] if protocol.walker(dataset, r) not in held]
+        val += [(dataset, r) for r in (*parts["train"], *parts["val"]) if protocol.walker(dataset, r) in held]
+    return train, val
+
+
+TRAIN, VAL = walker_split()
 ARMS: dict[str, dict[str, float | None]] = {
     "yaw_only": {},
     "shift": {"shift": None},
@@ -96,15 +79,13 @@ BASELINE = "yaw_only"
 ORDER = ("vertical", "all", "orientation", "tilt", "bias", "noise", "shift")  # the likeliest first
 
 
-def paths(split: dict[str, tuple[str, ...]], root: Path) -> list[Path]:
-    return [root / dataset / rel for dataset, rels in split.items() for rel in rels]
+def paths(split: list[tuple[str, str]], root: Path) -> list[Path]:
+    return [root / protocol.DATA_FOLDERS[dataset] / rel for dataset, rel in split]
 
 
-def walker(name: str) -> str:
-    """``multi users/user2/imu4`` -> ``oxiod user2``; ``hang_bag_side1`` -> ``ridi hang``."""
-    if "/" in name:
-        return "oxiod " + name.split("/")[-2]
-    return "ridi " + name.split("_")[0]
+def walker_labels(split: list[tuple[str, str]]) -> list[str]:
+    """``oxiod user2``, ``ridi hang``: a result's walker keys, one per recording."""
+    return [f"{dataset} {protocol.walker(dataset, rel)}" for dataset, rel in split]
 
 
 def velocity_error(prediction) -> float:
@@ -120,13 +101,13 @@ def velocity_error(prediction) -> float:
 def evaluate_run(checkpoint: Path, val_sequences) -> dict[str, Any]:
     loaded = load_model(checkpoint)
     rows = []
-    for seq in val_sequences:
+    for seq, walker in zip(val_sequences, walker_labels(VAL), strict=True):
         prediction = predict_trajectory(loaded, seq)
         metrics = score(prediction).metrics
         rows.append(
             {
                 "name": seq.name,
-                "walker": walker(seq.name),
+                "walker": walker,
                 "ate": metrics.ate,
                 "path_ratio": metrics.path_length_ratio,
                 "velocity_error": velocity_error(prediction),

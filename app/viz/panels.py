@@ -21,6 +21,9 @@ from typing import Any
 
 import numpy as np
 import viser
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from app.viz.palette import hex_color
 from app.viz.run_scene_data import RAW_CHANNELS, RunView
@@ -76,11 +79,6 @@ class HeatmapRenderer:
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
     def _build(self, unit: np.ndarray) -> None:
-        # deferred: matplotlib adds ~1 s to the app's start-up (as in spectra.py)
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-        from matplotlib.ticker import MaxNLocator
-
         figure = Figure(figsize=(4.1, 2.7), dpi=100, layout="constrained")
         FigureCanvasAgg(figure)
         ax = figure.add_subplot()

@@ -14,6 +14,7 @@ Decisions:
 from __future__ import annotations
 
 import numpy as np
+from matplotlib import colormaps
 
 from ftin.data import Trajectory
 
@@ -34,8 +35,6 @@ def heatmap_rgb(values: np.ndarray, target_px: tuple[int, int] = (240, 320)) -> 
 
     Each cell becomes a block of whole pixels, as many as fit ``target_px`` (height, width).
     """
-    from matplotlib import colormaps  # deferred: matplotlib adds ~1 s to the app's start-up
-
     values = np.asarray(values, dtype=np.float64)
     if values.ndim != 2 or values.size == 0:
         raise ValueError(f"values must be a non-empty 2-D array, got shape {values.shape}")

@@ -18,6 +18,7 @@ from typing import Any
 
 from ftin import protocol
 from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, read_json, write_json
+from ftin.train.model_card import render_campaign_card
 from ftin.train.state import HISTORY_FILE
 
 MANIFEST = "manifest.json"
@@ -73,8 +74,6 @@ def ship(
 ) -> list[Path]:
     """Copy every checkpoint ``manifest.json`` ships into ``checkpoints`` with its model card, and
     withdraw the refused names; the files written."""
-    from ftin.train.model_card import render_campaign_card
-
     path = results / MANIFEST
     if not path.exists():
         raise ValueError(f"{results}: no {MANIFEST}; run `ftin campaign collect` first")

@@ -17,7 +17,7 @@ training loop's; plain tasks keep one run folder and one resume state per job.
 from __future__ import annotations
 
 import contextlib
-import signal
+import importlib
 import sys
 import threading
 import time
@@ -26,6 +26,7 @@ from typing import Any
 
 from ftin.campaign import INSTALL_HINT, CampaignError
 from ftin.campaign.folder import FAILED_FILE, Campaign, write_json
+from ftin.interrupts import stop_on_signals
 
 RETRIES = 3  # a task whose worker died runs again this many times
 STOP_GRACE_S = 120.0  # how long cancelled jobs get to write their resume state
@@ -68,10 +69,9 @@ def ray_session(address: str | None = None, workers: int | None = None) -> Itera
 def train_job(code: str, runs: str, spec: dict[str, Any], data_root: str, device: str, threads: int) -> str:
     """The Ray task: one job on its frozen code. Ray puts the driver's folder first on a worker's
     path (a checkout there would shadow the frozen copy), so the task is pickled by value, puts
-    ``code`` first itself and only then imports ftin."""
-    import importlib
-    import sys
-
+    ``code`` first itself and only then imports ftin. It names nothing of ftin (its module's imports
+    of ftin would be unpickled on the worker before ``code`` is on the path): Ray is imported here,
+    where it is always installed, not through ``import_ray``."""
     import ray
 
     sys.path.insert(0, code)
@@ -99,7 +99,7 @@ def run(
     by name (``done``, a training stop reason, ``failed: ...``)."""
     stop = stop or threading.Event()
     outcomes: dict[str, str] = {}
-    with ray_session(address, workers) as ray, _stop_on_signals(stop):
+    with ray_session(address, workers) as ray, stop_on_signals(stop):
         slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
         ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # train_job, by value
         task = ray.remote(train_job)
@@ -158,26 +158,6 @@ def _collect(
             write_json(campaign.runs / name / FAILED_FILE, {"error": str(exc)[:2000]})
         outcomes[name] = outcome
         on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcome}")
-
-
-@contextlib.contextmanager
-def _stop_on_signals(stop: threading.Event) -> Iterator[None]:
-    """SIGINT/SIGTERM set ``stop`` (the jobs save and the run ends); a second SIGINT interrupts at once."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum: int, _frame: Any) -> None:
-        if stop.is_set() and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        stop.set()
-
-    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
 
 
 def map_tasks(

@@ -1,6 +1,8 @@
 """One job on one worker: train it (or resume it where it stopped), then score its best checkpoint.
 
-This module runs on the job's frozen code (``ftin.campaign.folder``). Stopping is the training
+This module runs on the job's frozen code (``ftin.campaign.folder``): a worker imports it only after
+putting that copy first on its path (``ftin.campaign.engine.train_job``), so every ``ftin`` module
+it imports is the copy's. Stopping is the training
 loop's: SIGINT/SIGTERM (a cancelled Ray task) end the run at the next step with its resume state
 written; a killed worker loses at most the steps since the last save (every epoch, and every
 ``save_every_min`` inside one), and the retried task continues from there (``ftin.train.state``).
@@ -17,6 +19,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import torch
+
 from ftin import protocol
 from ftin.campaign.folder import (
     DONE_FILE,
@@ -28,6 +32,15 @@ from ftin.campaign.folder import (
     read_json,
     write_json,
 )
+from ftin.checkpoint import load_model
+from ftin.data.loading import load_sequences
+from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
+from ftin.report.evaluation import evaluate_checkpoints
+from ftin.report.results import DatasetSpec, LoadedDataset
+from ftin.sim.samples import write_walks
+from ftin.train.config import TrainConfig
+from ftin.train.loop import run_training
+from ftin.train.state import RESUME_FILE
 
 SIM_DATA = "sim-data"
 LOCK_WAIT_S = 120.0  # a job cancelled a moment ago may still be writing its resume state
@@ -38,12 +51,6 @@ def run_job(
 ) -> str:
     """Train and evaluate the job ``spec`` in ``<runs>/<name>``; its stop reason, or ``done``.
     ``where`` (the Ray node) goes into the job's log beside the host and process."""
-    import torch
-
-    from ftin.train.config import TrainConfig
-    from ftin.train.loop import run_training
-    from ftin.train.state import RESUME_FILE
-
     torch.set_num_threads(threads)
     out = Path(runs) / spec["name"]
     out.mkdir(parents=True, exist_ok=True)
@@ -101,12 +108,6 @@ def summary(job: protocol.Job, result: Any) -> dict[str, Any]:
 def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, Any]:
     """Per-recording metrics of the best checkpoint on the job's validation and test parts, each
     orientation source, with the stand-still baseline (``ftin.report.evaluation``, RoNIN convention)."""
-    from ftin.checkpoint import load_model
-    from ftin.data.loading import load_sequences
-    from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
-    from ftin.report.evaluation import evaluate_checkpoints
-    from ftin.report.results import DatasetSpec, LoadedDataset
-
     datasets = []
     for dataset, part, orientations in job.evaluation_sets():
         paths = job.paths(root, part, dataset)
@@ -136,8 +137,6 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
 
 def make_sim_data(folder: Path) -> None:
     """The simulator model's walks, seeds disjoint from the app's bundled samples (made once)."""
-    from ftin.sim.samples import write_walks
-
     with _locked(folder.with_name(folder.name + ".lock")):
         for part, count, seed in (
             ("train", protocol.SIM_TRAIN_WALKS, 1000),

@@ -14,6 +14,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import torch
+
 from ftin.campaign import engine
 from ftin.checkpoint import load_model
 from ftin.data.types import ImuSequence
@@ -24,15 +26,11 @@ from ftin.report.results import LoadedDataset, ReportResults
 
 
 def _one_checkpoint(stem: Path, datasets: Sequence[LoadedDataset], options: dict[str, Any]) -> Any:
-    import torch
-
     torch.set_num_threads(1)
     return evaluate_checkpoints([load_model(stem)], copy.deepcopy(datasets), **options)
 
 
 def _one_sequence(seq: ImuSequence, checkpoint: Path, options: dict[str, Any]) -> EvaluationReport:
-    import torch
-
     torch.set_num_threads(1)
     return evaluate_checkpoint(load_model(checkpoint), [copy.deepcopy(seq)], **options)
 

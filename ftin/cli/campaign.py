@@ -15,10 +15,11 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from ftin.campaign import CampaignError
+from ftin.campaign import CampaignError, engine
+from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
-from ftin.cli.common import REPORT_ERRORS, app, out_console, user_errors
+from ftin.cli.common import REPORT_ERRORS, AddressOption, app, out_console, user_errors
 
 campaign_app = typer.Typer(
     help="The training campaign of the protocol (docs/results/protocol.md) on Ray: plan, run, status, "
@@ -83,12 +84,7 @@ def run_command(
             help="Jobs at a time (default: 2 on a local Ray, the cluster's CPUs with --address).",
         ),
     ] = None,
-    address: Annotated[
-        str | None,
-        typer.Option(
-            "--address", help="An existing Ray cluster (ray start --head), e.g. 10.0.0.1:6379 or auto."
-        ),
-    ] = None,
+    address: AddressOption = None,
     gpus_per_job: Annotated[
         float, typer.Option("--gpus-per-job", min=0.0, help="GPUs per job (trains on cuda); default CPU.")
     ] = 0.0,
@@ -98,8 +94,6 @@ def run_command(
     ] = False,
 ) -> None:
     """Run every job not yet done on Ray; Ctrl-C stops the jobs at their next step (resumable)."""
-    from ftin.campaign import engine
-
     with user_errors(*CAMPAIGN_ERRORS):
         engine.import_ray()
         campaign = Campaign(runs)
@@ -178,8 +172,6 @@ def collect_command(
     ] = None,
 ) -> None:
     """Write each finished job's record and manifest.json (which seed ships, the gate's verdicts)."""
-    from ftin.campaign.collect import collect
-
     with user_errors(*CAMPAIGN_ERRORS):
         manifest = collect(Campaign(runs), results, only or ())
     typer.echo(f"shipped: {', '.join(manifest['shipped']) or 'none'}")
@@ -196,8 +188,6 @@ def ship_command(
     ] = Path("checkpoints"),
 ) -> None:
     """Copy the checkpoints the manifest ships (with model cards); withdraw the refused names."""
-    from ftin.campaign.collect import ship
-
     with user_errors(*CAMPAIGN_ERRORS):
         written = ship(Campaign(runs), results, checkpoints, on_event=lambda line: typer.echo(line))
     for path in written:
@@ -212,6 +202,8 @@ def table_command(
     ),
 ) -> None:
     """Table 1 from the collected records (as ``ftin table --campaign``)."""
+    # Here, not at the top: importing a command module registers its command, in `ftin --help`'s
+    # order (``ftin.cli``).
     from ftin.cli.table import campaign_table
 
     with user_errors(*CAMPAIGN_ERRORS):

@@ -99,7 +99,11 @@ WorkersOption = Annotated[
     ),
 ]
 AddressOption = Annotated[
-    str | None, typer.Option("--address", help="Spread the work over this Ray cluster (e.g. HOST:6379).")
+    str | None,
+    typer.Option(
+        "--address",
+        help="Spread the work over this running Ray cluster (ray start --head), e.g. HOST:6379 or auto.",
+    ),
 ]
 ThreadsOption = Annotated[
     int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")

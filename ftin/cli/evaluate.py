@@ -11,6 +11,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from ftin.campaign.scoring import evaluate_checkpoint_on_ray
 from ftin.checkpoint import load_model
 from ftin.cli.common import (
     MODEL_ERRORS,
@@ -66,8 +67,6 @@ def evaluate_command(
                 "orientation": orientation.value,
             }
             if workers is not None or address is not None:  # one Ray task per recording
-                from ftin.campaign.scoring import evaluate_checkpoint_on_ray
-
                 report = evaluate_checkpoint_on_ray(
                     checkpoint,
                     sequences,

@@ -15,6 +15,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
+from ftin.campaign.scoring import evaluate_checkpoints_on_ray
 from ftin.cli.common import (
     REPORT_ERRORS,
     AddressOption,
@@ -129,8 +130,6 @@ def _evaluate(
     with progress_bar() as bar:
         task = bar.add_task("evaluating", total=total)
         if workers is not None or address is not None:  # one Ray task per checkpoint
-            from ftin.campaign.scoring import evaluate_checkpoints_on_ray
-
             by_name = {stem.name: stem for stem in stems}
             return evaluate_checkpoints_on_ray(
                 [by_name[model.name] for model in loaded],

@@ -46,6 +46,7 @@ from enum import Enum
 from typing import Any
 
 import numpy as np
+from vqf import offlineVQF
 
 from ftin.data import frames
 from ftin.data.types import ImuSequence
@@ -95,8 +96,6 @@ def orientation_evidence(seq: ImuSequence) -> OrientationEvidence:
     has_device = seq.q_world_device_wxyz is not None
     if seq.mag_uT is None or not np.isfinite(seq.mag_uT).all() or len(seq) < 2:
         return OrientationEvidence(has_device, False)
-    from vqf import offlineVQF  # deferred: the compiled extension only where it runs
-
     out = offlineVQF(
         np.ascontiguousarray(seq.gyro_rad_s, dtype=np.float64),
         np.ascontiguousarray(seq.acc_m_s2, dtype=np.float64),

@@ -11,8 +11,10 @@ from enum import Enum
 from typing import Any
 
 import numpy as np
+from ahrs.filters import Madgwick, Mahony
 from scipy.signal import butter, sosfiltfilt
 from scipy.spatial.transform import Rotation, Slerp
+from vqf import offlineVQF
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
@@ -221,8 +223,6 @@ def estimate_orientation(
 
 def _vqf(seq: ImuSequence, use_magnetometer: bool, options: dict[str, float]) -> tuple[np.ndarray, str]:
     """``(q_world_device_wxyz, "6d" | "9d")`` from ``vqf.offlineVQF`` (scalar-first, z up)."""
-    from vqf import offlineVQF  # deferred: only this function needs the compiled extension
-
     mag = seq.mag_uT if use_magnetometer else None
     if mag is not None and not np.isfinite(mag).all():
         mag = None  # a broken magnetometer must not break the attitude: 6-D instead
@@ -239,8 +239,6 @@ def _vqf(seq: ImuSequence, use_magnetometer: bool, options: dict[str, float]) ->
 
 def _ahrs_loop(seq: ImuSequence, method: AhrsMethod, init_s: float, options: dict[str, float]) -> np.ndarray:
     """The ``ahrs`` package's Madgwick or Mahony filter, one call per sample."""
-    from ahrs.filters import Madgwick, Mahony  # deferred: only this function needs the package
-
     rate_hz = seq.rate_hz
     if method is AhrsMethod.MADGWICK:
         ahrs_filter = Madgwick(frequency=rate_hz, **options)

@@ -33,7 +33,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import torch
@@ -45,10 +45,23 @@ from ftin.data.errors import DataFormatError
 from ftin.data.gaps import starts_outside_holes
 from ftin.data.types import ImuSequence
 
-if TYPE_CHECKING:
-    from ftin.train.augment import WindowAugmenter
-
 N_CHANNELS = 6  # gyro xyz, acc xyz
+
+
+class WindowAugmentation(Protocol):
+    """What ``WindowDataset`` asks of the training augmentations (``ftin.train.augment.WindowAugmenter``):
+    seeded per window index and epoch, so a batch's augmentation depends on neither the batch order
+    nor the process that draws it. ``x`` is ``(B, 6, L)``, world frame; falsy: nothing to do."""
+
+    def __bool__(self) -> bool: ...
+
+    def shift_starts(
+        self, starts: np.ndarray, lowest: np.ndarray, highest: np.ndarray, indices: np.ndarray, epoch: int
+    ) -> np.ndarray: ...
+
+    def before_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
+
+    def after_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -241,7 +254,7 @@ class WindowDataset(torch.utils.data.Dataset):
         parts: int = 1,
         augment_yaw: bool = True,
         seed: int = 0,
-        augmenter: WindowAugmenter | None = None,
+        augmenter: WindowAugmentation | None = None,
     ) -> None:
         _check_window_args(window, stride)
         if not sequences:

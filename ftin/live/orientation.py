@@ -8,6 +8,7 @@ stream only has the past, so the heading of the two differs a little (both drift
 from __future__ import annotations
 
 import numpy as np
+from vqf import VQF
 
 from ftin.live.grid import GridChunk
 
@@ -27,8 +28,6 @@ class CausalOrientation:
             self.source = DEVICE
             return chunk.q_device_wxyz
         if self._vqf is None:
-            from vqf import VQF  # deferred: the compiled extension loads only for streams without orientation
-
             self._vqf = VQF(1.0 / self.rate_hz)
         self.source = ESTIMATED
         out = self._vqf.updateBatch(

@@ -221,12 +221,8 @@ def _values(figures: tuple[Figure, ...], walk: Walk) -> list[FigureValue]:
 def assess(trajectory: Trajectory, seq: ImuSequence) -> Plausibility:
     """The figures of ``trajectory`` (predicted from ``seq``) and the warnings they raise."""
     walk = Walk(trajectory, seq)
-    values = [FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in FIGURES]
-    gps_values = []
-    if walk.gps is not None:
-        gps_values = [
-            FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in GPS_FIGURES
-        ]
+    values = _values(FIGURES, walk)
+    gps_values = _values(GPS_FIGURES, walk) if walk.gps is not None else []
     return Plausibility(values, plausibility_warnings(Plausibility(values)), walk.gps, gps_values)
 
 

@@ -10,6 +10,7 @@ is one ``@register`` definition (``ftin.metrics.definitions``) and one test.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
@@ -79,19 +80,9 @@ class Metric:
         return f"{shown} {self.shown_unit}" if self.shown_unit and shown != missing else shown
 
     def as_dict(self) -> dict[str, Any]:
-        """What a client needs to show this metric (``GET /metrics``)."""
-        return {
-            "name": self.name,
-            "label": self.label,
-            "unit": self.unit,
-            "description": self.description,
-            "better": self.better.value,
-            "needs_truth": self.needs_truth,
-            "in_tables": self.in_tables,
-            "scale": self.scale,
-            "display_unit": self.shown_unit,
-            "digits": self.digits,
-        }
+        """What a client needs to show this metric (``GET /metrics``): every field but ``compute``."""
+        shown = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "compute"}
+        return {**shown, "better": self.better.value, "display_unit": self.shown_unit}
 
 
 _REGISTRY: dict[str, Metric] = {}

@@ -28,7 +28,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from ftin.models.base import VelocityModel, VelocityOutput
-from ftin.models.layers.checks import check_input, make_config, require
+from ftin.models.layers.checks import check_input, make_config, require, require_ranges
 from ftin.models.registry import ModelCfg, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
@@ -108,8 +108,7 @@ class IMUNetConfig:
             f"window must be >= {MIN_WINDOW} samples (2 frames left for the k2 output conv), "
             f"got {self.window}",
         )
-        require(self.out_dim >= 1, "imunet", f"out_dim must be >= 1, got {self.out_dim}")
-        require(self.head_channels >= 1, "imunet", f"head_channels must be >= 1, got {self.head_channels}")
+        require_ranges(self, "imunet", {"out_dim": 1, "head_channels": 1})
 
 
 class IMUNet(VelocityModel):

@@ -43,7 +43,7 @@ import torch
 from torch import nn
 
 from ftin.models.base import VelocityModel, VelocityOutput
-from ftin.models.layers.checks import check_input, make_config, require
+from ftin.models.layers.checks import check_input, make_config, require_ranges
 from ftin.models.layers.heads import MLPHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.registry import ModelCfg, Parts, Windows, register_model
@@ -62,10 +62,7 @@ class RNINConfig:
     dropout: float = 0.2
 
     def __post_init__(self) -> None:
-        require(self.sub_window >= 1, "rnin", f"sub_window must be >= 1 sample, got {self.sub_window}")
-        require(self.out_dim >= 1, "rnin", f"out_dim must be >= 1, got {self.out_dim}")
-        require(self.lstm_layers >= 1, "rnin", f"lstm_layers must be >= 1, got {self.lstm_layers}")
-        require(0.0 <= self.dropout < 1.0, "rnin", f"dropout must be in [0, 1), got {self.dropout}")
+        require_ranges(self, "rnin", {"sub_window": 1, "out_dim": 1, "lstm_layers": 1}, ("dropout",))
 
 
 class RNINNet(VelocityModel):

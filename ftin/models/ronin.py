@@ -47,7 +47,7 @@ import torch
 from torch import nn
 
 from ftin.models.base import VelocityModel, VelocityOutput
-from ftin.models.layers.checks import check_input, make_config, require
+from ftin.models.layers.checks import check_input, make_config, require, require_ranges
 from ftin.models.layers.conv_head import ConvFlattenHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.layers.tcn import TemporalConvNet
@@ -68,8 +68,7 @@ class RoninResNetConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "blocks_per_group", tuple(int(n) for n in self.blocks_per_group))
-        require(self.window >= 1, "ronin_resnet", f"window must be >= 1 sample, got {self.window}")
-        require(self.out_dim >= 1, "ronin_resnet", f"out_dim must be >= 1, got {self.out_dim}")
+        require_ranges(self, "ronin_resnet", {"window": 1, "out_dim": 1})
         require(
             len(self.blocks_per_group) == 4 and min(self.blocks_per_group) >= 1,
             "ronin_resnet",
@@ -155,10 +154,9 @@ class RoninLSTMConfig:
     lstm_dropout: float = 0.0  # between LSTM layers (reference default 0)
 
     def __post_init__(self) -> None:
-        require(self.out_dim >= 1, "ronin_lstm", f"out_dim must be >= 1, got {self.out_dim}")
-        require(self.hidden_size >= 1, "ronin_lstm", f"hidden_size must be >= 1, got {self.hidden_size}")
-        require(self.num_layers >= 1, "ronin_lstm", f"num_layers must be >= 1, got {self.num_layers}")
-        require(0.0 <= self.lstm_dropout < 1.0, "ronin_lstm", "lstm_dropout must be in [0, 1)")
+        require_ranges(
+            self, "ronin_lstm", {"out_dim": 1, "hidden_size": 1, "num_layers": 1}, ("lstm_dropout",)
+        )
 
 
 class PerFrameModel(VelocityModel):
@@ -231,14 +229,12 @@ class RoninTCNConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
-        require(self.out_dim >= 1, "ronin_tcn", f"out_dim must be >= 1, got {self.out_dim}")
+        require_ranges(self, "ronin_tcn", {"out_dim": 1, "kernel_size": 2}, ("dropout",))
         require(
             len(self.channels) >= 1 and min(self.channels) >= 1,
             "ronin_tcn",
             f"channels needs at least one positive width, got {self.channels}",
         )
-        require(self.kernel_size >= 2, "ronin_tcn", f"kernel_size must be >= 2, got {self.kernel_size}")
-        require(0.0 <= self.dropout < 1.0, "ronin_tcn", f"dropout must be in [0, 1), got {self.dropout}")
 
 
 class RoninTCN(PerFrameModel):

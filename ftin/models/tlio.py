@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import torch
 
 from ftin.models.base import VelocityOutput
-from ftin.models.layers.checks import make_config, require
+from ftin.models.layers.checks import make_config, require_ranges
 from ftin.models.layers.resnet1d import init_resnet_weights
 from ftin.models.registry import ModelCfg, register_model
 from ftin.models.ronin import FixedWindowResNet
@@ -40,9 +40,7 @@ class TLIOConfig:
     dropout: float = 0.5
 
     def __post_init__(self) -> None:
-        require(self.window >= 1, "tlio", f"window must be >= 1 sample, got {self.window}")
-        require(self.out_dim >= 1, "tlio", f"out_dim must be >= 1, got {self.out_dim}")
-        require(0.0 <= self.dropout < 1.0, "tlio", f"dropout must be in [0, 1), got {self.dropout}")
+        require_ranges(self, "tlio", {"window": 1, "out_dim": 1}, ("dropout",))
 
 
 class TLIONet(FixedWindowResNet):

@@ -1,5 +1,5 @@
 """The processes of one training run: ranks under ``torchrun`` (DistributedDataParallel on gloo for
-CPU), the module DDP wraps, and stopping cleanly on SIGINT/SIGTERM.
+CPU) and the module DDP wraps (stopping on SIGINT/SIGTERM: ``ftin.interrupts``).
 
 Decisions (see also ``ftin.train.loop``):
 - One process without ``WORLD_SIZE`` (or ``WORLD_SIZE=1``): ``Distributed()`` with rank 0, and the
@@ -7,19 +7,14 @@ Decisions (see also ``ftin.train.loop``):
 - Every rank starts from the same weights (seeded before the model is built); the other ranks then
   reseed so that their dropout differs. An uncertainty head trained with plain MSE gets no gradient,
   which DDP must be told (``find_unused_parameters``).
-- Signals: the first SIGINT/SIGTERM asks for a stop at the next step boundary (after which the
-  resume state is written); a second SIGINT interrupts at once.
 """
 
 from __future__ import annotations
 
 import os
-import signal
-import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
 
 import torch
 import torch.distributed as dist
@@ -95,23 +90,3 @@ def parts_module(
             torch.manual_seed(seed * 1000 + ddp.rank + step)
         net = torch.nn.parallel.DistributedDataParallel(net, find_unused_parameters=unused_parameters)
     return net
-
-
-@contextmanager
-def stop_signals(flag: dict[str, bool]) -> Iterator[None]:
-    """SIGINT/SIGTERM set ``flag["stop"]``; a second SIGINT interrupts at once (module docstring)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum: int, _frame: Any) -> None:
-        if flag["stop"] and signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        flag["stop"] = True
-
-    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)

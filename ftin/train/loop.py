@@ -31,6 +31,7 @@ Decisions:
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -44,11 +45,12 @@ from tqdm import tqdm
 from ftin.checkpoint import save_checkpoint
 from ftin.data.loading import data_rate_hz, load_sequences
 from ftin.data.types import ImuSequence
+from ftin.interrupts import stop_on_signals
 from ftin.models import create_model, model_contract
 from ftin.models.base import VelocityModel
 from ftin.train.config import ConfigError, TrainConfig
 from ftin.train.data import TrainData, training_data
-from ftin.train.distributed import Distributed, distributed, parts_module, stop_signals
+from ftin.train.distributed import Distributed, distributed, parts_module
 from ftin.train.losses import LossFn, make_loss, uses_nll
 from ftin.train.state import (
     CONFIG_FILE,
@@ -215,9 +217,9 @@ class _Run:
 
     def loop(self) -> TrainResult:
         p, cfg = self.progress, self.config
-        flag = {"stop": False}
+        stop = threading.Event()  # set by SIGINT/SIGTERM: stop at the next step, resumable
         last_save = time.monotonic()
-        with stop_signals(flag):
+        with stop_on_signals(stop):
             while p.stop_reason is None:
                 if p.epoch >= cfg.max_epochs:
                     p.stop_reason = "max_epochs"
@@ -232,7 +234,7 @@ class _Run:
                 self.net.train()
                 tick, windows = time.monotonic(), 0
                 for b in range(p.step_in_epoch, len(batches)):
-                    p.stop_reason = self._budget_stop(flag)
+                    p.stop_reason = self._budget_stop(stop)
                     if p.stop_reason is not None:
                         break
                     loss = self._step(batches[b], p.epoch)
@@ -292,13 +294,13 @@ class _Run:
     def _stalled(self) -> bool:
         return self.progress.stalled(self.config.early_stop_patience, self.loss_switch)
 
-    def _budget_stop(self, flag: dict[str, bool]) -> str | None:
+    def _budget_stop(self, stop: threading.Event) -> str | None:
         cfg, reason = self.config, None
         if cfg.max_steps is not None and self.progress.global_step >= cfg.max_steps:
             reason = "max_steps"
         elif cfg.max_minutes is not None and time.monotonic() - self.started >= 60.0 * cfg.max_minutes:
             reason = "max_minutes"
-        elif flag["stop"]:
+        elif stop.is_set():
             reason = "signal"
         # Every rank must stop at the same step (time and signals differ between processes).
         if self.ddp.world > 1 and self.ddp.any(reason is not None) and reason is None:

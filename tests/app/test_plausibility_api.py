@@ -7,13 +7,12 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 from fastapi.testclient import TestClient
 
 from ftin.metrics.plausibility import FIGURES, GPS_FIGURES
 from tests.app.routes.helpers import upload
-from tests.data.test_location import LAT0, LON0, sensorlogger_location_csv
+from tests.utils.gps import northward_fixes, twenty_steps_export
 
 
 def figures(payload: dict) -> dict[str, dict]:
@@ -63,19 +62,11 @@ def sensorlogger_zip(folder: Path, location: bytes | None) -> bytes:
 
 @pytest.fixture(scope="module")
 def twenty_steps(shared_data: Path) -> Path:
-    folder = shared_data / "phone" / "sensorlogger" / "inhand-20-steps-Zyf"
-    if not folder.is_dir():
-        pytest.skip(f"no export at {folder}")
-    return folder
+    return twenty_steps_export(shared_data)
 
 
 def test_a_phone_export_gets_its_steps_and_gps(client: TestClient, twenty_steps: Path) -> None:
-    first_ns = int(pd.read_csv(twenty_steps / "Accelerometer.csv", nrows=1)["time"].iloc[0])
-    t = np.arange(0.0, 21.0, 1.0)
-    lat = LAT0 + 0.6 * t / 111_130.0  # 0.6 m/s north, 3 m accurate
-    location = sensorlogger_location_csv(
-        first_ns + (t * 1e9).astype(np.int64), t, lat, [LON0] * 21, [3.0] * 21
-    )
+    location = northward_fixes(twenty_steps, seconds=21, speed_m_s=0.6)  # 3 m accurate
     response = upload(client, sensorlogger_zip(twenty_steps, location), "walk.zip")
     assert response.status_code == 200, response.text
     plausibility = response.json()["plausibility"]

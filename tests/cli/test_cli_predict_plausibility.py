@@ -5,14 +5,10 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-import pytest
-
 from ftin.cli import app
 from ftin.data.readers.generic_csv import write_csv
-from tests.data.test_location import LAT0, LON0, sensorlogger_location_csv
 from tests.utils.cli import runner
+from tests.utils.gps import northward_fixes, twenty_steps_export
 
 
 def test_predict_prints_plausibility_and_the_standing_still_verdict(
@@ -37,16 +33,10 @@ def test_predict_prints_plausibility_and_the_standing_still_verdict(
 
 
 def test_predict_on_a_phone_export_with_gps(trained, shared_data: Path, tmp_path):
-    source = shared_data / "phone" / "sensorlogger" / "inhand-20-steps-Zyf"
-    if not source.is_dir():
-        pytest.skip(f"no export at {source}")
+    source = twenty_steps_export(shared_data)
     export = tmp_path / "walk"
     shutil.copytree(source, export)
-    first_ns = int(pd.read_csv(source / "Accelerometer.csv", nrows=1)["time"].iloc[0])
-    t = np.arange(0.0, 21.0, 1.0)
-    lat = LAT0 + 0.6 * t / 111_130.0
-    fixes = sensorlogger_location_csv(first_ns + (t * 1e9).astype(np.int64), t, lat, [LON0] * 21, [3.0] * 21)
-    (export / "Location.csv").write_bytes(fixes)
+    (export / "Location.csv").write_bytes(northward_fixes(source, seconds=21, speed_m_s=0.6))
     checkpoint = ["--checkpoint", str(trained / "ronin_tcn.json")]
     result = runner.invoke(app, ["predict", *checkpoint, str(export), "--out", str(tmp_path / "t.csv")])
     assert result.exit_code == 0, result.output

@@ -1,5 +1,5 @@
-"""GPS fixes from Location.csv: Sensor Logger's layout (synthetic, columns as its docs name them:
-tszheichoi/awesome-sensor-logger UNITS.md) and the real phyphox walk."""
+"""GPS fixes from Location.csv: Sensor Logger's layout (synthetic, ``tests.utils.gps``) and the real
+phyphox walk."""
 
 from __future__ import annotations
 
@@ -7,26 +7,20 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from ftin.data.discovery import read_sequence
 from ftin.data.io import phone_exports as exports
 from ftin.data.location import local_plane, phyphox_track, sensorlogger_track
 from ftin.metrics.gps import smoothed_path_m
-
-SENSORLOGGER_COLUMNS = (
-    "time,seconds_elapsed,bearingAccuracy,speedAccuracy,verticalAccuracy,horizontalAccuracy,"
-    "speed,bearing,altitude,longitude,latitude"
+from tests.utils.gps import (
+    LAT0,
+    LON0,
+    SENSORLOGGER_COLUMNS,
+    northward_fixes,
+    sensorlogger_location_csv,
+    twenty_steps_export,
 )
-LAT0, LON0 = 48.2, 16.37
-
-
-def sensorlogger_location_csv(time_ns: np.ndarray, elapsed_s: np.ndarray, lat, lon, accuracy) -> bytes:
-    rows = [SENSORLOGGER_COLUMNS]
-    for t, e, la, lo, a in zip(time_ns, elapsed_s, lat, lon, accuracy, strict=True):
-        rows.append(f"{int(t)},{e:.6f},-1,0.5,3.2,{a},1.3,90.0,180.5,{lo:.9f},{la:.9f}")
-    return ("\n".join(rows) + "\n").encode()
 
 
 def test_local_plane_is_east_north_metres_from_the_first_fix() -> None:
@@ -64,24 +58,16 @@ def test_empty_or_fixless_location_files_are_no_track() -> None:
 
 
 def test_a_sensorlogger_export_with_gps_carries_it_in_meta(shared_data: Path, tmp_path: Path) -> None:
-    source = shared_data / "phone" / "sensorlogger" / "inhand-20-steps-Zyf"
-    if not source.is_dir():
-        pytest.skip(f"no export at {source}")
+    source = twenty_steps_export(shared_data)
     export = tmp_path / "walk-with-gps"
     shutil.copytree(source, export)
-    first_ns = int(pd.read_csv(source / "Accelerometer.csv", nrows=1)["time"].iloc[0])
-    t = np.arange(0.0, 22.0, 1.0)
-    lat = LAT0 + t * 1.0 / 111_130  # 1 m/s north
-    data = sensorlogger_location_csv(
-        first_ns + (t * 1e9).astype(np.int64), t, lat, [LON0] * len(t), [3.0] * len(t)
-    )
-    (export / "Location.csv").write_bytes(data)
+    (export / "Location.csv").write_bytes(northward_fixes(source, seconds=22, speed_m_s=1.0))
 
     seq = read_sequence(export)
     track = seq.meta["gps"]
     # this export's gyroscope and accelerometer start at the same ns: the sequence's t = 0 is then
     assert track.t_s[0] == pytest.approx(0.0, abs=0.02)
-    assert np.diff(track.t_s) == pytest.approx(np.ones(len(t) - 1))
+    assert np.diff(track.t_s) == pytest.approx(np.ones(21))
     en = track.local_plane()
     assert en[-1] == pytest.approx([0.0, 21.0], abs=0.05)
     # the shared export's own Location.csv is empty: no GPS

@@ -12,9 +12,7 @@ from ftin.metrics.gps import compare_gps
 from ftin.metrics.plausibility import FIGURES, GPS_FIGURES, assess
 from ftin.metrics.verdicts import confinement_note, still_verdict
 from tests.metrics.test_steps import gait
-
-LAT0, LON0 = 48.2, 16.37
-M_PER_DEG_LAT = 111_130.0
+from tests.utils.gps import LAT0, LON0, M_PER_DEG_LAT
 
 
 def walk_sequence(cadence: float = 110.0, walk_s: float = 30.0, meta: dict | None = None) -> ImuSequence:

@@ -3,15 +3,16 @@ from __future__ import annotations
 import json
 import os
 import signal
+import threading
 
 import numpy as np
 import pytest
 import torch
 
+from ftin.interrupts import stop_on_signals
 from ftin.models import VelocityOutput
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.train import ConfigError, TrainConfig, load_model, train
-from ftin.train.distributed import stop_signals
 from ftin.train.losses import velocity_loss
 from tests.utils.checkpoints import tiny_train_config
 
@@ -187,10 +188,10 @@ def test_max_minutes_stops_and_leaves_a_partial_checkpoint(tmp_path, sim_sequenc
 
 def test_ctrl_c_asks_for_a_clean_stop_and_a_second_one_interrupts():
     before = signal.getsignal(signal.SIGINT)
-    flag = {"stop": False}
-    with stop_signals(flag):
+    stop = threading.Event()
+    with stop_on_signals(stop):
         os.kill(os.getpid(), signal.SIGTERM)
-        assert flag["stop"]  # stop at the next step boundary, after saving the resume state
+        assert stop.is_set()  # stop at the next step boundary, after saving the resume state
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is before

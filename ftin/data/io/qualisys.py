@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.io import loadmat
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -39,8 +40,6 @@ class Mocap:
 
 def read_mocap(path: Path, glitch_rate_rad_s: float = 15.0) -> Mocap:
     """Read one ``.mat`` (see the module docstring for NaN frames and rotation glitches)."""
-    from scipy.io import loadmat  # deferred: only this reader needs MATLAB files
-
     try:
         content = loadmat(path, squeeze_me=True, struct_as_record=False)
     except (OSError, ValueError, NotImplementedError) as exc:

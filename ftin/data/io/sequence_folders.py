@@ -53,6 +53,19 @@ def read_json(path: Path) -> Any:
         raise DataFormatError(f"{path}: not valid JSON ({exc})") from exc
 
 
+def json_numbers(value: Any, shape: tuple[int, ...], what: str, source: Path) -> np.ndarray:
+    """A value read from JSON (a list, or a list of lists for a 2-D ``shape``) as a float64 array of
+    ``shape``, every number finite; raises naming ``what`` and the value otherwise."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        array = np.empty(0)
+    if array.shape != shape or not np.isfinite(array).all():
+        lists = f"a list of {shape[-1]}" if len(shape) == 1 else f"{shape[0]} lists of {shape[-1]}"
+        raise DataFormatError(f"{source}: {what} must be {lists} finite numbers, got {value!r}")
+    return array
+
+
 def read_headed_csv(path: Path, not_found: str) -> pd.DataFrame:
     """The whole CSV, column names trimmed; ``not_found`` is the message when the file is missing
     (each format says which folder it expected)."""

@@ -43,7 +43,7 @@ import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.io.sequence_folders import MarkedFolderLayout, read_json
+from ftin.data.io.sequence_folders import MarkedFolderLayout, json_numbers, read_json
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
@@ -92,15 +92,7 @@ def _read_info(path: Path) -> dict[str, Any]:
 
 def _info_vector(info: dict[str, Any], key: str, size: int, source: Path) -> np.ndarray | None:
     """``info[key]`` as a float vector of ``size``, or None when absent; raises when malformed."""
-    if key not in info:
-        return None
-    try:
-        vector = np.asarray(info[key], dtype=np.float64)
-    except (TypeError, ValueError):
-        vector = np.empty(0)
-    if vector.shape != (size,) or not np.isfinite(vector).all():
-        raise DataFormatError(f"{source}: {key!r} must be a list of {size} finite numbers, got {info[key]!r}")
-    return vector
+    return json_numbers(info[key], (size,), repr(key), source) if key in info else None
 
 
 def _hdf5_array(

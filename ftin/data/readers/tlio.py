@@ -30,13 +30,12 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.io.sequence_folders import MarkedFolderLayout, read_json, reference_pose_meta
+from ftin.data.io.sequence_folders import MarkedFolderLayout, json_numbers, read_json, reference_pose_meta
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import (
@@ -114,16 +113,6 @@ def _column_layout(folder: Path, warnings: list[str]) -> tuple[bool, bool]:
     return in_world[0], compensated[0]
 
 
-def _matrix(value: Any, shape: tuple[int, ...], what: str, source: Path) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        array = np.empty(0)
-    if array.shape != shape or not np.isfinite(array).all():
-        raise DataFormatError(f"{source}: {what} must be {shape} finite numbers, got {value!r}")
-    return array
-
-
 def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{"acc": (R_inv, bias), "gyro": (R_inv, bias)}`` from a TLIO/Aria ``calibration.json``."""
     calibration = read_json(path)
@@ -137,10 +126,10 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
                 f"{path}: expected {sensor}.Bias.Offset and {sensor}.Model.RectificationMatrix "
                 f"({exc!r} missing)"
             ) from exc
-        matrix = _matrix(rectification, (3, 3), f"{sensor} RectificationMatrix", path)
+        matrix = json_numbers(rectification, (3, 3), f"{sensor} RectificationMatrix", path)
         if abs(np.linalg.det(matrix)) < 1e-6:
             raise DataFormatError(f"{path}: {sensor} RectificationMatrix is singular")
-        result[key] = (np.linalg.inv(matrix), _matrix(offset, (3,), f"{sensor} Bias.Offset", path))
+        result[key] = (np.linalg.inv(matrix), json_numbers(offset, (3,), f"{sensor} Bias.Offset", path))
     return result
 
 

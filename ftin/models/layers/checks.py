@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping, Sequence
 from typing import Any, TypeVar
 
 import torch
@@ -26,6 +27,19 @@ def require(condition: bool, model_name: str, message: str) -> None:
     """Raise ``ValueError('<model>: <message>')`` when a config value is out of range."""
     if not condition:
         raise ValueError(f"{model_name}: {message}")
+
+
+def require_ranges(
+    config: Any, model_name: str, at_least: Mapping[str, int], fractions: Sequence[str] = ()
+) -> None:
+    """The range checks every family's config makes: each field of ``at_least`` no smaller than its
+    bound (sizes, counts), each of ``fractions`` in [0, 1) (dropout), in that order."""
+    for name, low in at_least.items():
+        value = getattr(config, name)
+        require(value >= low, model_name, f"{name} must be >= {low}, got {value}")
+    for name in fractions:
+        value = getattr(config, name)
+        require(0.0 <= value < 1.0, model_name, f"{name} must be in [0, 1), got {value}")
 
 
 def check_input(
