@@ -138,6 +138,7 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
     assert len(points.split()) == 2000  # every sample of the 20 s walk
     metrics = page.inner_text("#metrics")
     assert "ATE" in metrics and "RTE" in metrics and "PDE" in metrics and " m" in metrics
+    assert "ATE evo" in metrics  # both ATE conventions, each labelled (the headline one plain "ATE")
     assert "Path" in metrics and " %" in metrics  # the path ratio beside them; PDE in %
     assert "No alignment" in page.inner_text("#convention")  # the convention is stated
     assert page.inner_text("#result-caption") == f"walk.csv · {DEFAULT_SHOWN}"
@@ -212,6 +213,7 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
     page.wait_for_function("() => document.body.innerText.includes('ATE [m]')", timeout=30_000)
     body = page.inner_text("body")
     assert "FTIN Studio" in body and "ATE [m]" in body and "PDE [%]" in body and "path" in body
+    assert "ATE evo [m]" in body  # the scene's table shows both ATE conventions too
     assert "On walk:" in body and DEFAULT_SHOWN in body
     assert run_id in live_server.scene.shown_run_ids()
     if SCREENSHOT_DIR:
