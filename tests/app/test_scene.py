@@ -14,6 +14,7 @@ from app.services import Services
 from app.services.prediction import RunOptions
 from app.settings import Settings
 from app.viz.scene import DashboardScene
+from tests.utils.scenes import empty_scene, running_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
@@ -22,19 +23,13 @@ DEFAULT_SHOWN = "FTIN · OxIOD"  # DEFAULT_MODEL's display name (OTHER_MODEL nam
 
 @pytest.fixture(scope="module")
 def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    services = Services.build(make_settings())
-    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
-    services.scene_url = dashboard.url
-    try:
+    with running_scene(make_settings()) as dashboard:
         yield dashboard
-    finally:
-        dashboard.stop()
 
 
 @pytest.fixture(autouse=True)
 def _empty_scene(scene: DashboardScene) -> None:
-    scene.flush()
-    scene.gui_clear_scene()
+    empty_scene(scene)
 
 
 def run_nodes(scene: DashboardScene, run_id: str) -> set[str]:

@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.services import Services
 from app.services.prediction import RunOptions
 from app.settings import Settings
 from app.viz.overlay import UPLOADS
@@ -19,6 +18,7 @@ from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
 from ftin.evaluate import score
 from tests.utils.phone_walk import sensorlogger_walk_zip
+from tests.utils.scenes import empty_scene, running_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
@@ -26,18 +26,13 @@ OTHER_MODEL = "resnet-tiny"
 
 @pytest.fixture(scope="module")
 def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    services = Services.build(make_settings(max_runs=5))
-    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
-    try:
+    with running_scene(make_settings(max_runs=5)) as dashboard:
         yield dashboard
-    finally:
-        dashboard.stop()
 
 
 @pytest.fixture(autouse=True)
 def _empty_scene(scene: DashboardScene) -> None:
-    scene.flush()
-    scene.gui_clear_scene()
+    empty_scene(scene)
 
 
 def test_three_uploads_are_listed_and_the_menus_show_the_one_on_screen(
