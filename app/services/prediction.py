@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import PurePath
 from typing import Any
 
@@ -100,6 +101,17 @@ def sequence_from_arrays(
         raise InvalidInputError(str(exc)) from None
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """What a request asks of a prediction besides its recording (every door takes the same)."""
+
+    model: str | None = None  # None: the one ``choose_model`` picks
+    run_id: str | None = None  # the client's own, to poll progress while it waits; None: a fresh one
+    deadline: Deadline | None = None  # None: one that starts when the run is asked for
+    align: str | None = None  # ``ftin.metrics.Alignment``; None: the recording's default
+    orientation: str | None = None  # ``ftin.data.orientation_option``; None: auto
+
+
 class PredictionService:
     def __init__(
         self, models: ModelStore, catalog: SequenceCatalog, runs: RunStore, settings: Settings
@@ -127,22 +139,11 @@ class PredictionService:
         )
 
     def predict_csv(
-        self,
-        data: bytes,
-        filename: str,
-        model: str | None = None,
-        run_id: str | None = None,
-        source: str = "upload",
-        deadline: Deadline | None = None,
-        *,
-        align: str | None = None,
-        orientation: str | None = None,
+        self, data: bytes, filename: str, options: RunOptions = RunOptions(), source: str = "upload"
     ) -> Run:
         """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
         Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content)."""
-        if model:
-            self.models.get(model)  # an unknown model is refused before the upload is read
-        run_id = self.runs.new_id(run_id)
+        run_id = self._new_run_id(options)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
         # separators), and nothing is ever read or written under it.
         filename = PurePath((filename or "").replace("\\", "/")).name
@@ -154,21 +155,13 @@ class PredictionService:
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
-        entry, choice = choose_model(
-            self.models,
-            model,
-            upload_format=str(seq.meta.get("dataset", "")),
-            upload_texts=(filename, seq.name),
-        )
-        return self.run(
+        return self._run_chosen(
             seq,
-            entry,
             run_id,
             source,
-            deadline=deadline,
-            align=align,
-            orientation=orientation,
-            model_choice=choice,
+            options,
+            upload_format=str(seq.meta.get("dataset", "")),
+            upload_texts=(filename, seq.name),
         )
 
     def read_upload(self, data: bytes, filename: str) -> ImuSequence:
@@ -185,56 +178,45 @@ class PredictionService:
         except DataFormatError as exc:
             raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
 
-    def predict_sequence(
-        self,
-        sequence_id: str,
-        model: str | None = None,
-        run_id: str | None = None,
-        deadline: Deadline | None = None,
-        *,
-        align: str | None = None,
-        orientation: str | None = None,
-    ) -> Run:
+    def predict_sequence(self, sequence_id: str, options: RunOptions = RunOptions()) -> Run:
         listed = self.catalog.get(sequence_id)
-        entry, choice = choose_model(self.models, model, sequence_kind=listed.kind)
-        run_id = self.runs.new_id(run_id)
-        seq = self.catalog.read(sequence_id, orientation)
+        run_id = self._new_run_id(options)
+        seq = self.catalog.read(sequence_id, options.orientation)
         self.check_sample_count(len(seq), f"sequence {sequence_id!r}")
-        return self.run(
-            seq,
-            entry,
-            run_id,
-            "sequence",
-            sequence_id,
-            deadline,
-            align=align,
-            orientation=orientation,
-            model_choice=choice,
-        )
+        return self._run_chosen(seq, run_id, "sequence", options, sequence_id, sequence_kind=listed.kind)
 
-    def predict_imu(
+    def predict_imu(self, seq: ImuSequence, options: RunOptions = RunOptions(), source: str = "json") -> Run:
+        """Run a model on a sequence built by the caller (e.g. from JSON arrays)."""
+        run_id = self._new_run_id(options)
+        self.check_sample_count(len(seq), f"recording {seq.name!r}")
+        return self._run_chosen(seq, run_id, source, options)
+
+    def _new_run_id(self, options: RunOptions) -> str:
+        """The run's id, once a model the request names is known (refused before any recording is read)."""
+        if options.model:
+            self.models.get(options.model)
+        return self.runs.new_id(options.run_id)
+
+    def _run_chosen(
         self,
         seq: ImuSequence,
-        model: str | None = None,
-        run_id: str | None = None,
-        source: str = "json",
-        deadline: Deadline | None = None,
-        *,
-        align: str | None = None,
-        orientation: str | None = None,
+        run_id: str,
+        source: str,
+        options: RunOptions,
+        sequence_id: str | None = None,
+        **hints: Any,
     ) -> Run:
-        """Run a model on a sequence built by the caller (e.g. from JSON arrays)."""
-        entry, choice = choose_model(self.models, model)
-        self.check_sample_count(len(seq), f"recording {seq.name!r}")
-        run_id = self.runs.new_id(run_id)
+        """``run`` with the model ``options`` names, or the one ``choose_model`` picks from ``hints``."""
+        entry, choice = choose_model(self.models, options.model, **hints)
         return self.run(
             seq,
             entry,
             run_id,
             source,
-            deadline=deadline,
-            align=align,
-            orientation=orientation,
+            sequence_id,
+            options.deadline,
+            align=options.align,
+            orientation=options.orientation,
             model_choice=choice,
         )
 

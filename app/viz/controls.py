@@ -16,12 +16,14 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import viser
 
 from app.services import Services
 from app.services.errors import ServiceError
+from app.services.prediction import RunOptions
 from app.services.runs import Run
 from app.viz.choices import ORIENTATION_CHOICES
 from app.viz.overlay import LIVE, UPLOADED, UPLOADS, sequence_key
@@ -223,25 +225,19 @@ class SceneControls:
         if upload is not None and models:
             seq = upload.sequence
             predictor = self.services.predictor
-            align, orientation = self._align(), self.gui_orientation.value
+            options = self._run_options()
             self._run_batch(
-                models,
-                lambda m: predictor.predict_imu(seq, m, source="viser", align=align, orientation=orientation),
-                client,
+                models, lambda m: predictor.predict_imu(seq, replace(options, model=m), "viser"), client
             )
             return
         sequence_id = self._selected_sequence_id()
         if sequence_id is None or not models:
             self._report_error(client, "Pick a sequence and at least one model first.")
             return
-        align, orientation = self._align(), self.gui_orientation.value
         predictor = self.services.predictor
+        options = self._run_options()
         self._run_batch(
-            models,
-            lambda model: predictor.predict_sequence(
-                sequence_id, model, align=align, orientation=orientation
-            ),
-            client,
+            models, lambda m: predictor.predict_sequence(sequence_id, replace(options, model=m)), client
         )
 
     def _run_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None) -> None:
@@ -250,19 +246,20 @@ class SceneControls:
             self._report_error(client, "Tick at least one model before uploading.")
             return
         predictor = self.services.predictor
-        align, orientation = self._align(), self.gui_orientation.value
+        options = self._run_options()
         self._run_batch(
             models,
-            lambda model: predictor.predict_csv(
-                content, filename, model, source="viser", align=align, orientation=orientation
-            ),
+            lambda m: predictor.predict_csv(content, filename, replace(options, model=m), "viser"),
             client,
         )
 
-    def _align(self) -> str | None:
-        """The Alignment dropdown as ``PredictionService``'s ``align`` (None: the default)."""
-        value = self.gui_align.value
-        return None if value == ALIGN_CHOICES[0] else value
+    def _run_options(self) -> RunOptions:
+        """The Alignment and Orientation dropdowns as a run's options (Alignment's first entry: the
+        default), read once for a batch of models."""
+        align = self.gui_align.value
+        return RunOptions(
+            align=None if align == ALIGN_CHOICES[0] else align, orientation=self.gui_orientation.value
+        )
 
     def _run_batch(
         self, models: list[str], run_one: Callable[[str], Run], client: viser.ClientHandle | None

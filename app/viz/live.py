@@ -29,7 +29,7 @@ import viser
 
 from app.services import Services
 from app.services.runs import Run
-from app.viz.drawing import PathNodes, draw_path
+from app.viz.drawing import PathNodes
 from app.viz.overlay import sequence_key
 from app.viz.run_scene_data import RunView
 
@@ -60,6 +60,7 @@ class SceneLive:
     _sequence_options: Callable[[str], list[str]]
     _update_time: Callable[[], None]
     _reframe_if_outside: Callable[[RunView], None]
+    _draw_run: Callable[[str, RunView], None]
 
     def _build_live(self) -> None:
         self._live_pending: dict[str, Run] = {}
@@ -111,14 +112,7 @@ class SceneLive:
             self._sequence_key = sequence_key(run)
             self._uploaded = run
             self._nodes.pop(run.run_id).remove()
-            self._nodes[run.run_id] = draw_path(
-                self.server.scene,
-                f"/runs/{run.run_id}",
-                "pred",
-                view.trajectory,
-                view.color,
-                self._marker_radius,
-            )
+            self._draw_run(run.run_id, view)
             duration = round(max(float(run.sequence.t_s[-1] - run.sequence.t_s[0]), 0.05), 2)
             self.gui_time.max = duration
             self.gui_time.value = duration

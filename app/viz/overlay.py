@@ -102,19 +102,24 @@ class SceneOverlay:
                     views[old_id] = old
             views.setdefault(run.run_id, view)
             self._views = views
-            self._nodes[run.run_id] = draw_path(
-                self.server.scene,
-                f"/runs/{run.run_id}",
-                "pred",
-                view.trajectory,
-                view.color,
-                self._marker_radius,
-                start_color=None if self._truth is not None else START_COLOR,  # one green start
-            )
+            self._draw_run(run.run_id, view)
             self._reframe_if_outside(view)
             self._sync_models_and_alignment(view)
             self._refresh_panels(select=view)
             self._update_time()
+
+    def _draw_run(self, run_id: str, view: RunView) -> None:
+        """Draw ``view``'s predicted path under ``/runs/<run_id>``: one green start, the ground truth's
+        where there is one, else the prediction's."""
+        self._nodes[run_id] = draw_path(
+            self.server.scene,
+            f"/runs/{run_id}",
+            "pred",
+            view.trajectory,
+            view.color,
+            self._marker_radius,
+            start_color=None if self._truth is not None else START_COLOR,
+        )
 
     def _sync_models_and_alignment(self, view: RunView) -> None:
         """Tick exactly the models on screen; the Alignment menu shows how the latest run was scored."""

@@ -49,6 +49,7 @@ import viser
 
 from app.services import Services
 from app.services.errors import ServiceError
+from app.services.prediction import RunOptions
 from app.services.runs import Run, RunListener, RunState, RunStatus
 from app.viz.choices import choice_markdown
 from app.viz.controls import SceneControls
@@ -132,7 +133,7 @@ class DashboardScene(SceneControls, SceneOverlay, SceneTimeline, SceneLive, RunL
             for sequence_id in sorted(candidates, key=lambda i: not has_truth(i)):
                 try:
                     for model in models:
-                        predictor.predict_sequence(sequence_id, model)
+                        predictor.predict_sequence(sequence_id, RunOptions(model))
                     return
                 except ServiceError as exc:  # unreadable: try the next one
                     log.info("start-up run skipped %s: %s", sequence_id, exc)

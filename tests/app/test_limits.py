@@ -19,6 +19,7 @@ from app.main import create_app
 from app.services import Services
 from app.services.errors import InferenceTimeoutError
 from app.services.limits import Deadline, InferenceSlots
+from app.services.prediction import RunOptions
 from app.services.runs import RunState, RunStore
 from app.settings import Settings
 
@@ -123,14 +124,14 @@ def test_waiting_for_a_busy_slot_counts_against_the_deadline(make_settings: Call
         assert predictor.slots.busy == 1
         started = time.monotonic()
         with pytest.raises(InferenceTimeoutError, match="server is busy.*FTIN_MAX_CONCURRENT_INFERENCES=1"):
-            predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL, run_id="waiting-run")
+            predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL, run_id="waiting-run"))
         assert 0.15 < time.monotonic() - started < 2.0
         assert services.runs.status("waiting-run").state is RunState.FAILED
     finally:
         release.set()
         holder.join(10)
     assert predictor.slots.busy == 0
-    assert predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL).model_name == DEFAULT_MODEL
+    assert predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL)).model_name == DEFAULT_MODEL
 
 
 def test_slots_cap_concurrency_and_survive_errors() -> None:
@@ -199,7 +200,8 @@ def test_deadline() -> None:
 def test_finished_runs_are_dropped_beyond_the_sample_budget(make_settings: Callable[..., Settings]) -> None:
     services = Services.build(make_settings(max_kept_samples=4500))
     predictor = services.predictor
-    runs = [predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL) for _ in range(3)]  # 2000 each
+    # 2000 samples each
+    runs = [predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL)) for _ in range(3)]
     assert [r.run_id for r in services.runs.list()] == [runs[1].run_id, runs[2].run_id]
     # The newest run is kept even when it alone is over the budget.
     store = RunStore(max_runs=5, max_kept_samples=10)

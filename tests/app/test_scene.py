@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 from app.services import Services
+from app.services.prediction import RunOptions
 from app.settings import Settings
 from app.viz.scene import DashboardScene
+from tests.utils.scenes import empty_scene, running_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
@@ -21,19 +23,13 @@ DEFAULT_SHOWN = "FTIN · OxIOD"  # DEFAULT_MODEL's display name (OTHER_MODEL nam
 
 @pytest.fixture(scope="module")
 def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    services = Services.build(make_settings())
-    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
-    services.scene_url = dashboard.url
-    try:
+    with running_scene(make_settings()) as dashboard:
         yield dashboard
-    finally:
-        dashboard.stop()
 
 
 @pytest.fixture(autouse=True)
 def _empty_scene(scene: DashboardScene) -> None:
-    scene.flush()
-    scene.gui_clear_scene()
+    empty_scene(scene)
 
 
 def run_nodes(scene: DashboardScene, run_id: str) -> set[str]:
@@ -68,7 +64,7 @@ def test_gui_lists_datasets_sequences_and_models(scene: DashboardScene) -> None:
 
 
 def test_a_run_is_drawn_with_ground_truth_grid_and_markers(scene: DashboardScene) -> None:
-    run = scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    run = scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()  # runs are drawn by the scene's own thread, after the prediction returns
     assert run_nodes(scene, run.run_id) == {
         f"/runs/{run.run_id}/{part}" for part in ("pred", "start", "end", "marker", "window")
@@ -85,7 +81,7 @@ def test_a_run_is_drawn_with_ground_truth_grid_and_markers(scene: DashboardScene
 
 
 def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> None:
-    run = scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    run = scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     view = scene._views[run.run_id]
     nodes = scene._nodes[run.run_id]
@@ -126,8 +122,8 @@ def test_timeline_moves_markers_windows_and_spectra(scene: DashboardScene) -> No
 
 def test_several_models_overlay_and_another_sequence_replaces_them(scene: DashboardScene) -> None:
     predictor = scene.services.predictor
-    first = predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
-    second = predictor.predict_sequence("walks--walk_gt", OTHER_MODEL)
+    first = predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
+    second = predictor.predict_sequence("walks--walk_gt", RunOptions(OTHER_MODEL))
     scene.flush()
     assert scene.shown_run_ids() == [first.run_id, second.run_id]
     colors = {scene._views[r].color for r in scene.shown_run_ids()}
@@ -135,7 +131,7 @@ def test_several_models_overlay_and_another_sequence_replaces_them(scene: Dashbo
     assert OTHER_MODEL in scene.gui_legend.content and "| resnet-tiny" in scene.gui_metrics.content
     # The spectra keep following the FTIN run: the ResNet has no FDL to show.
     assert scene.spectra.gui_run.value.startswith(DEFAULT_SHOWN)
-    other = predictor.predict_sequence("walks--more-imu_only", DEFAULT_MODEL)
+    other = predictor.predict_sequence("walks--more-imu_only", RunOptions(DEFAULT_MODEL))
     scene.flush()
     assert scene.shown_run_ids() == [other.run_id]
     assert not run_nodes(scene, first.run_id) and not run_nodes(scene, second.run_id)
@@ -171,8 +167,8 @@ def test_upload_errors_are_shown_in_the_gui(scene: DashboardScene) -> None:
 
 def test_focus_brings_back_an_earlier_run(scene: DashboardScene) -> None:
     predictor = scene.services.predictor
-    first = predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
-    predictor.predict_sequence("walks--more-imu_only", DEFAULT_MODEL)
+    first = predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
+    predictor.predict_sequence("walks--more-imu_only", RunOptions(DEFAULT_MODEL))
     scene.services.runs.focus(first.run_id)
     scene.flush()
     assert scene.shown_run_ids() == [first.run_id]
@@ -180,7 +176,7 @@ def test_focus_brings_back_an_earlier_run(scene: DashboardScene) -> None:
 
 
 def test_clear_removes_every_node(scene: DashboardScene) -> None:
-    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     scene.gui_clear_scene()
     assert not [n for n in scene.node_names() if n.startswith(("/runs/", "/truth/", "/grid"))]
@@ -197,7 +193,7 @@ def test_the_response_does_not_wait_for_the_drawing(scene: DashboardScene, monke
         real_show(run)
 
     monkeypatch.setattr(scene, "show_run", slow_show)
-    run = scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    run = scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     assert run.run_id not in scene.shown_run_ids()  # answered while the scene still waits
     release.set()
     scene.flush()
@@ -209,8 +205,8 @@ def test_the_response_does_not_wait_for_the_drawing(scene: DashboardScene, monke
 
 def test_a_repeat_replaces_its_predecessor(scene: DashboardScene) -> None:
     predictor = scene.services.predictor
-    runs = [predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL) for _ in range(3)]
-    other = predictor.predict_sequence("walks--walk_gt", OTHER_MODEL)
+    runs = [predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL)) for _ in range(3)]
+    other = predictor.predict_sequence("walks--walk_gt", RunOptions(OTHER_MODEL))
     scene.flush()
     assert scene.shown_run_ids() == [runs[-1].run_id, other.run_id]
     assert not run_nodes(scene, runs[0].run_id) and not run_nodes(scene, runs[1].run_id)
@@ -228,7 +224,7 @@ def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_move
     from ftin.evaluate import score
 
     predictor = scene.services.predictor
-    run = predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    run = predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     header = scene.gui_metrics.content.splitlines()[0]
     assert "Path ratio" in header and "ATE [m]" in header and "ATE evo [m]" in header  # both conventions
@@ -249,8 +245,8 @@ def test_the_metrics_table_has_the_path_ratio_and_flags_a_model_that_barely_move
 
 def test_spectra_of_a_model_without_fdl_hide_the_fdl_plots(scene: DashboardScene) -> None:
     predictor = scene.services.predictor
-    predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
-    predictor.predict_sequence("walks--walk_gt", OTHER_MODEL)
+    predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
+    predictor.predict_sequence("walks--walk_gt", RunOptions(OTHER_MODEL))
     scene.flush()
     assert scene.spectra.gui_channel.visible and scene.spectra.gui_temporal.visible
     scene.spectra.gui_run.value = f"{OTHER_MODEL} on walk_gt"
@@ -261,7 +257,7 @@ def test_spectra_of_a_model_without_fdl_hide_the_fdl_plots(scene: DashboardScene
 
 
 def test_clear_empties_the_plots_the_timeline_and_the_status(scene: DashboardScene) -> None:
-    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     scene.gui_time.value = 5.0
     scene.flush()
@@ -277,10 +273,10 @@ def test_clear_empties_the_plots_the_timeline_and_the_status(scene: DashboardSce
 def test_the_sequence_menu_follows_what_is_shown(scene: DashboardScene, csv_with_gt: bytes) -> None:
     predictor = scene.services.predictor
     scene.gui_sequence.value = "broken"
-    predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     assert scene.gui_sequence.value == "walk_gt"
-    predictor.predict_csv(csv_with_gt, "my_walk.csv", DEFAULT_MODEL)  # e.g. from the upload page
+    predictor.predict_csv(csv_with_gt, "my_walk.csv", RunOptions(DEFAULT_MODEL))  # e.g. from the upload page
     scene.flush()
     assert scene.gui_sequence.value == "my_walk (uploaded)"
     assert f"Showing **{DEFAULT_SHOWN}** on my_walk" in scene.gui_status.content
@@ -292,7 +288,7 @@ def test_the_sequence_menu_follows_what_is_shown(scene: DashboardScene, csv_with
 
 
 def test_slider_moves_coalesce_into_one_redraw(scene: DashboardScene, monkeypatch) -> None:
-    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     calls = []
     real = scene._update_time
@@ -307,7 +303,7 @@ def test_slider_moves_coalesce_into_one_redraw(scene: DashboardScene, monkeypatc
 
 
 def test_play_moves_the_timeline(scene: DashboardScene, wait_for) -> None:
-    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     scene.gui_speed.value = "30×"
     scene.toggle_play()

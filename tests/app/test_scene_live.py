@@ -10,23 +10,18 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from app.services import Services
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 from app.viz.overlay import LIVE
 from app.viz.scene import DashboardScene
 from ftin.data.readers.generic_csv import read
 from ftin.live.replay import sequence_messages
+from tests.utils.scenes import running_scene
 
 
 @pytest.fixture(scope="module")
 def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    services = Services.build(make_settings())
-    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
-    try:
+    with running_scene(make_settings()) as dashboard:
         yield dashboard
-    finally:
-        services.live.stop()
-        dashboard.stop()
 
 
 def _push(scene: DashboardScene, bodies: list[dict]) -> None:

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.services import Services
+from app.services.prediction import RunOptions
 from app.settings import Settings
 from app.viz.overlay import UPLOADS
 from app.viz.palette import START_COLOR
@@ -18,6 +18,7 @@ from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
 from ftin.evaluate import score
 from tests.utils.phone_walk import sensorlogger_walk_zip
+from tests.utils.scenes import empty_scene, running_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
@@ -25,27 +26,22 @@ OTHER_MODEL = "resnet-tiny"
 
 @pytest.fixture(scope="module")
 def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    services = Services.build(make_settings(max_runs=5))
-    dashboard = DashboardScene.start(services, "127.0.0.1", 0)
-    try:
+    with running_scene(make_settings(max_runs=5)) as dashboard:
         yield dashboard
-    finally:
-        dashboard.stop()
 
 
 @pytest.fixture(autouse=True)
 def _empty_scene(scene: DashboardScene) -> None:
-    scene.flush()
-    scene.gui_clear_scene()
+    empty_scene(scene)
 
 
 def test_three_uploads_are_listed_and_the_menus_show_the_one_on_screen(
     scene: DashboardScene, csv_with_gt: bytes
 ) -> None:
     predictor = scene.services.predictor
-    predictor.predict_csv(csv_with_gt, "hall.csv", DEFAULT_MODEL)
-    predictor.predict_csv(csv_with_gt, "stairs.csv", OTHER_MODEL, align="start")
-    last = predictor.predict_csv(csv_with_gt, "garden.csv", OTHER_MODEL, align="se2")
+    predictor.predict_csv(csv_with_gt, "hall.csv", RunOptions(DEFAULT_MODEL))
+    predictor.predict_csv(csv_with_gt, "stairs.csv", RunOptions(OTHER_MODEL, align="start"))
+    last = predictor.predict_csv(csv_with_gt, "garden.csv", RunOptions(OTHER_MODEL, align="se2"))
     scene.flush()
     assert UPLOADS in scene.gui_dataset.options and scene.gui_dataset.value == UPLOADS
     assert {"hall (uploaded)", "stairs (uploaded)", "garden (uploaded)"} <= set(scene.gui_sequence.options)
@@ -63,7 +59,7 @@ def test_three_uploads_are_listed_and_the_menus_show_the_one_on_screen(
     assert scene.gui_dataset.value == UPLOADS and scene.gui_sequence.value == "hall (uploaded)"
 
     # A bundled sequence next: the Dataset menu follows it, the uploads stay listed.
-    predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     assert scene.gui_dataset.value == "CSV recordings in walks" and scene.gui_sequence.value == "walk_gt"
     assert scene._checked_models() == [DEFAULT_MODEL] and UPLOADS in scene.gui_dataset.options
@@ -74,19 +70,19 @@ def test_uploads_of_the_same_name_are_told_apart_and_dropped_with_their_runs(
 ) -> None:
     predictor = scene.services.predictor
     shorter = sample_frame.iloc[:1500].to_csv(index=False).encode()
-    predictor.predict_csv(csv_with_gt, "walk.csv", DEFAULT_MODEL)
-    predictor.predict_csv(shorter, "walk.csv", DEFAULT_MODEL)
+    predictor.predict_csv(csv_with_gt, "walk.csv", RunOptions(DEFAULT_MODEL))
+    predictor.predict_csv(shorter, "walk.csv", RunOptions(DEFAULT_MODEL))
     scene.flush()
     walks = [label for label in scene.gui_sequence.options if label.startswith("walk (uploaded")]
     assert len(walks) == 2 and len(set(walks)) == 2  # two recordings, two labels (the upload time)
     for _ in range(6):  # max_runs=5: the server forgets the first uploads, and so does the menu
-        predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+        predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     assert UPLOADS not in scene.gui_dataset.options
 
 
 def test_clear_resets_the_timeline_range(scene: DashboardScene) -> None:
-    scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
     assert scene.gui_time.max == pytest.approx(19.99)
     scene.gui_clear_scene()
@@ -94,7 +90,7 @@ def test_clear_resets_the_timeline_range(scene: DashboardScene) -> None:
 
 
 def test_one_green_start_when_the_prediction_is_aligned_away_from_the_truth(scene: DashboardScene) -> None:
-    run = scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL, align="se2")
+    run = scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL, align="se2"))
     scene.flush()
     handles = scene.server.scene._handle_from_node_name
     assert tuple(handles["/truth/start"].color) == START_COLOR
@@ -103,7 +99,7 @@ def test_one_green_start_when_the_prediction_is_aligned_away_from_the_truth(scen
 
 
 def test_worse_than_standing_still_is_flagged_in_words(scene: DashboardScene) -> None:
-    run = scene.services.predictor.predict_sequence("walks--walk_gt", DEFAULT_MODEL)
+    run = scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     pred = run.prediction
     still = Trajectory(pred.trajectory.t_s, np.repeat(pred.trajectory.p_world_m[:1], len(pred.trajectory), 0))
     standing = replace(pred, trajectory=still)
@@ -119,7 +115,9 @@ def test_worse_than_standing_still_is_flagged_in_words(scene: DashboardScene) ->
 
 
 def test_a_phone_walk_shows_its_plausibility_and_gps(scene: DashboardScene) -> None:
-    run = scene.services.predictor.predict_csv(sensorlogger_walk_zip(), "phone_walk.zip", DEFAULT_MODEL)
+    run = scene.services.predictor.predict_csv(
+        sensorlogger_walk_zip(), "phone_walk.zip", RunOptions(DEFAULT_MODEL)
+    )
     scene.flush()
     assert run.plausibility.gps is not None
     assert {"/gps", "/gps/track", "/gps/fixes"} <= set(scene.node_names())

@@ -12,6 +12,7 @@ import pytest
 from fastapi.testclient import TestClient
 from scipy.spatial.transform import Rotation
 
+from app.services.prediction import RunOptions
 from ftin.data.trajectory_io import read_tum
 from tests.data.test_phone_exports import phyphox_export, sensor_logger, zip_bytes
 
@@ -93,7 +94,7 @@ def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
     predictor = client.app.state.services.predictor
     seq = predictor.read_upload(data, "mocap.csv")
     gt_before = seq.gt.p_world_m.copy()
-    first = predictor.predict_imu(seq, DEFAULT_MODEL)
+    first = predictor.predict_imu(seq, RunOptions(DEFAULT_MODEL))
     # The sequence is the one given (its orientation as the choice applied it: auto keeps the file's
     # without a magnetometer), its truth in the file's frame; the aligned truth is the result's.
     assert first.sequence.gt is seq.gt and first.sequence.q_world_device_wxyz is seq.q_world_device_wxyz
@@ -102,7 +103,7 @@ def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
     assert first.score.fit.alignment.value == "start" and first.metrics is first.score.metrics
     assert np.abs(first.truth.p_world_m - gt_before).max() > 1.0
     # Running another model on the run's own sequence scores exactly as running on the file.
-    again = predictor.predict_imu(first.sequence, DEFAULT_MODEL)
+    again = predictor.predict_imu(first.sequence, RunOptions(DEFAULT_MODEL))
     assert again.metrics.values == first.metrics.values
     np.testing.assert_allclose(again.truth.p_world_m, first.truth.p_world_m)
 

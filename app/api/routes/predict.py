@@ -11,8 +11,6 @@ when the request arrives (504 when it passes).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query, Request
@@ -24,8 +22,7 @@ from app.api.deps import AlignQuery, ModelQuery, OrientationQuery, RunIdQuery, S
 from app.api.errors import BadRequestError, UnsupportedMediaError
 from app.schemas import ArraysPredictRequest, ErrorResponse, PredictionResponse
 from app.services.errors import InvalidInputError
-from app.services.limits import Deadline
-from app.services.prediction import PredictionService, sequence_from_arrays
+from app.services.prediction import PredictionService, RunOptions, sequence_from_arrays
 from app.services.runs import Run
 from ftin.data.orientation_option import Orientation
 
@@ -72,41 +69,25 @@ _OPENAPI_BODY = {
 }
 
 
-@dataclass(frozen=True)
-class PredictOptions:
-    """The query options every prediction route takes, and the deadline that started with the request."""
-
-    model: str | None
-    run_id: str | None
-    align: str | None
-    deadline: Deadline
-    orientation: str = "auto"
-
-    async def run(self, predict: Callable[..., Run], *args: object) -> Run:
-        """``predict(*args, model=, run_id=, deadline=, align=, orientation=)`` in the threadpool."""
-        return await run_in_threadpool(
-            predict,
-            *args,
-            model=self.model,
-            run_id=self.run_id,
-            deadline=self.deadline,
-            align=self.align,
-            orientation=self.orientation,
-        )
-
-
 def _predict_options(
     services: ServicesDep,
     model: ModelQuery = None,
     run_id: RunIdQuery = None,
     align: AlignQuery = None,
     orientation: OrientationQuery = Orientation.AUTO,
-) -> PredictOptions:
+) -> RunOptions:
+    """The query options every prediction route takes, and the deadline that starts with the request."""
     how = None if align is None else align.value
-    return PredictOptions(model, run_id, how, services.predictor.new_deadline(), orientation.value)
+    return RunOptions(
+        model=model,
+        run_id=run_id,
+        deadline=services.predictor.new_deadline(),
+        align=how,
+        orientation=orientation.value,
+    )
 
 
-PredictOptionsDep = Annotated[PredictOptions, Depends(_predict_options)]
+PredictOptionsDep = Annotated[RunOptions, Depends(_predict_options)]
 
 
 def _describe(exc: ValidationError) -> str:
@@ -117,16 +98,7 @@ def _describe(exc: ValidationError) -> str:
     return "; ".join(parts[:5]) + ("; ..." if len(parts) > 5 else "")
 
 
-def _predict_json(
-    predictor: PredictionService,
-    raw: bytes,
-    *,
-    model: str | None,
-    run_id: str | None,
-    deadline: Deadline,
-    align: str | None,
-    orientation: str = "auto",
-) -> Run:
+def _predict_json(predictor: PredictionService, raw: bytes, options: RunOptions) -> Run:
     try:
         body = ArraysPredictRequest.model_validate_json(raw)
     except ValidationError as exc:
@@ -141,7 +113,7 @@ def _predict_json(
         body.gt_p_world_m,
         body.mag_uT,
     )
-    return predictor.predict_imu(seq, model, run_id, deadline=deadline, align=align, orientation=orientation)
+    return predictor.predict_imu(seq, options)
 
 
 @router.post(
@@ -173,14 +145,14 @@ async def predict(
                 )
             data = await upload.read()
             filename = name or upload.filename or "upload.csv"
-        run = await options.run(predictor.predict_csv, data, filename)
+        run = await run_in_threadpool(predictor.predict_csv, data, filename, options)
     elif content_type in _RAW_BODY_TYPES:
         data = await request.body()
         # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
         # recording is named "upload"): never a name the user did not give.
-        run = await options.run(predictor.predict_csv, data, name or RAW_BODY_LABEL)
+        run = await run_in_threadpool(predictor.predict_csv, data, name or RAW_BODY_LABEL, options)
     elif content_type == "application/json":
-        run = await options.run(_predict_json, predictor, await request.body())
+        run = await run_in_threadpool(_predict_json, predictor, await request.body(), options)
     else:
         raise UnsupportedMediaError(
             f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"

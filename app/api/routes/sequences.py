@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Path
+from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep
 from app.api.routes.predict import PredictOptionsDep
@@ -33,5 +34,5 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
 async def predict_sequence(
     sequence_id: SequenceIdPath, services: ServicesDep, options: PredictOptionsDep
 ) -> PredictionResponse:
-    run = await options.run(services.predictor.predict_sequence, sequence_id)
+    run = await run_in_threadpool(services.predictor.predict_sequence, sequence_id, options)
     return PredictionResponse.from_run(run, services.scene_url)

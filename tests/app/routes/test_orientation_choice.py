@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 from fastapi.testclient import TestClient
 
+from app.services.prediction import RunOptions
 from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, arrays_body, detail, upload
 
 
@@ -141,7 +142,7 @@ def test_the_truth_drawn_is_in_the_frame_the_filter_ran_in(
     # VQF replaces the file's attitude: the ground truth turns into VQF's world with it (the run keeps
     # the oriented sequence), so the truth drawn is the one scored, not the file's.
     data = _with_magnetometer(sample_frame).to_csv(index=False).encode()
-    run = client.app.state.services.predictor.predict_csv(data, "walk.csv", orientation="vqf")
+    run = client.app.state.services.predictor.predict_csv(data, "walk.csv", RunOptions(orientation="vqf"))
     scored = run.prediction.truth
     assert run.prediction.orientation_choice["source"] == "vqf"
     np.testing.assert_allclose(run.truth.p_world_m[-1], scored.p_world_m[-1], atol=0.05)
