@@ -20,6 +20,9 @@ Decisions:
   files of their own shape), phone exports 20-30, the generic CSV 0 (last: it accepts any CSV whose
   header names the required columns, RIDI's and RNIN's included).
 * Registering a second module under a format already taken is an error, not a silent replacement.
+* A format whose sequences are folders marked by their own files (RoNIN, TLIO, RNIN) passes its
+  ``layout`` (``ftin.data.io.sequence_folders.MarkedFolderLayout``): the module's ``discover`` and
+  ``claims`` are then the layout's, so such a reader writes only ``read``.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from types import ModuleType
-from typing import TypeVar
+from typing import Any, TypeVar
 
 READERS: dict[str, ModuleType] = {}  # format -> reader module, highest priority first
 PRIORITY: dict[str, int] = {}  # format -> its priority
@@ -35,11 +38,14 @@ PRIORITY: dict[str, int] = {}  # format -> its priority
 ReadFunction = TypeVar("ReadFunction", bound=Callable[..., object])
 
 
-def register_reader(priority: int) -> Callable[[ReadFunction], ReadFunction]:
-    """Decorator on a reader module's ``read``: adds the module to ``READERS`` under its ``FORMAT``."""
+def register_reader(priority: int, layout: Any = None) -> Callable[[ReadFunction], ReadFunction]:
+    """Decorator on a reader module's ``read``: adds the module to ``READERS`` under its ``FORMAT``
+    (with ``layout``, the module's ``discover`` and ``claims`` are the layout's)."""
 
     def register(read: ReadFunction) -> ReadFunction:
         module = sys.modules[read.__module__]
+        if layout is not None:
+            module.discover, module.claims = layout.discover, layout.claims
         fmt = getattr(module, "FORMAT", None)
         if not isinstance(fmt, str) or not fmt:
             raise TypeError(f"{module.__name__}: a reader module defines FORMAT (a non-empty str) above read")

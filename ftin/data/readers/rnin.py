@@ -48,8 +48,6 @@ VIO_COLUMNS = (*(f"vio_p_{a}" for a in "xyz"), *(f"vio_q_{c}" for c in "wxyz"))
 BIAS_COLUMNS = (*(f"vio_gyro_bias_{a}" for a in "xyz"), *(f"vio_acce_bias_{a}" for a in "xyz"))
 
 LAYOUT = MarkedFolderLayout(required=(DATA_FILE,), members=(DATA_FILE,))
-claims = LAYOUT.claims
-discover = LAYOUT.discover
 
 
 def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
@@ -58,7 +56,7 @@ def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
     return bool(identity_start or np.array_equal(q_wxyz[0], q_wxyz[-1]))
 
 
-@register_reader(priority=40)
+@register_reader(priority=40, layout=LAYOUT)
 def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
     """Read one RNIN-VIO sequence; ``path`` is its folder (or its ``SenseINS.csv``)."""
     folder = LAYOUT.sequence_dir(path)

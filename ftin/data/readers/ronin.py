@@ -61,8 +61,6 @@ INFO_FILE = "info.json"
 MAX_ALIGNMENT_TILT_DEG = 5.0
 
 LAYOUT = MarkedFolderLayout(required=(DATA_FILE, INFO_FILE), members=(DATA_FILE, INFO_FILE))
-claims = LAYOUT.claims
-discover = LAYOUT.discover
 
 
 class RoninOrientation(str, Enum):
@@ -117,7 +115,7 @@ def _hdf5_array(
     return array
 
 
-@register_reader(priority=80)
+@register_reader(priority=80, layout=LAYOUT)
 def read(
     path: Path,
     orientation: RoninOrientation | str = RoninOrientation.GAME_RV,

@@ -70,8 +70,6 @@ PUBLISHED_DESCRIPTION = (
 )
 
 LAYOUT = MarkedFolderLayout(required=(DATA_FILE,), members=(DATA_FILE, DESCRIPTION_FILE, CALIBRATION_FILE))
-claims = LAYOUT.claims
-discover = LAYOUT.discover
 
 
 class Calibration(str, Enum):
@@ -133,7 +131,7 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return result
 
 
-@register_reader(priority=50)
+@register_reader(priority=50, layout=LAYOUT)
 def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSequence:
     """Read one TLIO sequence; ``path`` is its folder (or its ``imu0_resampled.npy``)."""
     calibration = Calibration(calibration)
