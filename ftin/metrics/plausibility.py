@@ -160,32 +160,41 @@ FIGURES: tuple[Figure, ...] = (
 )
 
 
-GPS_FIGURES: tuple[Figure, ...] = (
-    Figure("gps_fixes", "fixes", "GPS fixes in the export's Location.csv.", lambda w: w.gps and w.gps.fixes),
-    Figure(
-        "gps_path_length",
-        "m",
-        "Length of the GPS track (one fix a second, smoothed over 5 s against the fixes' jitter).",
-        lambda w: w.gps and w.gps.path_m,
-    ),
-    Figure(
-        "gps_median_accuracy",
-        "m",
-        "Median horizontal accuracy the phone reported for its fixes (about one standard deviation).",
-        lambda w: w.gps and w.gps.median_accuracy_m,
-    ),
-    Figure(
-        "gps_distance_rms",
-        "m",
-        "RMS distance between the prediction and the GPS fixes, aligned on the first 30 s of the walk.",
-        lambda w: w.gps and w.gps.distance_rms_m,
-    ),
-    Figure(
-        "gps_final_distance",
-        "m",
-        "Distance between the prediction and the GPS at the last common fix (after the start alignment).",
-        lambda w: w.gps and w.gps.final_distance_m,
-    ),
+def _gps_figure(name: str, unit: str, description: str, field: str) -> Figure:
+    """A figure read off the GPS comparison (``ftin.metrics.gps``); None without GPS."""
+    return Figure(name, unit, description, lambda w: w.gps and getattr(w.gps, field))
+
+
+# (name, unit, description, field of the GPS comparison)
+GPS_FIGURES: tuple[Figure, ...] = tuple(
+    _gps_figure(*row)
+    for row in (
+        ("gps_fixes", "fixes", "GPS fixes in the export's Location.csv.", "fixes"),
+        (
+            "gps_path_length",
+            "m",
+            "Length of the GPS track (one fix a second, smoothed over 5 s against the fixes' jitter).",
+            "path_m",
+        ),
+        (
+            "gps_median_accuracy",
+            "m",
+            "Median horizontal accuracy the phone reported for its fixes (about one standard deviation).",
+            "median_accuracy_m",
+        ),
+        (
+            "gps_distance_rms",
+            "m",
+            "RMS distance between the prediction and the GPS fixes, aligned on the first 30 s of the walk.",
+            "distance_rms_m",
+        ),
+        (
+            "gps_final_distance",
+            "m",
+            "Distance between the prediction and the GPS at the last common fix (after the start alignment).",
+            "final_distance_m",
+        ),
+    )
 )
 
 
