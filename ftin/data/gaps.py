@@ -53,13 +53,21 @@ class Gap:
         return self.end_s - self.start_s
 
 
-def find_gaps(t_s: np.ndarray, factor: float = GAP_FACTOR) -> list[Gap]:
-    """Every interval longer than ``factor`` times the median interval, in time order."""
+def find_gaps(t_s: np.ndarray, factor: float = GAP_FACTOR, floor_s: float = 0.0) -> list[Gap]:
+    """Every interval longer than ``factor`` times the median interval (and than ``floor_s``), in
+    time order."""
     if len(t_s) < 3:
         return []
     dt = np.diff(t_s)
-    median = float(np.median(dt))
-    return [Gap(int(i), float(t_s[i]), float(t_s[i + 1])) for i in np.flatnonzero(dt > factor * median)]
+    threshold = max(factor * float(np.median(dt)), floor_s)
+    return [Gap(int(i), float(t_s[i]), float(t_s[i + 1])) for i in np.flatnonzero(dt > threshold)]
+
+
+def sort_gaps(gaps: list[Gap]) -> tuple[list[Gap], list[Gap], list[Gap]]:
+    """``(bridged, held, too_long)`` by the rule of the module docstring."""
+    bridged = [g for g in gaps if g.duration_s <= BRIDGE_MAX_S]
+    held = [g for g in gaps if BRIDGE_MAX_S < g.duration_s <= HOLD_MAX_S]
+    return bridged, held, [g for g in gaps if g.duration_s > HOLD_MAX_S]
 
 
 def drop_repeated_rows(seq: ImuSequence) -> tuple[ImuSequence, np.ndarray | None]:
@@ -126,8 +134,7 @@ def mend_clock(
     warnings: list[str] = []
     if repeated:
         notes.append(f"dropped {repeated} repeated row(s) (same timestamp and values as the row before)")
-    gaps = find_gaps(seq.t_s, factor)
-    too_long = [g for g in gaps if g.duration_s > HOLD_MAX_S]
+    bridged, held, too_long = sort_gaps(find_gaps(seq.t_s, factor))
     if too_long:
         g = too_long[0]
         raise DataFormatError(
@@ -135,8 +142,6 @@ def mend_clock(
             f"and {row_label(g.index + 1)} (t={g.end_s:.10g} s), more than {HOLD_MAX_S:g} s: these are two "
             f"recordings; split the file there and predict each ({len(too_long)} such gap(s))"
         )
-    bridged = [g for g in gaps if g.duration_s <= BRIDGE_MAX_S]
-    held = [g for g in gaps if g.duration_s > BRIDGE_MAX_S]
     if bridged:
         notes.append(describe_bridged(bridged, row_label))
     warnings.extend(describe_hole(g, row_label) for g in held)

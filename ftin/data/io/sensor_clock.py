@@ -62,33 +62,35 @@ def clean_series(series: SensorSeries, source: str, warnings: list[str]) -> Sens
     return SensorSeries(series.name, t, v)
 
 
-def _gap_threshold_s(series: SensorSeries) -> float:
-    return max(5.0 * float(np.median(np.diff(series.t_s))), 0.05)
+# A phone sensor's gap: over 5x its median interval and over 50 ms (one batch's jitter is not a gap).
+MIN_SENSOR_GAP_S = 0.05
+
+
+def _sensor_gaps(series: SensorSeries) -> list[gaps.Gap]:
+    return gaps.find_gaps(series.t_s, gaps.GAP_FACTOR, MIN_SENSOR_GAP_S)
 
 
 def _check_gaps(series: SensorSeries, source: str, warnings: list[str]) -> None:
     """Gaps of one sensor, by the rule every input follows (``ftin.data.gaps``): bridged with a note,
     held with a warning (``held_holes`` puts them in the sequence's meta), refused past a minute."""
-    dt = np.diff(series.t_s)
-    found = np.flatnonzero(dt > _gap_threshold_s(series))
-    if not found.size:
-        return
-    worst = int(found[np.argmax(dt[found])])
-    if dt[worst] > gaps.HOLD_MAX_S:
+    bridged, held, too_long = gaps.sort_gaps(_sensor_gaps(series))
+    if too_long:
+        worst = max(too_long, key=lambda g: g.duration_s)
         raise DataFormatError(
-            f"{source}: {series.name} has no data for {dt[worst]:.1f} s from t = {series.t_s[worst]:.2f} s "
-            f"(more than {gaps.HOLD_MAX_S:g} s): the sensor stopped recording; these are two recordings"
+            f"{source}: {series.name} has no data for {worst.duration_s:.1f} s from "
+            f"t = {worst.start_s:.2f} s (more than {gaps.HOLD_MAX_S:g} s): the sensor stopped recording; "
+            "these are two recordings"
         )
-    bridged = found[dt[found] <= gaps.BRIDGE_MAX_S]
-    if bridged.size:
-        longest = int(bridged[np.argmax(dt[bridged])])
+    if bridged:
+        longest = max(bridged, key=lambda g: g.duration_s)
         warnings.append(
-            f"bridged {bridged.size} gap(s) in {series.name} by interpolation: {dt[bridged].sum():.3g} s in "
-            f"all, the longest {dt[longest] * 1000:.0f} ms at t = {series.t_s[longest]:.2f} s"
+            f"bridged {len(bridged)} gap(s) in {series.name} by interpolation: "
+            f"{sum(g.duration_s for g in bridged):.3g} s in all, the longest "
+            f"{longest.duration_s * 1000:.0f} ms at t = {longest.start_s:.2f} s"
         )
-    for i in found[dt[found] > gaps.BRIDGE_MAX_S]:
+    for g in held:
         warnings.append(
-            f"{series.name}: no data for {dt[i]:.1f} s from t = {series.t_s[i]:.2f} s: the walk there is "
+            f"{series.name}: no data for {g.duration_s:.1f} s from t = {g.start_s:.2f} s: the walk there is "
             "unknown; the parts on either side are predicted separately and the trajectory holds its "
             "position across the hole"
         )
@@ -97,12 +99,9 @@ def _check_gaps(series: SensorSeries, source: str, warnings: list[str]) -> None:
 def held_holes(required: list[SensorSeries], clock: np.ndarray) -> list[list[float]]:
     """``[[start, end], ...]`` on ``clock``'s time axis: the holes longer than ``gaps.BRIDGE_MAX_S`` in
     any required sensor (``meta["holes_s"]``)."""
-    holes = []
-    for series in required:
-        dt = np.diff(series.t_s)
-        for i in np.flatnonzero((dt > _gap_threshold_s(series)) & (dt > gaps.BRIDGE_MAX_S)):
-            holes.append([float(series.t_s[i]), float(series.t_s[i + 1])])
-    return sorted(holes)
+    return sorted(
+        [g.start_s, g.end_s] for series in required for g in gaps.sort_gaps(_sensor_gaps(series))[1]
+    )
 
 
 def _interval_means(series: SensorSeries, grid_s: np.ndarray, step_s: float) -> np.ndarray:
