@@ -30,6 +30,7 @@ from ftin.interrupts import stop_on_signals
 
 RETRIES = 3  # a task whose worker died runs again this many times
 STOP_GRACE_S = 120.0  # how long cancelled jobs get to write their resume state
+POLL_S = 0.25  # how often the driver looks for finished jobs and a stop request
 THREAD_ENV = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
@@ -102,7 +103,9 @@ def run(
     with ray_session(address, workers) as ray, stop_on_signals(stop):
         slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
         ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # train_job, by value
-        task = ray.remote(train_job)
+        # A fresh worker per job (max_calls=1): a cancel that lands while a worker still imports torch
+        # leaves a half-initialised module behind that fails the next job on that worker.
+        task = ray.remote(max_calls=1)(train_job)
         device = "cuda" if gpus_per_job > 0 else "cpu"
         in_flight: dict[Any, str] = {}
         while True:
@@ -129,7 +132,7 @@ def run(
                     ray.cancel(ref)  # a SIGINT in the worker: the job saves and returns
                 _collect(ray, campaign, in_flight, outcomes, on_event, timeout=STOP_GRACE_S, wait_all=True)
                 break
-            _collect(ray, campaign, in_flight, outcomes, on_event, timeout=1.0)
+            _collect(ray, campaign, in_flight, outcomes, on_event, timeout=POLL_S)
     return outcomes
 
 

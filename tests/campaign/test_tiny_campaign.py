@@ -1,4 +1,4 @@
-"""A tiny campaign end to end on a local Ray: two one-epoch jobs, stopped while they train and run
+"""A tiny campaign end to end on a local Ray: two three-epoch jobs, stopped while they train and run
 again, collected to the same records as a campaign that ran without a stop."""
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from ftin.campaign.status import campaign_status  # noqa: E402
 from ftin.sim.samples import write_walks  # noqa: E402
 from ftin.train.state import RESUME_FILE  # noqa: E402
 
+EPOCHS = 3
 TIMING_KEYS = {"wall_time_s", "finished", "elapsed_s"}  # the only fields a stop may change
 
 
@@ -35,7 +36,9 @@ def jobs_file(tmp_path_factory) -> Path:
         "window": 50,
         "stride": 5,
         "batch_size": 16,
-        "max_epochs": 1,
+        # Three short epochs: the stop is set during the first, and the driver's poll plus Ray's cancel
+        # must land before the last step (one epoch was not always long enough on a fast machine).
+        "max_epochs": EPOCHS,
         "orientation": None,
         "save_every_min": 1e-4,  # a resume state after (almost) every step: the stop lands mid-epoch
     }
@@ -108,7 +111,7 @@ def test_a_stopped_campaign_resumes_to_the_records_of_an_uninterrupted_one(ray_l
     assert set(expected) == {"walks__ronin_tcn-s0.json", "walks__ronin_tcn-s1.json", "manifest.json"}
     assert got == expected
     training = expected["walks__ronin_tcn-s0.json"]["training"]
-    assert training["epochs"] == 1 and training["stop_reason"] == "max_epochs"
+    assert training["epochs"] == EPOCHS and training["stop_reason"] == "max_epochs"
     rows = expected["walks__ronin_tcn-s0.json"]["evaluation"]["parts"]["walks/test/ground_truth"]
     assert len(rows) == 1 and rows[0]["stand_still"]["ate"] > 0 and rows[0]["path_length_ratio"] is not None
 
