@@ -49,8 +49,11 @@ SIM = "sim"
 COMBINED = {PEDESTRIAN: (OXIOD, RIDI), WALKING: (OXIOD, RIDI, INRIA)}
 # Where each dataset lives under the data root (the Inria reader reads ``<platform>/<walk>`` folders).
 DATA_FOLDERS = {OXIOD: "oxiod", RIDI: "ridi", INRIA: "inria_attitude/datasets"}
-# Orientation sources a dataset's test and validation parts are scored with.
-EVAL_ORIENTATIONS = {d: ("ground_truth", "device") for d in DATA_FOLDERS}
+# Orientation sources a dataset's test and validation parts are scored with: the reference (the network
+# alone), the phone's own attitude, and ``PHONE_ONLY``: the recording as a phone alone gives it (its
+# attitude removed; ``auto`` chooses from gyroscope, accelerometer and magnetometer), what a user has.
+PHONE_ONLY = "phone_only"
+EVAL_ORIENTATIONS = {d: ("ground_truth", "device", PHONE_ONLY) for d in DATA_FOLDERS}
 
 _INRIA_MOTIONS = (
     *(f"{dist}_{m}" for dist in ("Dist", "NoDist") for m in ("AR", "BackPocket", "FrontPocket")),

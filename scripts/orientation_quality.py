@@ -49,6 +49,7 @@ from ftin.data.orientation_choice import (
     heading_drift_deg,
     orientation_evidence,
 )
+from ftin.data.orientation_option import phone_only
 from ftin.data.preprocess import estimate_orientation
 from ftin.data.readers import inria_attitude
 from ftin.data.types import ImuSequence
@@ -88,12 +89,6 @@ def kind_of(dataset: str, seq: ImuSequence) -> str:
     if dataset == "inria":
         return f"{carry}, {'Dist' if seq.meta['magnetic_disturbance'] else 'NoDist'}"
     return carry
-
-
-def phone_only(seq: ImuSequence) -> ImuSequence:
-    """The recording as a phone export without orientation gives it: no attitude of its own."""
-    meta = {k: v for k, v in seq.meta.items() if k != "orientation_source"}
-    return seq.with_(q_world_device_wxyz=None, meta=meta)
 
 
 def with_sources(seq: ImuSequence, strip: bool = False) -> dict[str, ImuSequence]:

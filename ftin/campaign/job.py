@@ -34,6 +34,7 @@ from ftin.campaign.folder import (
 )
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
+from ftin.data.orientation_option import Orientation, apply_orientation, phone_only
 from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
 from ftin.report.evaluation import evaluate_checkpoints
 from ftin.report.results import DatasetSpec, LoadedDataset
@@ -107,13 +108,14 @@ def summary(job: protocol.Job, result: Any) -> dict[str, Any]:
 
 def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, Any]:
     """Per-recording metrics of the best checkpoint on the job's validation and test parts, each
-    orientation source, with the stand-still baseline (``ftin.report.evaluation``, RoNIN convention)."""
+    orientation source (``protocol.EVAL_ORIENTATIONS``), with the stand-still baseline
+    (``ftin.report.evaluation``, RoNIN convention)."""
     datasets = []
     for dataset, part, orientations in job.evaluation_sets():
         paths = job.paths(root, part, dataset)
         for orientation in orientations:
             key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
-            sequences = load_sequences(paths, f"{key}:", orientation)
+            sequences = evaluation_sequences(paths, key, orientation)
             datasets.append(LoadedDataset(DatasetSpec(key, tuple(paths)), sequences))
     results = evaluate_checkpoints([load_model(checkpoint)], datasets, Convention.RONIN)
     reports = results.checkpoints[0].reports
@@ -133,6 +135,15 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
             )
         parts[dataset.name] = rows
     return {"checkpoint": checkpoint.name, "convention": Convention.RONIN.value, "parts": parts}
+
+
+def evaluation_sequences(paths: list[Path], key: str, orientation: str | None) -> list[Any]:
+    """The part's recordings read for ``orientation``; ``protocol.PHONE_ONLY``: read with the phone's
+    attitude, which is then removed, and oriented by ``auto`` from what a phone alone gives."""
+    if orientation != protocol.PHONE_ONLY:
+        return load_sequences(paths, f"{key}:", orientation)
+    phone = load_sequences(paths, f"{key}:", Orientation.DEVICE.value)
+    return [apply_orientation(phone_only(seq), Orientation.AUTO) for seq in phone]
 
 
 def make_sim_data(folder: Path) -> None:

@@ -67,6 +67,13 @@ def reader_orientation(choice: Orientation | str | None) -> str:
     return "ground_truth" if parse_orientation(choice) is Orientation.GROUND_TRUTH else "device"
 
 
+def phone_only(seq: ImuSequence) -> ImuSequence:
+    """The recording as a phone export without orientation gives it: no attitude of its own (its
+    reference, where it has one, stays for scoring)."""
+    meta = {k: v for k, v in seq.meta.items() if k != "orientation_source"}
+    return seq.with_(q_world_device_wxyz=None, meta=meta)
+
+
 def _own_is_reference(seq: ImuSequence) -> bool:
     return seq.q_world_device_wxyz is not None and seq.meta.get("orientation_source") == "ground_truth"
 

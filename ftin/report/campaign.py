@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.metrics import HEADLINE, HEADLINE_METRIC, Better, get_metric, list_metrics
-from ftin.protocol import ABLATIONS, COMBINED, COMPARED, OXIOD, RIDI
+from ftin.protocol import ABLATIONS, COMBINED, COMPARED, OXIOD, PHONE_ONLY, RIDI
 from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
@@ -57,7 +57,9 @@ METRICS = tuple(m.name for m in list_metrics(in_tables=True))
 ORIENTATIONS = {
     "ground_truth": "ground-truth orientation (the network alone)",
     "device": "device orientation (what the phone gives)",
+    PHONE_ONLY: "phone only (no attitude: `auto` from the phone's own sensors)",
 }
+SOURCE_LABELS = {"ground_truth": "ground truth", "device": "device", PHONE_ONLY: "phone only"}
 
 
 @dataclass(frozen=True)
@@ -259,7 +261,7 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
                         gated = i == 0 and f"{column.model_name}-{dataset}" in refused
                         texts.append(text + " †" if gated else text)
                 name = ("OxIOD" if dataset == OXIOD else "RIDI") if i == 0 else ""
-                source = ("ground truth" if orientation == "ground_truth" else "device") if i == 0 else ""
+                source = SOURCE_LABELS[orientation] if i == 0 else ""
                 lines.append("| " + " | ".join([name, source, label, *texts]) + " |")
     if refused:
         lines += [

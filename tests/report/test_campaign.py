@@ -62,3 +62,19 @@ def test_render_opens_with_the_paper_layout_of_the_test_results(folder):
     assert cells[column["FTIN vs RoNIN ResNet"]] == "28.1%"  # (1.60 - 1.15) / 1.60
     assert cells[column["RoNIN LSTM"]] == "3.000 †" and "† not shipped" in layout
     assert cells[column["RoNIN TCN"]] == "—"
+
+
+def test_phone_only_rows_follow_ground_truth_and_device(folder):
+    results, manifest = load_results(folder)
+    for result in results:  # as a job of the second campaign scores itself: a phone alone, too
+        parts = result.record["evaluation"]["parts"]
+        for key in [k for k in parts if k.endswith("/device")]:
+            parts[key.replace("/device", "/phone_only")] = [
+                {**row, "ate": 2 * row["ate"]} for row in parts[key]
+            ]
+    md, _, summary = render(results, manifest)
+    layout = md.split("## Test recordings, in the layout of the paper's Table 1")[1].split("\n## ")[0]
+    sources = [line.split("|")[2].strip() for line in layout.splitlines() if line.startswith("| OxIOD")]
+    assert sources == ["ground truth", "device", "phone only"]
+    assert summary["datasets"]["oxiod"]["test/phone_only"]["ftin"]["ate"]["mean"] == pytest.approx(2 * 1.15)
+    assert "### OxIOD, test, phone only (no attitude" in md
