@@ -169,9 +169,11 @@ class Campaign:
         marker = self.job_dir(job) / CODE_FILE
         if marker.exists():
             return self.runs / marker.read_text().strip()
+        # The state file, not this object's copy: `plan --refresh-code` may have run beside a running driver.
+        code = read_json(self.runs / STATE_FILE)["code"]
         marker.parent.mkdir(parents=True, exist_ok=True)
-        marker.write_text(self.state["code"] + "\n")
-        return self.runs / self.state["code"]
+        marker.write_text(code + "\n")
+        return self.runs / code
 
     def choose_variant(self) -> str | None:
         """FTIN's TDL variant for the ``table1`` campaign, once both variants' seed-0 runs are done."""

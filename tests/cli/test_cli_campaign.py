@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
+from ftin.campaign.folder import Campaign
 from ftin.cli import app
 from tests.utils.cli import fails_cleanly, runner
 
@@ -67,3 +68,18 @@ def test_run_without_ray_says_how_to_install_it(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails as on a machine without the extra
     result = runner.invoke(app, ["campaign", "run", "--runs", str(tmp_path)])
     fails_cleanly(result, 'pip install -e ".[cluster]"')
+
+
+def test_a_running_driver_starts_new_jobs_on_code_refreshed_beside_it(tmp_path):
+    runs = tmp_path / "runs"
+    args = ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path), "--jobs"]
+    assert runner.invoke(app, [*args, str(_jobs_file(tmp_path))]).exit_code == 0
+    driver = Campaign(runs)  # what `campaign run` holds while it runs
+    first, second = driver.jobs()
+    assert driver.code_for(first).name == driver.state["code"]
+    # `plan --refresh-code` in another process froze newer code (a new folder named in the state)
+    state = json.loads((runs / "campaign.json").read_text())
+    state["code"] = "code-newer"
+    (runs / "campaign.json").write_text(json.dumps(state))
+    assert driver.code_for(second).name == "code-newer"  # the job not yet started takes it
+    assert driver.code_for(first).name != "code-newer"  # a started job keeps the code it started on
