@@ -4,11 +4,12 @@ Every job is one Ray task (one CPU, ``gpus_per_job`` GPUs) that runs ``ftin.camp
 on the job's frozen code, the copy in the campaign folder, first on the task's path (Ray takes a
 local ``working_dir`` only for a whole driver, not per task, and the campaign folder must be shared
 by every node anyway: results and checkpoints land in one folder). Jobs on different copies run in
-different worker processes (their runtime environments differ). A worker that dies is
-retried (``RETRIES``) and its job continues from its last resume state. Stopping the driver (Ctrl-C,
-SIGTERM, ``stop``) cancels the running tasks: each job writes its resume state at its next step and
-the next ``run`` continues it. Jobs come from ``Campaign.pending`` each time a slot frees, so a
-choice made on finished jobs (FTIN's variant) adds its jobs while the campaign runs.
+different worker processes (their runtime environments differ); every job gets a fresh worker. A
+worker that dies is retried (``RETRIES``) and its job continues from its last resume state. Stopping
+the driver (Ctrl-C, SIGTERM, ``stop``) cancels the running tasks: each job writes its resume state at
+its next step and the next ``run`` continues it; a task that does not return within ``STOP_GRACE_S``
+is killed. Jobs come from ``Campaign.pending`` each time a slot frees, so a choice made on finished
+jobs (FTIN's variant) adds its jobs while the campaign runs.
 
 Ray Tune would add trial folders, its own checkpoints and a second resume mechanism on top of the
 training loop's; plain tasks keep one run folder and one resume state per job.
@@ -128,12 +129,33 @@ def run(
             if not in_flight:
                 break
             if stop.is_set():
-                for ref in in_flight:
-                    ray.cancel(ref)  # a SIGINT in the worker: the job saves and returns
-                _collect(ray, campaign, in_flight, outcomes, on_event, timeout=STOP_GRACE_S, wait_all=True)
+                stop_in_flight(ray, campaign, in_flight, outcomes, on_event, grace_s=STOP_GRACE_S)
                 break
             _collect(ray, campaign, in_flight, outcomes, on_event, timeout=POLL_S)
     return outcomes
+
+
+def stop_in_flight(
+    ray: Any,
+    campaign: Campaign,
+    in_flight: dict[Any, str],
+    outcomes: dict[str, str],
+    on_event: Callable[[str], None],
+    *,
+    grace_s: float,
+) -> None:
+    """Cancel every running job: it saves its resume state at its next step and returns. One that has
+    not returned within ``grace_s`` is killed: it had no safe point (still reading its data, where a
+    cancel was seen to be lost and the worker to outlive its driver, holding the job's lock) and loses
+    nothing since its last saved state."""
+    for ref in in_flight:
+        ray.cancel(ref)  # a KeyboardInterrupt in the worker: the training loop stops at its next step
+    _collect(ray, campaign, in_flight, outcomes, on_event, timeout=grace_s, wait_all=True)
+    for ref, name in list(in_flight.items()):
+        ray.cancel(ref, force=True)  # the worker process ends
+        del in_flight[ref]
+        outcomes[name] = f"killed: no safe point within {grace_s:.0f} s (resumes from its last saved state)"
+        on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcomes[name]}")
 
 
 def _collect(

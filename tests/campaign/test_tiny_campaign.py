@@ -4,6 +4,7 @@ again, collected to the same records as a campaign that ran without a stop."""
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 from pathlib import Path
@@ -127,3 +128,38 @@ def test_a_stopped_campaign_resumes_to_the_records_of_an_uninterrupted_one(ray_l
     else:
         assert manifest["not_shipped"]["ronin_tcn-walks"]["refused"] and not written
         assert not (checkpoints / "ronin_tcn-walks.md").exists()
+
+
+def _stubborn(pid_file: str) -> str:
+    """A task that swallows the cancel, as a worker still reading its data was seen to do."""
+    Path(pid_file).write_text(str(os.getpid()))
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        try:
+            time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+    return "done"
+
+
+def test_a_job_that_ignores_the_stop_is_killed_after_the_grace(ray_local, jobs_file, tmp_path):
+    campaign = Campaign.create(tmp_path / "c", jobs_file.parent, jobs_file)
+    pid_file = tmp_path / "pid"
+    ref = ray_local.remote(max_calls=1)(_stubborn).remote(str(pid_file))
+    deadline = time.monotonic() + 60
+    while not pid_file.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    in_flight, outcomes, events = {ref: "walks/ronin_tcn-s0"}, {}, []
+    started = time.monotonic()
+    engine.stop_in_flight(ray_local, campaign, in_flight, outcomes, events.append, grace_s=2.0)
+    assert time.monotonic() - started < 30  # not the task's 60 s
+    assert not in_flight and outcomes["walks/ronin_tcn-s0"].startswith("killed: no safe point within 2 s")
+    pid = int(pid_file.read_text())
+    while time.monotonic() < deadline:  # the worker process is gone, not left holding the job
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        raise AssertionError(f"worker {pid} still alive after the kill")
