@@ -2,8 +2,10 @@
 
 plan (create the campaign folder, freeze the code) -> run (the jobs on a local Ray or a cluster;
 again after any interruption) -> status -> collect (records + manifest) -> ship (checkpoints and
-model cards) -> table (Table 1 from the records). Expected failures print one ``error:`` line and
-exit with status 2; so does ``run`` without Ray installed, naming the extra to install.
+model cards) -> table (Table 1 from the records); crossval reads the generalisation campaign's
+records instead (walker-held-out validation per arm and walker, paired comparisons). Expected
+failures print one ``error:`` line and exit with status 2; so does ``run`` without Ray installed,
+naming the extra to install.
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
 from ftin.cli.common import REPORT_ERRORS, AddressOption, app, out_console, user_errors
+from ftin.report.crossval_render import crossval_report
 
 campaign_app = typer.Typer(
     help="The training campaign of the protocol (docs/results/protocol.md) on Ray: plan, run, status, "
-    'collect, ship, table. Needs the extra: pip install -e ".\\[cluster]".',
+    'collect, ship, table, crossval. Needs the extra: pip install -e ".\\[cluster]".',
     no_args_is_help=True,
 )
 app.add_typer(campaign_app, name="campaign")
@@ -208,6 +211,25 @@ def table_command(
 
     with user_errors(*CAMPAIGN_ERRORS):
         written = campaign_table(results, out)
+    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    for path in written:
+        typer.echo(f"wrote {path}")
+
+
+@campaign_app.command("crossval")
+def crossval_command(
+    results: Annotated[
+        Path, typer.Option("--results", help="Folder of the generalisation campaign's per-job records.")
+    ] = Path("docs/results/generalisation"),
+    out: Annotated[
+        Path, typer.Option("--out", help="Folder for crossval.md, crossval.json and crossval.png.")
+    ] = Path("docs/results/generalisation"),
+) -> None:
+    """Walker-wise cross-validation of the generalisation campaign (its test parts are not read).
+
+    Validation per arm and per walker, and paired comparisons with a walker-clustered bootstrap."""
+    with user_errors(*CAMPAIGN_ERRORS):
+        written = crossval_report(results, out)
     out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
     for path in written:
         typer.echo(f"wrote {path}")
