@@ -5,7 +5,8 @@ A record is ``{"training": done.json, "history": history.json, "evaluation": eva
 ``<results>/<job name with / as __>.json``. Per checkpoint name (``<model>-<dataset>``) the seed with
 the best validation MSE is the candidate; it ships if it passes ``protocol.validation_gate``, else
 an earlier checkpoint of that name is withdrawn (a model that has not learned to walk is not hosted).
-FTIN's candidates are the variant validation chose.
+FTIN's candidates are the variant validation chose. Walker-fold jobs are recorded but never shipped
+(``ftin campaign crossval`` compares them).
 """
 
 from __future__ import annotations
@@ -49,6 +50,8 @@ def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> di
             continue
         record = job_record(campaign, job)
         write_json(results / record_name(job.name), record)
+        if job.fold is not None:
+            continue  # a walker fold trained without its validation walkers: compared, never shipped
         if job.model == "ftin" and variant is not None and job.variant != variant:
             continue
         val = record["training"]["best_val_mse"]
