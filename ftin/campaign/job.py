@@ -33,8 +33,7 @@ from ftin.campaign.folder import (
     write_json,
 )
 from ftin.checkpoint import load_model
-from ftin.data.loading import load_sequences
-from ftin.data.orientation_option import Orientation, apply_orientation, phone_only
+from ftin.data.loading import load_phone_only, load_sequences
 from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
 from ftin.report.evaluation import evaluate_checkpoints
 from ftin.report.results import DatasetSpec, LoadedDataset
@@ -138,12 +137,10 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
 
 
 def evaluation_sequences(paths: list[Path], key: str, orientation: str | None) -> list[Any]:
-    """The part's recordings read for ``orientation``; ``protocol.PHONE_ONLY``: read with the phone's
-    attitude, which is then removed, and oriented by ``auto`` from what a phone alone gives."""
-    if orientation != protocol.PHONE_ONLY:
-        return load_sequences(paths, f"{key}:", orientation)
-    phone = load_sequences(paths, f"{key}:", Orientation.DEVICE.value)
-    return [apply_orientation(phone_only(seq), Orientation.AUTO) for seq in phone]
+    """The part's recordings read for ``orientation`` (``protocol.PHONE_ONLY``: a phone alone)."""
+    if orientation == protocol.PHONE_ONLY:
+        return load_phone_only(paths, f"{key}:")
+    return load_sequences(paths, f"{key}:", orientation)
 
 
 def make_sim_data(folder: Path) -> None:

@@ -1,7 +1,8 @@
 """Sequences as training and evaluation take them: read from paths, split, prepared for windowing.
 
 * ``load_sequences(paths)``: every sequence in files and folders (the CLI's ``--data``, the report's
-  datasets, the campaign); ``read_one``: one recording, read for an orientation choice.
+  datasets, the campaign); ``read_one``: one recording, read for an orientation choice;
+  ``load_phone_only``: the recordings as a phone alone gives them, oriented by ``auto``.
 * ``split_validation``: a seeded hold-out of whole sequences (training without ``--val``).
 
 Preparing a sequence for a model (orientation, rate, world frame) is ``ftin.data.prepare.prepare``,
@@ -19,7 +20,13 @@ import numpy as np
 
 from ftin.data.discovery import SequenceRef, detect_format, list_sequences, read_sequence
 from ftin.data.errors import DataFormatError
-from ftin.data.orientation_option import READERS_WITH_REFERENCE, reader_orientation
+from ftin.data.orientation_option import (
+    READERS_WITH_REFERENCE,
+    Orientation,
+    apply_orientation,
+    phone_only,
+    reader_orientation,
+)
 from ftin.data.readers import READERS
 from ftin.data.types import ImuSequence
 
@@ -47,6 +54,14 @@ def read_one(ref_or_path: Any, orientation: str | None = None) -> ImuSequence:
             if len(refs) == 1:
                 ref_or_path, fmt = refs[0], refs[0].format
     return read_sequence(ref_or_path, **reader_options(fmt, orientation))
+
+
+def load_phone_only(paths: Sequence[str | Path], option: str = "--data") -> list[ImuSequence]:
+    """Every sequence in ``paths`` as a phone alone gives it (its attitude removed, its reference kept
+    for scoring), oriented by ``auto`` from gyroscope, accelerometer and magnetometer: what a user who
+    uploads a bare recording gets."""
+    read = load_sequences(paths, option, Orientation.DEVICE.value)
+    return [apply_orientation(phone_only(seq), Orientation.AUTO) for seq in read]
 
 
 def load_sequences(
