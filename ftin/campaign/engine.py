@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 from ftin.campaign import INSTALL_HINT, CampaignError
@@ -100,7 +101,6 @@ def run(
     """Run every pending job, ``workers`` at a time (default: the cluster's CPUs); each job's outcome
     by name (``done``, a training stop reason, ``failed: ...``)."""
     stop = stop or threading.Event()
-    outcomes: dict[str, str] = {}
     with ray_session(address, workers) as ray, stop_on_signals(stop):
         slots = workers or max(int(ray.cluster_resources().get("CPU", 1)), 1)
         ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # train_job, by value
@@ -108,11 +108,11 @@ def run(
         # leaves a half-initialised module behind that fails the next job on that worker.
         task = ray.remote(max_calls=1)(train_job)
         device = "cuda" if gpus_per_job > 0 else "cpu"
-        in_flight: dict[Any, str] = {}
+        jobs = InFlight(ray, campaign, on_event)
         while True:
             if not stop.is_set():
-                busy = set(in_flight.values()) | set(outcomes)
-                for job in [j for j in campaign.pending() if j.name not in busy][: slots - len(in_flight)]:
+                busy = set(jobs.refs.values()) | set(jobs.outcomes)
+                for job in [j for j in campaign.pending() if j.name not in busy][: slots - len(jobs.refs)]:
                     code = campaign.code_for(job).resolve()
                     env = {"PYTHONPATH": str(code), **{name: str(threads) for name in THREAD_ENV}}
                     ref = task.options(
@@ -124,65 +124,63 @@ def run(
                     ).remote(
                         str(code), str(campaign.runs), job.to_json(), str(campaign.data_root), device, threads
                     )
-                    in_flight[ref] = job.name
+                    jobs.refs[ref] = job.name
                     on_event(f"{job.name}: submitted (code {code.name})")
-            if not in_flight:
+            if not jobs.refs:
                 break
             if stop.is_set():
-                stop_in_flight(ray, campaign, in_flight, outcomes, on_event, grace_s=STOP_GRACE_S)
+                jobs.stop(grace_s=STOP_GRACE_S)
                 break
-            _collect(ray, campaign, in_flight, outcomes, on_event, timeout=POLL_S)
-    return outcomes
+            jobs.collect(timeout=POLL_S)
+    return jobs.outcomes
 
 
-def stop_in_flight(
-    ray: Any,
-    campaign: Campaign,
-    in_flight: dict[Any, str],
-    outcomes: dict[str, str],
-    on_event: Callable[[str], None],
-    *,
-    grace_s: float,
-) -> None:
-    """Cancel every running job: it saves its resume state at its next step and returns. One that has
-    not returned within ``grace_s`` is killed: it had no safe point (still reading its data, where a
-    cancel was seen to be lost and the worker to outlive its driver, holding the job's lock) and loses
-    nothing since its last saved state."""
-    for ref in in_flight:
-        ray.cancel(ref)  # a KeyboardInterrupt in the worker: the training loop stops at its next step
-    _collect(ray, campaign, in_flight, outcomes, on_event, timeout=grace_s, wait_all=True)
-    for ref, name in list(in_flight.items()):
-        ray.cancel(ref, force=True)  # the worker process ends
-        del in_flight[ref]
-        outcomes[name] = f"killed: no safe point within {grace_s:.0f} s (resumes from its last saved state)"
-        on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcomes[name]}")
+@dataclass
+class InFlight:
+    """The jobs a driver has submitted and not yet heard back from, and the outcomes heard so far."""
 
+    ray: Any
+    campaign: Campaign
+    on_event: Callable[[str], None]
+    refs: dict[Any, str] = field(default_factory=dict)  # Ray object ref -> job name
+    outcomes: dict[str, str] = field(default_factory=dict)
 
-def _collect(
-    ray: Any,
-    campaign: Campaign,
-    in_flight: dict[Any, str],
-    outcomes: dict[str, str],
-    on_event: Callable[[str], None],
-    *,
-    timeout: float,
-    wait_all: bool = False,
-) -> None:
-    count = len(in_flight) if wait_all else 1
-    ready, _ = ray.wait(list(in_flight), num_returns=count, timeout=timeout)
-    for ref in ready:
-        name = in_flight.pop(ref)
-        try:
-            outcome = ray.get(ref)
-        except ray.exceptions.TaskCancelledError:
-            outcome = "cancelled"
-        except ray.exceptions.RayTaskError as exc:  # the job raised: it wrote failed.json
-            outcome = f"failed: {exc.cause!r}"
-        except ray.exceptions.RayError as exc:  # its worker died more often than RETRIES
-            outcome = f"failed: {type(exc).__name__}"
-            write_json(campaign.runs / name / FAILED_FILE, {"error": str(exc)[:2000]})
-        outcomes[name] = outcome
-        on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcome}")
+    def collect(self, *, timeout: float, wait_all: bool = False) -> None:
+        """Record the outcome of one finished job (every one with ``wait_all``) within ``timeout``."""
+        ray = self.ray
+        count = len(self.refs) if wait_all else 1
+        ready, _ = ray.wait(list(self.refs), num_returns=count, timeout=timeout)
+        for ref in ready:
+            name = self.refs.pop(ref)
+            try:
+                outcome = ray.get(ref)
+            except ray.exceptions.TaskCancelledError:
+                outcome = "cancelled"
+            except ray.exceptions.RayTaskError as exc:  # the job raised: it wrote failed.json
+                outcome = f"failed: {exc.cause!r}"
+            except ray.exceptions.RayError as exc:  # its worker died more often than RETRIES
+                outcome = f"failed: {type(exc).__name__}"
+                write_json(self.campaign.runs / name / FAILED_FILE, {"error": str(exc)[:2000]})
+            self._record(name, outcome)
+
+    def stop(self, *, grace_s: float) -> None:
+        """Cancel every running job: it saves its resume state at its next step and returns. One that
+        has not returned within ``grace_s`` is killed: it had no safe point (still reading its data,
+        where a cancel was seen to be lost and the worker to outlive its driver, holding the job's
+        lock) and loses nothing since its last saved state."""
+        for ref in self.refs:
+            self.ray.cancel(ref)  # a KeyboardInterrupt in the worker: training stops at its next step
+        self.collect(timeout=grace_s, wait_all=True)
+        for ref, name in list(self.refs.items()):
+            self.ray.cancel(ref, force=True)  # the worker process ends
+            del self.refs[ref]
+            self._record(
+                name, f"killed: no safe point within {grace_s:.0f} s (resumes from its last saved state)"
+            )
+
+    def _record(self, name: str, outcome: str) -> None:
+        self.outcomes[name] = outcome
+        self.on_event(f"{time.strftime('%H:%M:%S')} {name}: {outcome}")
 
 
 def map_tasks(

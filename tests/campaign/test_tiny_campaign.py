@@ -149,11 +149,14 @@ def test_a_job_that_ignores_the_stop_is_killed_after_the_grace(ray_local, jobs_f
     deadline = time.monotonic() + 60
     while not pid_file.exists() and time.monotonic() < deadline:
         time.sleep(0.05)
-    in_flight, outcomes, events = {ref: "walks/ronin_tcn-s0"}, {}, []
+    events: list[str] = []
+    jobs = engine.InFlight(ray_local, campaign, events.append, refs={ref: "walks/ronin_tcn-s0"})
     started = time.monotonic()
-    engine.stop_in_flight(ray_local, campaign, in_flight, outcomes, events.append, grace_s=2.0)
+    jobs.stop(grace_s=2.0)
     assert time.monotonic() - started < 30  # not the task's 60 s
-    assert not in_flight and outcomes["walks/ronin_tcn-s0"].startswith("killed: no safe point within 2 s")
+    assert not jobs.refs and jobs.outcomes["walks/ronin_tcn-s0"].startswith(
+        "killed: no safe point within 2 s"
+    )
     pid = int(pid_file.read_text())
     while time.monotonic() < deadline:  # the worker process is gone, not left holding the job
         try:
