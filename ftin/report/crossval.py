@@ -26,8 +26,12 @@ Decisions:
   over all pairs of the drawn walkers, a walker counted as often as it is drawn; the relative change
   sum(ATE a) / sum(ATE b) - 1 on the same resamples). Each row starts its own ``default_rng(0)``, so a
   row's interval does not depend on which rows came before it.
-- Verdict: "a better" / "b better" only where the interval of the mean difference excludes 0 and the
-  pairs come from at least ``MIN_WALKERS`` walkers; otherwise "no difference shown". With five walkers
+- Choice and claim are two things. A choice must take one arm: the one with the lower mean ATE over
+  the pairs (``lower_mean``; the protocol says on which orientation source each choice is made). A
+  claim that one arm is better needs more.
+- Verdict (the claim): "a better" / "b better" only where the interval of the mean difference
+  excludes 0 and the pairs come from at least ``MIN_WALKERS`` walkers; otherwise "no difference
+  shown". With five walkers
   that all agree, a two-sided sign test stands at 6 %, and a percentile bootstrap over so few clusters
   is too narrow; so the per-dataset sub-rows (OxIOD and RIDI have 4 walkers, Inria 2) show a direction
   and an interval, never a winner. Intervals are per row, not corrected for the number of rows.
@@ -401,6 +405,7 @@ def paired_difference(matched: Sequence[Pair], resamples: int = RESAMPLES) -> di
         "relative": float(a.sum() / b.sum() - 1.0),
         "relative_ci95": [float(v) for v in np.percentile(relative_change, [2.5, 97.5])],
         "verdict": verdict(ci95, walkers),
+        "lower_mean": "a" if float(np.mean(a - b)) < 0 else "b",  # what a choice between the two takes
     }
 
 

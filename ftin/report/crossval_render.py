@@ -174,12 +174,13 @@ def _comparison_section(summary: dict[str, Any]) -> str:
             "95 % interval",
             "relative",
             "95 % interval",
+            "lower mean",
             "verdict",
         ]
         lines += [
             f"### {question}: a = `{a}`, b = `{b}`\n",
             _row(header),
-            "|" + "|".join([":--"] * 2 + ["--:"] * 6 + [":--"]) + "|",
+            "|" + "|".join([":--"] * 2 + ["--:"] * 6 + [":--"] * 2) + "|",
         ]
         for row in rows:
             orientation = row["orientation"].replace("_", " ") if row["dataset"] == ALL_DATASETS else ""
@@ -199,6 +200,7 @@ def _comparison_section(summary: dict[str, Any]) -> str:
                         f"{row['ci95_m'][0]:+.3f} … {row['ci95_m'][1]:+.3f}",
                         f"{row['relative']:+.1%}",
                         f"{row['relative_ci95'][0]:+.1%} … {row['relative_ci95'][1]:+.1%}",
+                        f"`{row[row['lower_mean']]}`",
                         _verdict_text(row),
                     ]
                 )

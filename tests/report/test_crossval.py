@@ -173,7 +173,7 @@ def test_a_better_on_every_walker_is_a_better_with_an_interval_around_minus_half
     summary = crossval_summary(load_fold_runs(write_campaign(tmp_path, shifted(-0.5))), resamples=2000)
     row = overall(summary)
     assert row["walkers"] == WALKERS == 10 and row["pairs"] == 2 * (8 + 9)
-    assert row["verdict"] == A_BETTER
+    assert row["verdict"] == A_BETTER and row["lower_mean"] == "a"
     low, high = row["ci95_m"]
     assert -0.55 <= low < row["mean_m"] < high <= -0.45 and row["mean_m"] == pytest.approx(-0.5, abs=0.05)
     assert row["relative_ci95"][0] < row["relative"] < row["relative_ci95"][1] < 0
@@ -190,6 +190,7 @@ def test_one_walker_carrying_the_difference_shows_none_where_a_per_pair_bootstra
     row = overall(crossval_summary(runs, resamples=10_000))
     assert row["mean_m"] < -0.4  # the one walker drags the mean well below 0
     assert row["ci95_m"][0] < 0 < row["ci95_m"][1] and row["verdict"] == NO_DIFFERENCE
+    assert row["lower_mean"] == "a"  # no claim, yet a choice between the two still takes a
     # The naive bootstrap over pairs treats Guillaume's six pairs as six independent pieces of evidence.
     d = np.array([p.a - p.b for p in pairs(validation_scores(runs), A, B, "ground_truth")])
     naive = np.random.default_rng(0).choice(d, size=(10_000, len(d)), replace=True).mean(axis=1)
