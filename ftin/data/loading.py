@@ -23,8 +23,7 @@ from ftin.data.errors import DataFormatError
 from ftin.data.orientation_option import (
     READERS_WITH_REFERENCE,
     Orientation,
-    apply_orientation,
-    phone_only,
+    apply_phone_only,
     reader_orientation,
 )
 from ftin.data.readers import READERS
@@ -57,11 +56,12 @@ def read_one(ref_or_path: Any, orientation: str | None = None) -> ImuSequence:
 
 
 def load_phone_only(paths: Sequence[str | Path], option: str = "--data") -> list[ImuSequence]:
-    """Every sequence in ``paths`` as a phone alone gives it (its attitude removed, its reference kept
-    for scoring), oriented by ``auto`` from gyroscope, accelerometer and magnetometer: what a user who
-    uploads a bare recording gets."""
+    """Every sequence in ``paths`` oriented as a phone alone would be (``auto`` choosing from
+    gyroscope, accelerometer and magnetometer, the phone's attitude unseen): what a user who uploads a
+    bare recording gets, with the reference turned into the estimate's world at the start for scoring
+    (``ftin.data.orientation_option.apply_phone_only``)."""
     read = load_sequences(paths, option, Orientation.DEVICE.value)
-    return [apply_orientation(phone_only(seq), Orientation.AUTO) for seq in read]
+    return [apply_phone_only(seq) for seq in read]
 
 
 def load_sequences(

@@ -74,6 +74,19 @@ def phone_only(seq: ImuSequence) -> ImuSequence:
     return seq.with_(q_world_device_wxyz=None, meta=meta)
 
 
+def apply_phone_only(seq: ImuSequence) -> ImuSequence:
+    """What ``auto`` gives a phone alone, scored as the device rows are: the source is chosen from
+    ``phone_only(seq)`` (the phone's attitude unseen) and the estimate, which reads only gyroscope,
+    accelerometer and magnetometer, runs on ``seq``, so that its ground truth is turned into the
+    estimate's world over the first seconds through the phone's attitude (as the device rows' truth
+    is turned into the phone's world). Without that, the truth's heading would be unrelated to the
+    estimate's and only a fitted alignment could score it."""
+    if _own_is_reference(seq) or seq.q_world_device_wxyz is None:
+        return apply_orientation(seq, Orientation.AUTO)
+    source, reason = choose_orientation(phone_only(seq))
+    return _with_source(seq, Orientation.AUTO, source, reason)
+
+
 def _own_is_reference(seq: ImuSequence) -> bool:
     return seq.q_world_device_wxyz is not None and seq.meta.get("orientation_source") == "ground_truth"
 
