@@ -47,6 +47,8 @@ PEDESTRIAN = "pedestrian"  # OxIOD and RIDI together, at 100 Hz (the first campa
 WALKING = "walking"  # every walking dataset together (OxIOD, RIDI, Inria), at 100 Hz
 SIM = "sim"
 COMBINED = {PEDESTRIAN: (OXIOD, RIDI), WALKING: (OXIOD, RIDI, INRIA)}
+# How reports name the datasets.
+DATASET_LABELS = {OXIOD: "OxIOD", RIDI: "RIDI", INRIA: "Inria"}
 # Where each dataset lives under the data root (the Inria reader reads ``<platform>/<walk>`` folders).
 DATA_FOLDERS = {OXIOD: "oxiod", RIDI: "ridi", INRIA: "inria_attitude/datasets"}
 # Orientation sources a dataset's test and validation parts are scored with: the reference (the network

@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.metrics import HEADLINE, HEADLINE_METRIC, Better, get_metric, list_metrics
-from ftin.protocol import ABLATIONS, COMBINED, COMPARED, OXIOD, PHONE_ONLY, RIDI
+from ftin.protocol import ABLATIONS, COMBINED, COMPARED, DATASET_LABELS, INRIA, OXIOD, PHONE_ONLY, RIDI
 from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
@@ -59,6 +59,8 @@ ORIENTATIONS = {
     "device": "device orientation (what the phone gives)",
     PHONE_ONLY: "phone only (no attitude: `auto` from the phone's own sensors)",
 }
+# Table 1's datasets, in its order (a dataset without records has no rows).
+TABLE_DATASETS = (OXIOD, RIDI, INRIA)
 SOURCE_LABELS = {"ground_truth": "ground truth", "device": "device", PHONE_ONLY: "phone only"}
 
 
@@ -158,17 +160,14 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
     rows_csv: list[list[Any]] = []
     summary: dict[str, Any] = {"ftin_variant": manifest.get("ftin_variant"), "datasets": {}}
     md.write("## Per dataset, part and orientation source\n\n")
-    for dataset in (OXIOD, RIDI):
+    for dataset in TABLE_DATASETS:
         summary["datasets"][dataset] = {}
         for part in ("test", "val"):
             for orientation in ORIENTATIONS:
                 means = per_seed_means(results, dataset, part, orientation)
                 if not means:
                     continue
-                title = (
-                    f"{dataset.upper() if dataset == OXIOD else 'RIDI'}, {part}, {ORIENTATIONS[orientation]}"
-                )
-                md.write(f"### {title.replace('OXIOD', 'OxIOD')}\n\n")
+                md.write(f"### {DATASET_LABELS[dataset]}, {part}, {ORIENTATIONS[orientation]}\n\n")
                 md.write("| model | n | " + " | ".join(get_metric(m).header for m in METRICS) + " |\n")
                 md.write("|---|---|" + "---|" * len(METRICS) + "\n")
                 key = f"{part}/{orientation}"
@@ -238,7 +237,7 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
         "| " + " | ".join(header) + " |",
         "|" + "|".join([":--"] * 3 + ["--:"] * len(PAPER_COLUMNS)) + "|",
     ]
-    for dataset in (OXIOD, RIDI):
+    for dataset in TABLE_DATASETS:
         for orientation in ORIENTATIONS:
             cells = summary["datasets"].get(dataset, {}).get(f"test/{orientation}")
             if not cells:
@@ -260,7 +259,7 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
                         text = f"**{text}**" if is_bold else text
                         gated = i == 0 and f"{column.model_name}-{dataset}" in refused
                         texts.append(text + " †" if gated else text)
-                name = ("OxIOD" if dataset == OXIOD else "RIDI") if i == 0 else ""
+                name = DATASET_LABELS[dataset] if i == 0 else ""
                 source = SOURCE_LABELS[orientation] if i == 0 else ""
                 lines.append("| " + " | ".join([name, source, label, *texts]) + " |")
     if refused:
@@ -314,7 +313,7 @@ def _cell(stats: dict[str, Any] | None, metric: str) -> str:
 def ate_figure(summary: dict[str, Any]) -> Any:
     """Test headline ATE per model (ground-truth orientation), mean ± sd over seeds, stand still as a line."""
     ate = HEADLINE_METRIC
-    datasets = [d for d in (OXIOD, RIDI) if "test/ground_truth" in summary["datasets"].get(d, {})]
+    datasets = [d for d in TABLE_DATASETS if "test/ground_truth" in summary["datasets"].get(d, {})]
     fig = Figure(figsize=(5.2 * max(len(datasets), 1), 4.2))
     for i, dataset in enumerate(datasets):
         ax = fig.add_subplot(1, len(datasets), i + 1)
@@ -346,7 +345,7 @@ def ate_figure(summary: dict[str, Any]) -> Any:
                 fontsize=8,
             )
         ax.set_ylabel(f"test {get_metric(ate).header} (RoNIN convention)")
-        ax.set_title(f"{'OxIOD' if dataset == OXIOD else 'RIDI'} test, ground-truth orientation", fontsize=10)
+        ax.set_title(f"{DATASET_LABELS[dataset]} test, ground-truth orientation", fontsize=10)
         ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     return fig

@@ -55,7 +55,7 @@ from ftin.report.campaign import ORIENTATIONS
 ATE = "ate"  # the records' headline metric: RoNIN convention (no alignment, horizontal)
 VALIDATION_PART = "val"
 DATASETS = protocol.COMBINED[protocol.WALKING]  # oxiod, ridi, inria: the order of every per-dataset column
-DATASET_LABELS = {protocol.OXIOD: "OxIOD", protocol.RIDI: "RIDI", protocol.INRIA: "Inria"}
+DATASET_LABELS = protocol.DATASET_LABELS
 ORIENTATION_LABELS = ORIENTATIONS
 GROUND_TRUTH = "ground_truth"
 BOTH_FOLDS = "both folds"

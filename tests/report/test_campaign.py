@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from ftin.report.campaign import load_results, paired_difference, per_seed_means, render
-from tests.utils.tables import write_campaign_results
+from tests.utils.tables import campaign_record, write_campaign_results
 
 
 @pytest.fixture
@@ -78,3 +80,20 @@ def test_phone_only_rows_follow_ground_truth_and_device(folder):
     assert sources == ["ground truth", "device", "phone only"]
     assert summary["datasets"]["oxiod"]["test/phone_only"]["ftin"]["ate"]["mean"] == pytest.approx(2 * 1.15)
     assert "### OxIOD, test, phone only (no attitude" in md
+
+
+def test_a_walking_model_fills_an_inria_column_and_a_row_of_its_own(folder):
+    walking = campaign_record("ftin", "walking", 0, (0.5, 0.7), "ordered")
+    walking["evaluation"]["parts"] = {  # a walking job is scored on every member's parts
+        key.replace("walking", member): rows
+        for key, rows in walking["evaluation"]["parts"].items()
+        for member in ("oxiod", "ridi", "inria")
+    }
+    (folder / "walking__ftin-ordered-s0.json").write_text(json.dumps(walking))
+    results, manifest = load_results(folder)
+    md, _, summary = render(results, manifest)
+    assert summary["datasets"]["inria"]["test/ground_truth"]["ftin-walking"]["ate"]["mean"] == 0.6
+    assert "### Inria, test, ground-truth orientation" in md
+    assert "| FTIN-walking (every walking dataset) | 1 | 0.600 |" in md
+    layout = md.split("## Test recordings, in the layout of the paper's Table 1")[1].split("\n## ")[0]
+    assert [line.split("|")[1].strip() for line in layout.splitlines() if "| ATE |" in line][-1] == "Inria"

@@ -63,7 +63,7 @@ def write_two_of_one_model(directory: Path) -> Path:
 RECORDINGS = ("a", "b")
 
 
-def _record(model, dataset, seed, ates, variant=None):
+def campaign_record(model, dataset, seed, ates, variant=None):
     rows = [
         {
             "name": name,
@@ -94,12 +94,12 @@ def write_campaign_results(folder: Path) -> Path:
     the shipping gate)."""
     folder.mkdir(parents=True, exist_ok=True)
     records = [
-        _record("ftin", "oxiod", 0, (1.0, 1.2), "ordered"),
-        _record("ftin", "oxiod", 1, (1.1, 1.3), "ordered"),
-        _record("ftin", "oxiod", 0, (5.0, 5.0), "mixed"),  # the variant validation did not choose
-        _record("ronin_resnet", "oxiod", 0, (1.5, 1.6)),
-        _record("ronin_resnet", "oxiod", 1, (1.4, 1.9)),
-        _record("ronin_lstm", "oxiod", 0, (3.0, 3.0)),
+        campaign_record("ftin", "oxiod", 0, (1.0, 1.2), "ordered"),
+        campaign_record("ftin", "oxiod", 1, (1.1, 1.3), "ordered"),
+        campaign_record("ftin", "oxiod", 0, (5.0, 5.0), "mixed"),  # the variant validation did not choose
+        campaign_record("ronin_resnet", "oxiod", 0, (1.5, 1.6)),
+        campaign_record("ronin_resnet", "oxiod", 1, (1.4, 1.9)),
+        campaign_record("ronin_lstm", "oxiod", 0, (3.0, 3.0)),
     ]
     for i, record in enumerate(records):
         (folder / f"oxiod__{i}.json").write_text(json.dumps(record))
