@@ -199,6 +199,7 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
                         f"(95 % bootstrap interval {diff['ci95'][0]:+.3f} … {diff['ci95'][1]:+.3f}; "
                         f"{diff['pairs']} pairs, seeds {diff['seeds']}; negative = FTIN better)\n"
                     )
+                md.write(path_ratio_table(results, dataset, part, orientation, order))
                 md.write("\n")
     out = io.StringIO()
     writer = csv.writer(out)
@@ -224,6 +225,32 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
     )
     refused = set(manifest.get("not_shipped", {}))
     return head + paper_layout_markdown(summary, refused) + md.getvalue(), out.getvalue(), summary
+
+
+def path_ratio_table(
+    results: Sequence[JobResult], dataset: str, part: str, orientation: str, order: Sequence[str]
+) -> str:
+    """Each recording's path ratio per model (mean over seeds): where a model walks too short or too
+    far, which the part's mean hides. Folded (``<details>``): a part may hold dozens of recordings."""
+    ratios: dict[str, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    for result in results:
+        if dataset not in COMBINED.get(result.dataset, (result.dataset,)):
+            continue
+        for row in result.rows(dataset, part, orientation):
+            if row.get("path_length_ratio") is not None:
+                ratios[row["name"]][result.model].append(row["path_length_ratio"])
+    models = [m for m in order if any(m in by_model for by_model in ratios.values())]
+    if not ratios:
+        return ""
+    lines = [
+        "\n<details><summary>Path ratio per recording (mean over seeds)</summary>\n",
+        "| recording | " + " | ".join(LABELS.get(m, m) for m in models) + " |",
+        "|---|" + "---|" * len(models),
+    ]
+    for name in sorted(ratios):
+        cells = [f"{np.mean(ratios[name][m]):.2f}" if ratios[name].get(m) else "—" for m in models]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n\n</details>\n"
 
 
 def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()) -> str:
