@@ -270,9 +270,10 @@ def arm_cell(
 
 
 def stand_still_cell(scores: Sequence[Score], folds: tuple[int, ...]) -> dict[str, Any] | None:
-    """The predictor that never moves on a scope's recordings (it depends on no arm and no seed)."""
+    """The predictor that never moves on a scope's recordings (it depends on no arm and no seed); None
+    until every fold of the scope has records, as for the arms."""
     unique = {(s.fold, s.dataset, s.recording): s.stand_still_ate for s in scores if s.fold in folds}
-    if not unique:
+    if not unique or {fold for fold, _, _ in unique} != set(folds):
         return None
     datasets = {}
     for dataset in DATASETS:

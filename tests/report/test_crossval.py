@@ -287,3 +287,12 @@ def test_the_command_writes_the_three_files_and_refuses_a_folder_without_fold_re
     empty.mkdir()
     bad = runner.invoke(app, ["campaign", "crossval", "--results", str(empty), "--out", str(out)])
     fails_cleanly(bad, "no records of a walker-fold job")
+
+
+def test_a_campaign_with_one_fold_done_has_no_both_folds_rows(tmp_path):
+    for seed in (0, 1):
+        write_record(tmp_path, A, 0, seed, baseline_ate)
+    validation = crossval_summary(load_fold_runs(tmp_path), resamples=200)["validation"]["ground_truth"]
+    assert validation["stand_still"]["fold 0"] is not None
+    assert validation["stand_still"]["both folds"] is None and validation["stand_still"]["fold 1"] is None
+    assert validation["arms"][A]["both folds"] is None
