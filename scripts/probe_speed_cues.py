@@ -5,10 +5,12 @@
         --out docs/results/probes/speed_cues.md
 
 Windows: the validation recordings of ``ftin.protocol`` (OxIOD and RIDI, ground-truth orientation,
-never the test part), each at the checkpoint's rate, every ``--stride`` samples, kept where the
-walker moves. For every checkpoint and dataset, the change of the mean predicted speed when the
-zero-mean part of one acceleration component is scaled (x0, x0.5, x1.5), and when the window is
-time-warped so the step frequency changes (x0.8, x1.25) at unchanged amplitudes.
+never the test part; with ``--fold K`` those of walker fold K, for the generalisation campaign's
+fold-K runs, which never trained on them, and Inria's too), each at the checkpoint's rate, every
+``--stride`` samples, kept where the walker moves. For every checkpoint and dataset, the change of
+the mean predicted speed when the zero-mean part of one acceleration component is scaled (x0, x0.5,
+x1.5), and when the window is time-warped so the step frequency changes (x0.8, x1.25) at unchanged
+amplitudes.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from ftin.analysis.speed_cues import speed_cue_probe, window_predictor
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
-from ftin.protocol import OXIOD, RIDI, split_paths
+from ftin.protocol import INRIA, OXIOD, RIDI, split_paths
 
 DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 LABELS = {"vertical": "vertical bounce", "cross_track": "cross-track swing", "along_track": "along-track"}
@@ -37,11 +39,13 @@ def main() -> None:
     parser.add_argument("--stride", type=int, default=20, help="samples between probed windows")
     parser.add_argument("--out", type=Path, default=None, help="markdown table (default: print only)")
     parser.add_argument("--title", default="Speed-cue probe")
+    parser.add_argument("--fold", type=int, default=None, help="walker fold's validation walkers")
     args = parser.parse_args()
     torch.set_num_threads(1)
+    names = (OXIOD, RIDI) if args.fold is None else (OXIOD, RIDI, INRIA)
     datasets = {
-        name: load_sequences(split_paths(args.data_root, name, "val"), orientation="ground_truth")
-        for name in (OXIOD, RIDI)
+        name: load_sequences(split_paths(args.data_root, name, "val", args.fold), orientation="ground_truth")
+        for name in names
     }
     columns, results = [], {}
     stems = [Path(p).name.removesuffix(".safetensors") for p in args.checkpoint]
@@ -56,14 +60,14 @@ def main() -> None:
             results[column] = speed_cue_probe(predict, prepared, loaded.window, args.stride)
             print(f"{column}: {results[column][0].windows} windows", flush=True)
     first = results[columns[0]]
+    where = f"fold {args.fold}'s validation walkers" if args.fold is not None else "validation recordings"
     lines = [
         f"# {args.title}",
         "",
         "Change of the mean predicted speed (%) over moving windows (true speed >= 0.3 m/s) of the "
-        "protocol's validation recordings (OxIOD: "
-        + ", ".join(s.name for s in datasets[OXIOD])
-        + "; RIDI: "
-        + ", ".join(s.name for s in datasets[RIDI])
+        + where
+        + " ("
+        + "; ".join(f"{name}: " + ", ".join(s.name for s in seqs) for name, seqs in datasets.items())
         + "), world frame, ground-truth "
         "orientation. Amplitude rows scale only the zero-mean part of one acceleration component; "
         "cadence rows resample the window from a span x0.8 / x1.25 as long, so the step frequency "
