@@ -215,7 +215,8 @@ def _verdict_text(row: dict[str, Any]) -> str:
     if row["verdict"] == B_BETTER:
         return f"**`{row['b']}` better**"
     if row["walkers"] < MIN_WALKERS:
-        return f"{NO_DIFFERENCE} ({row['walkers']} walkers: too few for a verdict)"
+        walkers = f"{row['walkers']} walker{'s' if row['walkers'] != 1 else ''}"
+        return f"{NO_DIFFERENCE} ({walkers}: too few for a verdict)"
     return NO_DIFFERENCE
 
 
