@@ -64,6 +64,7 @@ ARMS: dict[str, dict[str, float | None]] = {
     "noise": {"acc_noise": None, "gyro_noise": None},
     "vertical": {"vertical": None},
     "orientation": {"orientation": None},
+    "mirror": {"mirror": None},
     "all": {
         "shift": None,
         "acc_bias": None,
@@ -76,7 +77,7 @@ ARMS: dict[str, dict[str, float | None]] = {
     },
 }
 BASELINE = "yaw_only"
-ORDER = ("vertical", "all", "orientation", "tilt", "bias", "noise", "shift")  # the likeliest first
+ORDER = ("vertical", "all", "orientation", "tilt", "bias", "noise", "shift", "mirror")  # likeliest first
 
 
 def paths(split: list[tuple[str, str]], root: Path) -> list[Path]:

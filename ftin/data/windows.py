@@ -59,6 +59,10 @@ class WindowAugmentation(Protocol):
         self, starts: np.ndarray, lowest: np.ndarray, highest: np.ndarray, indices: np.ndarray, epoch: int
     ) -> np.ndarray: ...
 
+    def mirror(
+        self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
     def before_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
 
     def after_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
@@ -325,6 +329,7 @@ class WindowDataset(torch.utils.data.Dataset):
         x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
         v = self._targets_at(starts)
         if aug is not None:
+            x, v = aug.mirror(x, v, indices, self.epoch)
             x = aug.before_yaw(x, indices, self.epoch)
         if self.augment_yaw:
             x, v = rotate_yaw(x, v, self._angles[indices])

@@ -20,11 +20,16 @@ Decisions:
   factor uniform in ``1 ± magnitude`` (0.7-1.3). The horizontal motion, and so the target, is
   untouched: gait and carry change the bounce at a given speed, so the bounce alone must not be read
   as speed. Its window mean (gravity) stays.
+- ``mirror`` (ours): with probability ``magnitude`` (0.5) the window is reflected through a vertical
+  plane: acceleration and target velocity change the sign of their y component, the gyroscope (an axial
+  vector) those of x and z. The mirror image of a walk is a walk (the bag on the other shoulder, the
+  loop turned the other way); a model must not learn the side a carrier swings to, nor a preferred
+  turning direction, from a few walkers. Before yaw, which then turns the plane anywhere.
 - ``orientation`` (ours): the error of a phone's own attitude estimate over one window: a heading
   error ramping linearly from 0 to up to ``± magnitude`` degrees (3) across the window, and a tilt
   about a random horizontal axis ramping to up to half that (gravity keeps tilt better observed than
   heading). The error starts at 0, so the window's start frame is the true one and the targets stay.
-Order: vertical (motion) before yaw (done by the dataset), then orientation and tilt (the input's
+Order: mirror and vertical (motion) before yaw (done by the dataset), then orientation and tilt (the input's
 rotation), then bias and noise (the sensor).
 """
 
@@ -47,6 +52,7 @@ AUGMENTATIONS: dict[str, float] = {
     "gyro_noise": 0.01,  # rad/s
     "vertical": 0.3,  # fraction: scale in [1 - m, 1 + m]
     "orientation": 3.0,  # degrees of heading error at the window's end
+    "mirror": 0.5,  # probability that a window is mirrored
 }
 _SALT = {name: i + 1 for i, name in enumerate(AUGMENTATIONS)}  # one RNG stream per augmentation
 
@@ -60,6 +66,8 @@ def resolve_augment(augment: Mapping[str, Any] | None) -> dict[str, float]:
         magnitude = AUGMENTATIONS[name] if value is None else value
         if isinstance(magnitude, bool) or not isinstance(magnitude, (int, float)) or not magnitude > 0:
             raise ValueError(f"augmentation {name}: magnitude must be a number > 0, got {value!r}")
+        if name == "mirror" and magnitude > 1:
+            raise ValueError(f"augmentation mirror: magnitude is a probability (<= 1), got {value}")
         if name == "vertical" and magnitude >= 1:
             raise ValueError(f"augmentation vertical: magnitude must be < 1 (a scale 1 ± m), got {value}")
         resolved[name] = float(magnitude)
@@ -137,6 +145,21 @@ class WindowAugmenter:
             return starts
         steps = np.array([self._rng("shift", epoch, i).integers(-reach, reach + 1) for i in indices])
         return np.clip(starts + steps.astype(np.int64), lowest, highest)
+
+    def mirror(
+        self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Windows ``(B, 6, L)`` and targets ``(B, [K,] D)`` reflected through the x-z plane, each with
+        probability ``mirror`` (module docstring). Returns new arrays."""
+        if "mirror" not in self.magnitudes:
+            return x, v
+        draw = (self._uniform("mirror", epoch, indices, 1)[:, 0] + 1.0) / 2.0  # [0, 1)
+        flip = draw < self.magnitudes["mirror"]
+        x, v = np.array(x, copy=True), np.array(v, copy=True)
+        sign_x = np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0], dtype=x.dtype)  # gyro x, y, z; acc x, y, z
+        x[flip] *= sign_x[None, :, None]
+        v[flip, ..., 1] *= -1
+        return x, v
 
     def before_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray:
         """The motion's own variations (vertical bounce scale)."""

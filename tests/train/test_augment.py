@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
+from ftin.data import frames
+from ftin.data.types import Trajectory
 from ftin.data.windows import WindowDataset
 from ftin.train.augment import AUGMENTATIONS, WindowAugmenter, parse_augment, scale_acc_component
 from ftin.train.config import ConfigError, TrainConfig
@@ -141,7 +144,12 @@ def test_scale_acc_component_along_any_direction():
 
 @pytest.mark.parametrize(
     ("augment", "fragment"),
-    [({"jitter": None}, "unknown augmentation 'jitter'"), ({"tilt": -1}, "tilt"), ({"vertical": 1.5}, "< 1")],
+    [
+        ({"jitter": None}, "unknown augmentation 'jitter'"),
+        ({"tilt": -1}, "tilt"),
+        ({"vertical": 1.5}, "< 1"),
+        ({"mirror": 2}, "probability"),
+    ],
 )
 def test_bad_augment_options_are_config_errors(augment, fragment):
     with pytest.raises(ConfigError, match=fragment):
@@ -167,3 +175,32 @@ def test_training_applies_the_configured_augmentations(sim_sequences, tmp_path):
     data = training_data(config, sim_sequences[:2], sim_sequences[2:], parts=1, out_dim=2, ddp=Distributed())
     assert data.train.augmenter.magnitudes == {"shift": 0.5, "vertical": 0.2}
     assert data.val.augmenter is None  # validation windows are never augmented
+
+
+def _mirrored(seq):
+    """The same walk seen in a mirror (the x-z plane): its world, device frame and path reflected."""
+    m = np.diag([1.0, -1.0, 1.0])
+    reflect = lambda q: frames.wxyz_from_rotation(  # noqa: E731
+        Rotation.from_matrix(m @ frames.rotation_from_wxyz(q).as_matrix() @ m)
+    )
+    gt = seq.gt
+    q_gt = None if gt.q_world_body_wxyz is None else reflect(gt.q_world_body_wxyz)
+    return seq.with_(
+        acc_m_s2=seq.acc_m_s2 @ m,
+        gyro_rad_s=-(seq.gyro_rad_s @ m),  # an axial vector
+        q_world_device_wxyz=reflect(seq.q_world_device_wxyz),
+        gt=Trajectory(gt.t_s.copy(), gt.p_world_m @ m, q_gt, gt.tracked),
+    )
+
+
+def test_mirror_gives_the_windows_of_the_walk_seen_in_a_mirror(sim_sequences):
+    x0, v0, x1, v1 = batches(sim_sequences, {"mirror": 0.5})
+    mirrored = WindowDataset([_mirrored(s) for s in sim_sequences], WINDOW, STRIDE, augment_yaw=False)
+    xm, vm = (t.numpy() for t in mirrored.get_batch(INDICES))
+    flipped = ~np.all(x1 == x0, axis=(1, 2))
+    assert 8 <= flipped.sum() <= 32  # about half of 40 windows
+    np.testing.assert_allclose(x1[flipped], xm[flipped], atol=1e-4)
+    np.testing.assert_allclose(v1[flipped], vm[flipped], atol=1e-5)
+    np.testing.assert_array_equal(x1[~flipped], x0[~flipped])
+    np.testing.assert_array_equal(v1[~flipped], v0[~flipped])
+    assert np.abs(vm[..., 1]).max() > 0.1  # the targets do move sideways: the test can see a sign
