@@ -2,6 +2,7 @@
 
     PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase arms
     PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase best
+    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase seeds --arms ARM ...
     PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
 
 A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
@@ -16,7 +17,9 @@ Each run lands in ``runs/probes/augment/<arm>-s<seed>/`` with ``result.json``: p
 the mean ATE (``ftin.evaluate.score``, RoNIN's convention), the mean path ratio and the mean error of
 the predicted window velocities (m/s). Phase ``arms`` trains every arm with seed 0 and the baseline
 with seeds 0 and 1 (``ORDER``); phase ``best`` adds seed 1 of the arm with the lowest mean ATE at seed 0;
-``summary`` writes the table (``--out``). Finished runs are skipped, so phases can be re-run.
+phase ``seeds`` runs ``--arms`` (default: the baseline) with ``--seeds`` (default 2 3), for arms
+whose seeds disagree; ``summary`` writes the table (``--out``). Finished runs are skipped, so phases
+can be re-run.
 """
 
 from __future__ import annotations
@@ -214,7 +217,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--phase", choices=("arms", "best", "summary"), required=True)
+    parser.add_argument("--phase", choices=("arms", "best", "seeds", "summary"), required=True)
+    parser.add_argument("--seeds", type=int, nargs="*", default=[2, 3], help="phase seeds: these seeds")
     parser.add_argument(
         "--arms", nargs="*", default=None, help="only these arms (default: all; best: the best)"
     )
@@ -232,6 +236,8 @@ def main() -> None:
     if args.phase == "arms":
         arms = [arm for arm in (args.arms or ORDER) if arm != BASELINE]
         plan = [(BASELINE, 0), *[(arm, 0) for arm in arms], (BASELINE, 1)]
+    elif args.phase == "seeds":
+        plan = [(arm, seed) for seed in args.seeds for arm in (args.arms or [BASELINE])]
     else:
         plan = [(arm, 1) for arm in (args.arms or [best_arm(finished())])]
     for arm, seed in plan:

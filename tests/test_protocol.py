@@ -175,8 +175,11 @@ def test_the_gate_refuses_what_has_not_learned_to_walk():
 
 def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
     jobs = protocol.generalisation_jobs()
-    assert len({job.name for job in jobs}) == len(jobs) == 24
+    assert len({job.name for job in jobs}) == len(jobs) == 24 + 8  # the mirror arms came last
     assert jobs[0].name == "walking-f0/ftin-ordered-yaw-s0"
+    first_mirror = ["walking-f0/ftin-ordered-mirror-s0", "walking-f0/ronin_resnet-mirror-s0"]
+    assert [j.name for j in jobs[24:26]] == first_mirror
+    assert jobs[24].options["augment"] == {"mirror": None}
     assert all(job.fold in protocol.FOLDS for job in jobs)
     for job in jobs:
         train = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "train")}
