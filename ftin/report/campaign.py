@@ -72,6 +72,10 @@ class JobResult:
     seed: int
     record: dict[str, Any]
 
+    def scored_on(self, dataset: str) -> bool:
+        """Whether the job was scored on ``dataset`` (its own, or a member of a combined one)."""
+        return dataset in COMBINED.get(self.dataset, (self.dataset,))
+
     def rows(self, dataset: str, part: str, orientation: str) -> list[dict[str, Any]]:
         return self.record["evaluation"]["parts"].get(f"{dataset}/{part}/{orientation}", [])
 
@@ -103,7 +107,7 @@ def per_seed_means(results: Sequence[JobResult], dataset: str, part: str, orient
     """``{model: {seed: {metric: mean over recordings}}}`` plus ``stand_still`` (seed -1)."""
     table: dict[str, dict[int, dict[str, float]]] = defaultdict(dict)
     for result in results:
-        if dataset not in COMBINED.get(result.dataset, (result.dataset,)):
+        if not result.scored_on(dataset):
             continue
         rows = result.rows(dataset, part, orientation)
         if not rows:
@@ -234,14 +238,14 @@ def path_ratio_table(
     far, which the part's mean hides. Folded (``<details>``): a part may hold dozens of recordings."""
     ratios: dict[str, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
     for result in results:
-        if dataset not in COMBINED.get(result.dataset, (result.dataset,)):
+        if not result.scored_on(dataset):
             continue
         for row in result.rows(dataset, part, orientation):
             if row.get("path_length_ratio") is not None:
                 ratios[row["name"]][result.model].append(row["path_length_ratio"])
-    models = [m for m in order if any(m in by_model for by_model in ratios.values())]
     if not ratios:
         return ""
+    models = [m for m in order if any(m in by_model for by_model in ratios.values())]
     lines = [
         "\n<details><summary>Path ratio per recording (mean over seeds)</summary>\n",
         "| recording | " + " | ".join(LABELS.get(m, m) for m in models) + " |",
