@@ -354,36 +354,29 @@ GENERALISATION_AUGMENT: dict[str, float | None] = {"acc_noise": None, "gyro_nois
 
 
 def generalisation_jobs(_variant: str | None = None) -> list[Job]:
-    """Stage one of the generalisation campaign: walker-wise cross-validation (module comment above)."""
-    arms: list[tuple[str, str | None, str, dict[str, Any]]] = [
-        ("ftin", "ordered", "yaw", {}),
-        ("ronin_resnet", None, "yaw", {}),
-        ("ftin", "ordered", "aug", {"augment": dict(GENERALISATION_AUGMENT)}),
-        ("ronin_resnet", None, "aug", {"augment": dict(GENERALISATION_AUGMENT)}),
-        ("ftin", "mixed", "yaw", {}),
-        ("ftin", "ordered", "paper", dict(RECIPES["paper"])),
-        ("ronin_resnet", None, "paper", dict(RECIPES["paper"])),
-    ]
-    mirror: list[tuple[str, str | None, str, dict[str, Any]]] = [
-        ("ftin", "ordered", "mirror", {"augment": {"mirror": None}}),
-        ("ronin_resnet", None, "mirror", {"augment": {"mirror": None}}),
-    ]
+    """Stage one of the generalisation campaign: walker-wise cross-validation (module comment above).
+
+    Order: each question's pair of arms on both folds before the next question, seed 0 before seed 1,
+    the paper's recipe (100 epochs: the longest jobs) last, so that every session's few jobs complete
+    comparisons over every walker rather than half of many."""
+    yaw = [("ftin", "ordered", "yaw", {}), ("ronin_resnet", None, "yaw", {})]
+    aug = [(m, v, "aug", {"augment": dict(GENERALISATION_AUGMENT)}) for m, v, _, _ in yaw]
+    mirror = [(m, v, "mirror", {"augment": {"mirror": None}}) for m, v, _, _ in yaw]
+    mixed = [("ftin", "mixed", "yaw", {})]
+    paper = [(m, v, "paper", dict(RECIPES["paper"])) for m, v, _, _ in yaw]
+    order = [(seed, question) for seed in (0, 1) for question in (yaw, aug, mirror, mixed)]
+    order.append((0, paper))  # the recipe question gets one seed per fold
     jobs: list[Job] = []
-    # The mirror arms came after the first 24 jobs were planned (a short probe,
-    # docs/results/probes/augmentations_mirror.md): they run last, so no planned job moves.
-    for group, seeds in ((arms, (0, 1)), (mirror, (0, 1))):
-        for seed in seeds:
-            for fold in FOLDS:
-                for model, variant, arm, extra in group:
-                    if seed and arm == "paper":
-                        continue  # the recipe question gets one seed per fold
-                    options = {**model_options(model, WALKING), **extra}
-                    if variant:
-                        kwargs = {**options.get("model_kwargs", {}), **FTIN_VARIANTS[variant]}
-                        options["model_kwargs"] = kwargs
-                    label = f"{model}{f'-{variant}' if variant else ''}-{arm}"
-                    name = f"walking-f{fold}/{label}-s{seed}"
-                    jobs.append(Job(name, model, WALKING, seed, variant, options, fold))
+    for seed, question in order:
+        for fold in FOLDS:
+            for model, variant, arm, extra in question:
+                options = {**model_options(model, WALKING), **extra}
+                if variant:
+                    kwargs = {**options.get("model_kwargs", {}), **FTIN_VARIANTS[variant]}
+                    options["model_kwargs"] = kwargs
+                label = f"{model}{f'-{variant}' if variant else ''}-{arm}"
+                name = f"walking-f{fold}/{label}-s{seed}"
+                jobs.append(Job(name, model, WALKING, seed, variant, options, fold))
     return jobs
 
 

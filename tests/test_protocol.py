@@ -175,18 +175,25 @@ def test_the_gate_refuses_what_has_not_learned_to_walk():
 
 def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
     jobs = protocol.generalisation_jobs()
-    assert len({job.name for job in jobs}) == len(jobs) == 24 + 8  # the mirror arms came last
-    assert jobs[0].name == "walking-f0/ftin-ordered-yaw-s0"
-    first_mirror = ["walking-f0/ftin-ordered-mirror-s0", "walking-f0/ronin_resnet-mirror-s0"]
-    assert [j.name for j in jobs[24:26]] == first_mirror
-    assert jobs[24].options["augment"] == {"mirror": None}
+    names = [job.name for job in jobs]
+    assert len(set(names)) == len(jobs) == 7 * 2 * 2 + 2 * 2  # 7 arms x 2 seeds x 2 folds; paper: 1 seed
+    # each question's pair of arms on both folds before the next one; the 100-epoch paper recipe last
+    assert names[:4] == [
+        "walking-f0/ftin-ordered-yaw-s0",
+        "walking-f0/ronin_resnet-yaw-s0",
+        "walking-f1/ftin-ordered-yaw-s0",
+        "walking-f1/ronin_resnet-yaw-s0",
+    ]
+    assert all(job.options.get("lr") == 1e-4 for job in jobs[-4:])
+    assert all(job.seed == 0 for job in jobs[:14]) and all(job.seed == 1 for job in jobs[14:28])
+    assert jobs[8].options["augment"] == {"mirror": None}
     assert all(job.fold in protocol.FOLDS for job in jobs)
     for job in jobs:
         train = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "train")}
         val = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "val")}
         assert train and val and not train & val, job.name
     arms = {job.name.split("/")[1].rsplit("-s", 1)[0] for job in jobs}
-    assert {"ftin-ordered-aug", "ronin_resnet-paper", "ftin-mixed-yaw"} <= arms
+    assert {"ftin-ordered-aug", "ronin_resnet-paper", "ftin-mixed-yaw", "ronin_resnet-mirror"} <= arms
 
 
 def _members(job, part):

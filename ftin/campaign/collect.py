@@ -18,16 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from ftin import protocol
-from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, read_json, write_json
+from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, read_json, record_name, write_json
 from ftin.train.model_card import render_campaign_card
 from ftin.train.state import HISTORY_FILE
 
 MANIFEST = "manifest.json"
 CARD_SUFFIXES = (".safetensors", ".json", ".md")
-
-
-def record_name(job_name: str) -> str:
-    return job_name.replace("/", "__") + ".json"
 
 
 def job_record(campaign: Campaign, job: protocol.Job) -> dict[str, Any]:

@@ -66,6 +66,25 @@ def load_job_list(source: str | Path) -> str | list[dict[str, Any]]:
     return [job.to_json() for job in jobs]
 
 
+def record_name(job_name: str) -> str:
+    """A finished job's record in a results folder (``ftin campaign collect``)."""
+    return job_name.replace("/", "__") + ".json"
+
+
+def without_recorded(job_list: str | list[dict[str, Any]], results: Path) -> list[dict[str, Any]]:
+    """The job specs whose record is not in ``results`` yet: a campaign replanned after its folder was
+    lost runs only what its committed records lack. The list is written out, so it stays fixed."""
+    specs = (
+        [job.to_json() for job in protocol.CAMPAIGNS[job_list]()] if isinstance(job_list, str) else job_list
+    )
+    if not Path(results).is_dir():
+        raise CampaignError(f"--skip-recorded {results}: no such folder")
+    left = [spec for spec in specs if not (Path(results) / record_name(spec["name"])).exists()]
+    if not left:
+        raise CampaignError(f"--skip-recorded {results}: every job already has its record there")
+    return left
+
+
 class Campaign:
     """A campaign folder (module docstring)."""
 
@@ -79,11 +98,15 @@ class Campaign:
         self.state: dict[str, Any] = read_json(path)
 
     @classmethod
-    def create(cls, runs: Path, data_root: Path, jobs: str | Path) -> Campaign:
+    def create(
+        cls, runs: Path, data_root: Path, jobs: str | Path, skip_recorded: Path | None = None
+    ) -> Campaign:
         runs = Path(runs).expanduser().resolve()
         if (runs / STATE_FILE).exists():
             raise CampaignError(f"{runs} already holds a campaign; continue it with `ftin campaign run`")
         job_list = load_job_list(jobs)
+        if skip_recorded is not None:
+            job_list = without_recorded(job_list, skip_recorded)
         runs.mkdir(parents=True, exist_ok=True)
         code, commit = freeze_code(runs)
         now = time.strftime("%Y-%m-%d %H:%M:%S")

@@ -58,6 +58,13 @@ def plan_command(
         bool,
         typer.Option("--refresh-code", help="Existing campaign: jobs not yet started run on this code."),
     ] = False,
+    skip_recorded: Annotated[
+        Path | None,
+        typer.Option(
+            "--skip-recorded",
+            help="Leave out the jobs whose record is in this results folder (a lost campaign replanned).",
+        ),
+    ] = None,
 ) -> None:
     """Create the campaign folder: the job list, the data root and a frozen copy of the code."""
     with user_errors(*CAMPAIGN_ERRORS):
@@ -68,7 +75,7 @@ def plan_command(
             return
         if not data.is_dir():
             raise CampaignError(f"--data {data}: no such folder")
-        campaign = Campaign.create(runs, data, jobs)
+        campaign = Campaign.create(runs, data, jobs, skip_recorded)
     names = [job.name for job in campaign.jobs()]
     typer.echo(f"campaign in {campaign.runs}: {len(names)} job(s) now, code {campaign.state['code']}")
     for name in names:
