@@ -4,6 +4,8 @@
     PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase best
     PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase seeds --arms ARM ...
     PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
+    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --fold 0 --stride 50 \
+        --phase seeds --arms yaw_only pace --seeds 0 1
 
 A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
 Adam 1e-3, ``EPOCHS`` epochs (390 steps, about 4 min of one thread), ground-truth orientation, yaw
@@ -13,10 +15,15 @@ baseline. Walker-held-out split (no test recording of ``ftin.protocol`` is read)
   hao (the protocol's training part);
 - validation walkers: OxIOD user2 (imu4, imu5), RIDI hang and ma (every recording of theirs outside
   the test part). The best epoch is picked on them too (the same rule for every arm).
-Each run lands in ``runs/probes/augment/<arm>-s<seed>/`` with ``result.json``: per validation walker
-the mean ATE (``ftin.evaluate.score``, RoNIN's convention), the mean path ratio and the mean error of
-the predicted window velocities (m/s). Phase ``arms`` trains every arm with seed 0 and the baseline
-with seeds 0 and 1 (``ORDER``); phase ``best`` adds seed 1 of the arm with the lowest mean ATE at seed 0;
+With ``--fold K`` the split is the walking dataset's walker fold K instead (``ftin.protocol``: OxIOD,
+RIDI and Inria, whose pockets, swinging and running the first split lacks; the test parts unread),
+``--stride`` sets the training windows' spacing (fewer windows per epoch at the same epochs).
+Each run lands in ``runs/probes/augment[-f<K>]/<arm>-s<seed>/`` with ``result.json``: per validation
+walker the mean ATE (``ftin.evaluate.score``, RoNIN's convention), the mean path ratio and the mean
+error of the predicted window velocities (m/s); per carry mode (Inria's motion, else the reader's
+carry) the same and the speed ratio (mean predicted / mean true speed over the prediction spans).
+Phase ``arms`` trains every arm with seed 0 and the baseline with seeds 0 and 1 (``ORDER``); phase
+``best`` adds seed 1 of the arm with the lowest mean ATE at seed 0;
 phase ``seeds`` runs ``--arms`` (default: the baseline) with ``--seeds`` (default 2 3), for arms
 whose seeds disagree; ``summary`` writes the table (``--out``). Finished runs are skipped, so phases
 can be re-run.
@@ -47,10 +54,17 @@ EPOCHS = 6
 VAL_WALKERS = {protocol.OXIOD: ("user2",), protocol.RIDI: ("hang", "ma")}
 
 
-def walker_split() -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
-    """``(dataset, recording)`` pairs for training and validation: the protocol's training part
-    without the validation walkers, and every recording of theirs outside the test part."""
+def walker_split(fold: int | None = None) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """``(dataset, recording)`` pairs for training and validation. Without a fold: the protocol's
+    training part without the validation walkers, and every recording of theirs outside the test
+    part; with one: the walking dataset's walker fold (``protocol.fold_parts``)."""
     train, val = [], []
+    if fold is not None:
+        for dataset in protocol.COMBINED[protocol.WALKING]:
+            parts = protocol.fold_parts(dataset, fold)
+            train += [(dataset, r) for r in parts["train"]]
+            val += [(dataset, r) for r in parts["val"]]
+        return train, val
     for dataset, held in VAL_WALKERS.items():
         parts = protocol.SPLITS[dataset]
         train += [(dataset, r) for r in parts["train"] if protocol.walker(dataset, r) not in held]
@@ -68,6 +82,7 @@ ARMS: dict[str, dict[str, float | None]] = {
     "vertical": {"vertical": None},
     "orientation": {"orientation": None},
     "mirror": {"mirror": None},
+    "pace": {"pace": None},
     "all": {
         "shift": None,
         "acc_bias": None,
@@ -80,7 +95,17 @@ ARMS: dict[str, dict[str, float | None]] = {
     },
 }
 BASELINE = "yaw_only"
-ORDER = ("vertical", "all", "orientation", "tilt", "bias", "noise", "shift", "mirror")  # likeliest first
+ORDER = (
+    "vertical",
+    "all",
+    "orientation",
+    "tilt",
+    "bias",
+    "noise",
+    "shift",
+    "mirror",
+    "pace",
+)  # likeliest first
 
 
 def paths(split: list[tuple[str, str]], root: Path) -> list[Path]:
@@ -92,42 +117,56 @@ def walker_labels(split: list[tuple[str, str]]) -> list[str]:
     return [f"{dataset} {protocol.walker(dataset, rel)}" for dataset, rel in split]
 
 
-def velocity_error(prediction) -> float:
-    """Mean |predicted - true| mean velocity over the prediction spans (m/s, horizontal)."""
+def span_velocities(prediction) -> tuple[np.ndarray, np.ndarray]:
+    """``(predicted, true)`` horizontal mean velocities over the prediction spans, ``(M, 2)`` each."""
     seq = prediction.prepared.seq
     t0, t1 = prediction.span_t_s[:, 0], prediction.span_t_s[:, 1]
     p = seq.gt.p_world_m[:, :2]
     true = np.stack([(np.interp(t1, seq.t_s, p[:, k]) - np.interp(t0, seq.t_s, p[:, k])) for k in (0, 1)], 1)
-    true /= (t1 - t0)[:, None]
-    return float(np.linalg.norm(prediction.velocity_m_s[:, :2] - true, axis=1).mean())
+    return prediction.velocity_m_s[:, :2], true / (t1 - t0)[:, None]
 
 
-def evaluate_run(checkpoint: Path, val_sequences) -> dict[str, Any]:
+def carry_of(seq) -> str:
+    """Inria's motion (AR, Swinging, RunningPocket, ...), else the reader's carry mode."""
+    return str(seq.meta.get("motion") or seq.meta.get("carry") or "unknown")
+
+
+def evaluate_run(checkpoint: Path, val_sequences, labels: list[str]) -> dict[str, Any]:
     loaded = load_model(checkpoint)
     rows = []
-    for seq, walker in zip(val_sequences, walker_labels(VAL), strict=True):
+    for seq, walker in zip(val_sequences, labels, strict=True):
         prediction = predict_trajectory(loaded, seq)
         metrics = score(prediction).metrics
+        predicted, true = span_velocities(prediction)
         rows.append(
             {
                 "name": seq.name,
                 "walker": walker,
+                "carry": carry_of(seq),
                 "ate": metrics.ate,
                 "path_ratio": metrics.path_length_ratio,
-                "velocity_error": velocity_error(prediction),
+                "velocity_error": float(np.linalg.norm(predicted - true, axis=1).mean()),
+                "predicted_speed": float(np.linalg.norm(predicted, axis=1).mean()),
+                "true_speed": float(np.linalg.norm(true, axis=1).mean()),
             }
         )
+    keys = ("ate", "path_ratio", "velocity_error")
     walkers: dict[str, dict[str, float]] = {}
     for name in sorted({r["walker"] for r in rows}):
         mine = [r for r in rows if r["walker"] == name]
-        walkers[name] = {
-            k: float(np.mean([r[k] for r in mine])) for k in ("ate", "path_ratio", "velocity_error")
-        }
+        walkers[name] = {k: float(np.mean([r[k] for r in mine])) for k in keys}
+    modes: dict[str, dict[str, float]] = {}
+    for mode in sorted({r["carry"] for r in rows}):
+        mine = [r for r in rows if r["carry"] == mode]
+        modes[mode] = {k: float(np.mean([r[k] for r in mine])) for k in keys}
+        speeds = [(r["predicted_speed"], r["true_speed"]) for r in mine]
+        modes[mode]["speed_ratio"] = float(np.mean([p for p, _ in speeds]) / np.mean([t for _, t in speeds]))
+        modes[mode]["recordings"] = len(mine)
     mean_ate = float(np.mean([w["ate"] for w in walkers.values()]))
-    return {"sequences": rows, "walkers": walkers, "mean_walker_ate": mean_ate}
+    return {"sequences": rows, "walkers": walkers, "modes": modes, "mean_walker_ate": mean_ate}
 
 
-def run_arm(arm: str, seed: int, train_seqs, val_seqs) -> dict[str, Any]:
+def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20) -> dict[str, Any]:
     folder = RUNS / f"{arm}-s{seed}"
     result_path = folder / "result.json"
     if result_path.exists():
@@ -142,7 +181,7 @@ def run_arm(arm: str, seed: int, train_seqs, val_seqs) -> dict[str, Any]:
         name="model",
         imu_rate_hz=100.0,
         window=100,
-        stride=20,
+        stride=stride,
         batch_size=128,
         lr=1e-3,
         plateau_factor=0.3,
@@ -164,7 +203,8 @@ def run_arm(arm: str, seed: int, train_seqs, val_seqs) -> dict[str, Any]:
         "epochs": trained.epochs_done,
         "best_val_mse": trained.best_val_loss,
         "train_seconds": trained.history[-1]["elapsed_s"] if trained.history else None,
-        **evaluate_run(trained.checkpoint, val_seqs),
+        "stride": stride,
+        **evaluate_run(trained.checkpoint, val_seqs, walker_labels(VAL)),
     }
     result_path.write_text(json.dumps(result, indent=2) + "\n")
     print(f"{arm} s{seed}: mean walker ATE {result['mean_walker_ate']:.3f} m", flush=True)
@@ -210,7 +250,37 @@ def summary(results: list[dict[str, Any]]) -> str:
                 f"- {arm}: {len(ates)} seeds, mean walker ATE {np.mean(ates):.3f} m (seeds {each}), "
                 f"mean velocity error {vel:.3f} m/s"
             )
-    return "\n".join(lines) + ("\n\nArms with several seeds:\n" + "\n".join(means) if means else "") + "\n"
+    text = "\n".join(lines) + ("\n\nArms with several seeds:\n" + "\n".join(means) if means else "") + "\n"
+    return text + carry_summary(results)
+
+
+def carry_summary(results: list[dict[str, Any]]) -> str:
+    """Per carry mode and arm (mean over seeds): speed ratio, path ratio, velocity error, ATE."""
+    results = [r for r in results if "modes" in r]
+    if not results:
+        return ""
+    arms = [arm for arm in ARMS if any(r["arm"] == arm for r in results)]
+    modes = sorted({m for r in results for m in r["modes"]})
+    lines = [
+        "",
+        "Per carry mode, mean over seeds: speed ratio (mean predicted / mean true speed) / path ratio / "
+        "velocity error (m/s) / ATE (m):",
+        "",
+        "| carry | recordings | "
+        + " | ".join(f"{arm} ({sum(r['arm'] == arm for r in results)})" for arm in arms)
+        + " |",
+        "|---|--:|" + "---|" * len(arms),
+    ]
+    for mode in modes:
+        cells, count = [], 0
+        for arm in arms:
+            mine = [r["modes"][mode] for r in results if r["arm"] == arm and mode in r["modes"]]
+            count = max(count, *(m["recordings"] for m in mine)) if mine else count
+            keys = ("speed_ratio", "path_ratio", "velocity_error", "ate")
+            means = [np.mean([m[k] for m in mine]) for k in keys] if mine else None
+            cells.append("{:.2f} / {:.2f} / {:.3f} / {:.2f}".format(*means) if means else "-")
+        lines.append(f"| {mode} | {count} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
@@ -222,9 +292,16 @@ def main() -> None:
     parser.add_argument(
         "--arms", nargs="*", default=None, help="only these arms (default: all; best: the best)"
     )
-    parser.add_argument("--out", type=Path, default=RUNS / "summary.md")
+    parser.add_argument("--out", type=Path, default=None, help="summary (default: the runs folder's)")
+    parser.add_argument("--fold", type=int, default=None, help="the walking dataset's walker fold")
+    parser.add_argument("--stride", type=int, default=20, help="training windows every N samples")
     args = parser.parse_args()
     torch.set_num_threads(1)
+    global RUNS, TRAIN, VAL
+    if args.fold is not None:
+        RUNS = Path(f"runs/probes/augment-f{args.fold}")
+        TRAIN, VAL = walker_split(args.fold)
+    args.out = args.out or RUNS / "summary.md"
     if args.phase == "summary":
         text = summary(finished())
         args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -241,7 +318,7 @@ def main() -> None:
     else:
         plan = [(arm, 1) for arm in (args.arms or [best_arm(finished())])]
     for arm, seed in plan:
-        run_arm(arm, seed, train_seqs, val_seqs)
+        run_arm(arm, seed, train_seqs, val_seqs, args.stride)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.prepare import PreparedSequence
-from ftin.data.windows import velocity_targets, window_starts
+from ftin.data.windows import velocity_targets, warp_windows, window_starts
 from ftin.train.augment import scale_acc_component
 
 COMPONENTS = ("vertical", "cross_track", "along_track")
@@ -78,16 +78,11 @@ def direction(component: str, along: np.ndarray) -> np.ndarray:
 
 def time_warp(imu: np.ndarray, starts: np.ndarray, window: int, factor: float) -> np.ndarray:
     """``(M, 6, window)`` windows resampled from ``factor x window`` samples of ``imu (N, 6)`` from each
-    start (linear interpolation; amplitudes unchanged). ``factor`` 1 gives the plain windows."""
-    grid = np.arange(window) * factor  # sample offsets into the source span
-    last = starts.max() + grid[-1]
-    if last > len(imu) - 1:
-        raise ValueError(f"time warp x{factor}: needs sample {last:.0f}, the recording has {len(imu)}")
-    low = np.floor(grid).astype(np.int64)
-    frac = (grid - low)[None, :, None]
-    high = np.minimum(low + 1, len(imu) - 1)
-    a, b = imu[starts[:, None] + low[None, :]], imu[starts[:, None] + high[None, :]]  # (M, L, 6)
-    return (a + frac * (b - a)).transpose(0, 2, 1).astype(np.float32)
+    start (``ftin.data.windows.warp_windows``; amplitudes unchanged). ``factor`` 1 gives the plain windows."""
+    try:
+        return warp_windows(imu, starts, window, np.full(len(starts), float(factor)))
+    except ValueError as exc:
+        raise ValueError(f"time warp x{factor}: {exc}") from None
 
 
 def probe_windows(

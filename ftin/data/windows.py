@@ -42,7 +42,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.gaps import starts_outside_holes
+from ftin.data.gaps import holes_of, starts_outside_holes
 from ftin.data.types import ImuSequence
 
 N_CHANNELS = 6  # gyro xyz, acc xyz
@@ -58,6 +58,12 @@ class WindowAugmentation(Protocol):
     def shift_starts(
         self, starts: np.ndarray, lowest: np.ndarray, highest: np.ndarray, indices: np.ndarray, epoch: int
     ) -> np.ndarray: ...
+
+    def pace_factors(
+        self, indices: np.ndarray, epoch: int, reach: np.ndarray, window: int
+    ) -> np.ndarray | None: ...
+
+    def pace(self, x: np.ndarray, v: np.ndarray, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
     def mirror(
         self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
@@ -107,6 +113,23 @@ def world_imu(seq: ImuSequence, dtype: type = np.float32) -> np.ndarray:
 def window_view(imu: np.ndarray, window: int) -> np.ndarray:
     """Read-only ``(N - window + 1, 6, window)`` view of an ``(N, 6)`` array: window k = rows k.."""
     return sliding_window_view(imu, window, axis=0)  # (N - L + 1, 6, L)
+
+
+def warp_windows(imu: np.ndarray, starts: np.ndarray, window: int, factors: np.ndarray) -> np.ndarray:
+    """``(B, 6, window)`` float32 windows of ``imu (N, 6)``, window b resampled (linear interpolation)
+    from the span of ``factors[b] x window`` samples from ``starts[b]``: factor 1 gives the plain
+    window, 1.25 a window that holds 1.25 windows' worth of motion. The span must lie inside ``imu``."""
+    pos = (
+        np.asarray(starts, dtype=np.float64)[:, None]
+        + np.arange(window)[None, :] * np.asarray(factors, dtype=np.float64)[:, None]
+    )  # (B, L) fractional sample indices
+    if len(pos) and pos.max() > len(imu) - 1:
+        raise ValueError(f"warped window needs sample {pos.max():.0f}, the data has {len(imu)}")
+    low = np.floor(pos).astype(np.int64)
+    frac = (pos - low)[:, :, None]
+    high = np.minimum(low + 1, len(imu) - 1)
+    a, b = imu[low], imu[high]  # (B, L, 6)
+    return (a + frac * (b - a)).transpose(0, 2, 1).astype(np.float32)
 
 
 def velocity_targets(
@@ -268,6 +291,7 @@ class WindowDataset(torch.utils.data.Dataset):
         if parts < 1 or window % parts:
             raise ValueError(f"a window of {window} samples cannot be cut into {parts} equal parts")
         imu_parts, start_parts, t_parts, p_parts, bound_parts = [], [], [], [], []
+        reach_parts, tracked_parts = [], []
         offset = 0
         for seq in sequences:
             _check_training_sequence(seq, window)
@@ -280,6 +304,9 @@ class WindowDataset(torch.utils.data.Dataset):
             start_parts.append(starts + offset)
             last = len(seq) - 1 - window  # the last start whose end sample exists
             bound_parts.append(np.broadcast_to([[offset, offset + last]], (len(starts), 2)))
+            reach_parts.append(samples_within_reach(seq, starts))
+            tracked = seq.gt.tracked
+            tracked_parts.append(np.ones(len(seq), bool) if tracked is None else np.asarray(tracked, bool))
             offset += len(seq)
         self.imu = np.concatenate(imu_parts, axis=0)  # (N_total, 6) float32
         self.imu_per_sequence = imu_parts
@@ -288,6 +315,8 @@ class WindowDataset(torch.utils.data.Dataset):
         # Ground truth of every sample; a window's part bounds stay inside its own sequence.
         self._t_s = np.concatenate(t_parts)  # (N_total,)
         self._p_world_m = np.concatenate(p_parts, axis=0)  # (N_total, D)
+        self._tracked = np.concatenate(tracked_parts)  # (N_total,) bool: a target may read it
+        self._reach = np.concatenate(reach_parts)  # (M,) samples a window may span: a pace stretch's limit
         self.parts = parts
         self.window = window
         self.stride = stride
@@ -313,10 +342,36 @@ class WindowDataset(torch.utils.data.Dataset):
         """``(B, K, D)`` float32 part velocity targets of window indices (before augmentation)."""
         return self._targets_at(self.starts[np.asarray(indices, dtype=np.int64)])
 
-    def _targets_at(self, starts: np.ndarray) -> np.ndarray:
-        return part_velocity_targets(
-            self._t_s, self._p_world_m, starts, self.window, self.parts, self.out_dim
-        )
+    def _part_bounds(self, starts: np.ndarray, factors: np.ndarray) -> np.ndarray:
+        """``(B, K + 1)`` fractional sample indices of the part bounds of spans of factor x window."""
+        step = (self.window // self.parts) * np.asarray(factors, dtype=np.float64)[:, None]
+        return starts[:, None] + np.arange(self.parts + 1)[None, :] * step
+
+    def _targets_at(self, starts: np.ndarray, factors: np.ndarray | None = None) -> np.ndarray:
+        if factors is None:
+            return part_velocity_targets(
+                self._t_s, self._p_world_m, starts, self.window, self.parts, self.out_dim
+            )
+        # a stretched span: positions and times interpolated at its part bounds
+        bounds = self._part_bounds(starts, factors)
+        low = np.floor(bounds).astype(np.int64)
+        high = np.minimum(low + 1, len(self._t_s) - 1)
+        frac = bounds - low
+        t = self._t_s[low] + frac * (self._t_s[high] - self._t_s[low])
+        p = self._p_world_m[low] + frac[:, :, None] * (self._p_world_m[high] - self._p_world_m[low])
+        return (np.diff(p, axis=1) / np.diff(t, axis=1)[:, :, None]).astype(np.float32)
+
+    def _pace_factors(self, indices: np.ndarray, starts: np.ndarray) -> np.ndarray | None:
+        """The pace augmentation's stretch of each window (None: off); 1 where the stretched target
+        would read an untracked ground-truth sample."""
+        reach = self._reach[indices] - (starts - self.starts[indices])  # after a shift
+        factors = self.augmenter.pace_factors(indices, self.epoch, reach, self.window)
+        if factors is None:
+            return None
+        low = np.floor(self._part_bounds(starts, factors)).astype(np.int64)
+        high = np.minimum(low + 1, len(self._tracked) - 1)
+        measured = (self._tracked[low] & self._tracked[high]).all(axis=1)
+        return np.where(measured, factors, 1.0)
 
     def get_batch(self, indices: Sequence[int] | np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
         """``(x (B, 6, L), v (B, K, D))`` float32 tensors for window indices."""
@@ -325,9 +380,17 @@ class WindowDataset(torch.utils.data.Dataset):
         if aug is not None:
             bounds = self._start_bounds[indices]
             starts = aug.shift_starts(starts, bounds[:, 0], bounds[:, 1], indices, self.epoch)
-        rows = starts[:, None] + np.arange(self.window)[None, :]  # (B, L)
-        x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
-        v = self._targets_at(starts)
+        factors = self._pace_factors(indices, starts) if aug is not None else None
+        if factors is None:
+            rows = starts[:, None] + np.arange(self.window)[None, :]  # (B, L)
+            x = self.imu[rows].transpose(0, 2, 1)  # (B, 6, L)
+            v = self._targets_at(starts)
+        else:
+            x, v = aug.pace(
+                warp_windows(self.imu, starts, self.window, factors),
+                self._targets_at(starts, factors),
+                factors,
+            )
         if aug is not None:
             x, v = aug.mirror(x, v, indices, self.epoch)
             x = aug.before_yaw(x, indices, self.epoch)
@@ -340,6 +403,17 @@ class WindowDataset(torch.utils.data.Dataset):
     def __getitem__(self, index: int) -> tuple[torch.Tensor, torch.Tensor]:
         x, v = self.get_batch([index])
         return x[0], v[0]
+
+
+def samples_within_reach(seq: ImuSequence, starts: np.ndarray) -> np.ndarray:
+    """``(M,)`` how many samples follow each start before the sequence ends or a held hole begins: the
+    longest span a window from there may read (a window stretched by the pace augmentation)."""
+    limit = np.full(len(starts), len(seq) - 1, dtype=np.int64)
+    t = seq.t_s
+    for hole_start, hole_end in holes_of(seq):
+        ahead = t[starts] < hole_end  # the window itself never touches a hole: this one lies ahead
+        limit[ahead] = np.minimum(limit[ahead], np.searchsorted(t, hole_start, side="right") - 1)
+    return limit - np.asarray(starts, dtype=np.int64)
 
 
 def _check_window_args(window: int, stride: int) -> None:

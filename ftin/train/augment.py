@@ -29,8 +29,15 @@ Decisions:
   error ramping linearly from 0 to up to ``± magnitude`` degrees (3) across the window, and a tilt
   about a random horizontal axis ramping to up to half that (gravity keeps tilt better observed than
   heading). The error starts at 0, so the window's start frame is the true one and the targets stay.
-Order: mirror and vertical (motion) before yaw (done by the dataset), then orientation and tilt (the input's
-rotation), then bias and noise (the sensor).
+- ``pace`` (ours): the walk played faster or slower. Window k is read from a span of ``f x L``
+  samples (``f`` log-uniform in ``[1 / (1 + magnitude), 1 + magnitude]``, 0.3: 0.77-1.3) and scaled
+  as a motion played ``f`` times as fast is: angular rate x f, the zero-mean part of the specific
+  force x f² (its window mean, gravity, stays), target velocity x f. Cadence, bounce and speed change
+  together, as between a slow and a brisk gait, so neither the bounce nor the rhythm alone is the
+  speed; and speeds that few training walks reach (running) are seen. A window never stretches past
+  its sequence's end, a held hole, or an untracked ground-truth sample (``ftin.data.windows``).
+Order: pace (which samples a window reads), then mirror and vertical (motion) before yaw (done by the
+dataset), then orientation and tilt (the input's rotation), then bias and noise (the sensor).
 """
 
 from __future__ import annotations
@@ -53,8 +60,10 @@ AUGMENTATIONS: dict[str, float] = {
     "vertical": 0.3,  # fraction: scale in [1 - m, 1 + m]
     "orientation": 3.0,  # degrees of heading error at the window's end
     "mirror": 0.5,  # probability that a window is mirrored
+    "pace": 0.3,  # the walk up to 1.3x faster or slower (log-uniform)
 }
-_SALT = {name: i + 1 for i, name in enumerate(AUGMENTATIONS)}  # one RNG stream per augmentation
+# One RNG stream per augmentation; a new one goes last, so the draws of the others never move.
+_SALT = {name: i + 1 for i, name in enumerate(AUGMENTATIONS)}
 
 
 def resolve_augment(augment: Mapping[str, Any] | None) -> dict[str, float]:
@@ -145,6 +154,30 @@ class WindowAugmenter:
             return starts
         steps = np.array([self._rng("shift", epoch, i).integers(-reach, reach + 1) for i in indices])
         return np.clip(starts + steps.astype(np.int64), lowest, highest)
+
+    def pace_factors(
+        self, indices: np.ndarray, epoch: int, reach: np.ndarray, window: int
+    ) -> np.ndarray | None:
+        """``(B,)`` how many windows' worth of samples each window reads (None: pace is off), at most
+        ``reach / window`` (the samples each start may read)."""
+        if "pace" not in self.magnitudes:
+            return None
+        draw = self._uniform("pace", epoch, indices, 1)[:, 0]
+        factors = np.exp(np.log1p(self.magnitudes["pace"]) * draw)
+        return np.minimum(factors, np.asarray(reach, dtype=np.float64) / window)
+
+    @staticmethod
+    def pace(x: np.ndarray, v: np.ndarray, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Windows ``(B, 6, L)`` read from spans of ``factors`` windows, and their targets (the span's
+        velocity), as the motion played ``factors`` times as fast (module docstring). New arrays."""
+        f = np.asarray(factors, dtype=np.float64)[:, None, None]
+        x = np.array(x, dtype=np.float64)
+        x[:, :3, :] *= f
+        acc = x[:, 3:6, :]
+        mean = acc.mean(axis=2, keepdims=True)
+        x[:, 3:6, :] = mean + (acc - mean) * f**2
+        v = np.asarray(v, dtype=np.float64) * f.reshape((-1,) + (1,) * (np.ndim(v) - 1))
+        return x.astype(np.float32), v.astype(np.float32)
 
     def mirror(
         self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int

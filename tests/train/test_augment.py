@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.types import Trajectory
+from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import WindowDataset
 from ftin.train.augment import AUGMENTATIONS, WindowAugmenter, parse_augment, scale_acc_component
 from ftin.train.config import ConfigError, TrainConfig
@@ -204,3 +204,90 @@ def test_mirror_gives_the_windows_of_the_walk_seen_in_a_mirror(sim_sequences):
     np.testing.assert_array_equal(x1[~flipped], x0[~flipped])
     np.testing.assert_array_equal(v1[~flipped], v0[~flipped])
     assert np.abs(vm[..., 1]).max() > 0.1  # the targets do move sideways: the test can see a sign
+
+
+# --- pace: the walk played faster or slower -------------------------------------------------------
+
+PACE_RATE, PACE_WINDOW, PACE_STRIDE = 200.0, 200, 50
+G = 9.80665
+
+
+def _analytic_walk(pace: float, t_s: np.ndarray, tracked: np.ndarray | None = None) -> ImuSequence:
+    """A walk ``P(u)`` played ``pace`` times as fast, p(t) = P(pace t), with its exact specific force
+    (pace² P''(pace t) plus gravity) and angular rate (pace W(pace t)); device frame = world frame."""
+    u, w = pace * t_s, 2 * np.pi
+    p = np.column_stack(
+        [u + 0.1 * np.sin(w * 0.3 * u), 0.05 * np.sin(w * 0.9 * u), 0.03 * np.sin(w * 1.8 * u)]
+    )
+    acc = pace**2 * np.column_stack(
+        [
+            -0.1 * (w * 0.3) ** 2 * np.sin(w * 0.3 * u),
+            -0.05 * (w * 0.9) ** 2 * np.sin(w * 0.9 * u),
+            -0.03 * (w * 1.8) ** 2 * np.sin(w * 1.8 * u),
+        ]
+    ) + [0.0, 0.0, G]
+    gyro = pace * np.column_stack(
+        [0.2 * np.sin(w * 0.9 * u), 0.1 * np.cos(w * 1.8 * u), 0.3 * np.sin(w * 0.3 * u)]
+    )
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (len(t_s), 1))
+    return ImuSequence("analytic", t_s, gyro, acc, q, Trajectory(t_s, p, tracked=tracked))
+
+
+def _pace_dataset(seq: ImuSequence, magnitude: float = 0.3, seed: int = 5) -> WindowDataset:
+    augmenter = WindowAugmenter({"pace": magnitude}, PACE_STRIDE, seed)
+    return WindowDataset([seq], PACE_WINDOW, PACE_STRIDE, augment_yaw=False, augmenter=augmenter)
+
+
+def test_pace_gives_the_windows_of_the_same_walk_played_faster_or_slower():
+    t = np.arange(4000) / PACE_RATE
+    data = _pace_dataset(_analytic_walk(1.0, t))
+    every = np.arange(len(data))
+    x, v = (a.numpy().astype(np.float64) for a in data.get_batch(every))
+    factors = data._pace_factors(every, data.starts)
+    assert factors.min() < 0.85 and factors.max() > 1.15  # the test sees both ways
+    assert np.all((factors >= 1 / 1.3 - 1e-9) & (factors <= 1.3 + 1e-9))
+    for i in every:
+        f, start = factors[i], data.starts[i]
+        # the same walk played f times as fast, sampled at the same rate from the same point of the walk
+        fast_t = t[start] / f + np.arange(PACE_WINDOW + 1) / PACE_RATE
+        fast = _analytic_walk(f, fast_t)
+        np.testing.assert_allclose(x[i, :3], fast.gyro_rad_s[:-1].T, atol=2e-3)
+        acc = fast.acc_m_s2[:-1].T
+        np.testing.assert_allclose(  # linear interpolation of a 2.3 Hz bounce: errors of 4e-4 x amplitude
+            x[i, 3:] - x[i, 3:].mean(axis=1, keepdims=True), acc - acc.mean(axis=1, keepdims=True), atol=5e-3
+        )
+        span = data.imu[start : int(np.ceil(start + f * PACE_WINDOW)), 3:].mean(axis=0)
+        np.testing.assert_allclose(x[i, 3:].mean(axis=1), span, atol=0.05)  # gravity stays, not x f²
+        target = (fast.gt.p_world_m[-1, :2] - fast.gt.p_world_m[0, :2]) * PACE_RATE / PACE_WINDOW
+        np.testing.assert_allclose(v[i, 0], target, atol=1e-4)
+
+
+def test_pace_never_reads_past_the_sequence_or_a_hole():
+    t = np.arange(2000) / PACE_RATE
+    seq = _analytic_walk(1.0, t)
+    seq.meta["holes_s"] = [[t[1600], t[1700]]]
+    data = _pace_dataset(seq, magnitude=1.0)  # up to twice as long: every limit is reached
+    every = np.arange(len(data))
+    factors = data._pace_factors(every, data.starts)
+    ends = data.starts + factors * PACE_WINDOW
+    assert ends.max() <= len(t) - 1
+    before_hole = data.starts < 1600
+    assert np.all(ends[before_hole] <= 1600)  # the last sample before the hole
+    assert np.isclose(ends[before_hole], 1600).any() and (factors > 1.5).any()  # the limits were reached
+    x, v = data.get_batch(every)
+    assert np.isfinite(x.numpy()).all() and np.isfinite(v.numpy()).all()
+
+
+def test_pace_keeps_a_window_whose_stretched_target_would_read_an_untracked_sample_unstretched():
+    t = np.arange(2000) / PACE_RATE
+    data = _pace_dataset(_analytic_walk(1.0, t), magnitude=1.0)
+    every = np.arange(len(data))
+    factors = data._pace_factors(every, data.starts)
+    i = int(np.flatnonzero(factors > 1.3)[0])
+    end = int(np.floor(data.starts[i] + factors[i] * PACE_WINDOW))  # a sample its target interpolates
+    data._tracked[end] = False  # motion capture lost the phone there
+    again = data._pace_factors(every, data.starts)
+    assert again[i] == 1.0
+    reads = np.floor(data.starts + again * PACE_WINDOW)
+    assert not (((reads == end) | (reads + 1 == end)) & (again != 1.0)).any()
+    np.testing.assert_array_equal(np.delete(again, i), np.delete(factors, i))
