@@ -29,6 +29,9 @@ class HealthResponse(BaseModel):
     version: str
     models: list[str]
     default_model: str | None
+    default_model_why: str | None = Field(
+        None, description="Why the default model is the default (the checkpoint folder's default.json)."
+    )
     sequences: int
     scene_url: str | None = Field(description="URL of the viser 3D scene, when it runs.")
     notes: list[str] = Field(description="Configuration problems worth knowing (empty folders, fallbacks).")

@@ -436,3 +436,56 @@ def validation_gate(record: Mapping[str, Any]) -> dict[str, Any]:
         "val_stand_still_ate_m": still,
         "refused": refused,
     }
+
+
+# The app's default model (for requests that name none): the pedestrian checkpoint, of whatever
+# architecture, whose validation recordings it walks best, as a user would get them. Scored per
+# dataset as validation ATE over standing still's (scale-free: RIDI's long walks are not worth ten
+# of Inria's room), averaged over the datasets it was validated on, from the most realistic
+# orientation source every candidate was scored with (phone only, else the phone's attitude).
+DEFAULT_CANDIDATE_DATASETS = (PEDESTRIAN, WALKING)
+DEFAULT_SOURCES = (PHONE_ONLY, "device", "ground_truth")
+
+
+def default_scores(record: Mapping[str, Any], source: str) -> dict[str, float] | None:
+    """``{dataset: mean val ATE / mean stand-still ATE, ..., "mean": their mean}`` of a job record
+    scored with ``source``; None when it was not."""
+    scores: dict[str, float] = {}
+    for key, rows in sorted(record["evaluation"]["parts"].items()):
+        dataset, part, scored_with = key.split("/")
+        if part == "val" and scored_with == source and rows:
+            still = sum(row["stand_still"]["ate"] for row in rows)
+            scores[dataset] = sum(row["ate"] for row in rows) / still
+    if not scores:
+        return None
+    return {**scores, "mean": sum(scores.values()) / len(scores)}
+
+
+def choose_default(candidates: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The default among shipped pedestrian checkpoints (``{checkpoint name: job record}``):
+    ``{"model", "source", "scores": {name: default_scores}, "why"}``; None without candidates."""
+    if not candidates:
+        return None
+    for source in DEFAULT_SOURCES:
+        scores = {name: default_scores(record, source) for name, record in candidates.items()}
+        if all(s is not None for s in scores.values()):
+            break
+    else:
+        raise ValueError("the default's candidates share no orientation source on validation")
+    ranked = sorted(scores, key=lambda name: scores[name]["mean"])
+    best = ranked[0]
+
+    def figure(name: str) -> str:
+        return f"{name} {scores[name]['mean']:.2f}x"
+
+    label = {PHONE_ONLY: "phone only", "device": "the phone's attitude"}.get(
+        source, "ground-truth orientation"
+    )
+    datasets = ", ".join(DATASET_LABELS.get(d, d) for d in scores[best] if d != "mean")
+    why = (
+        f"the pedestrian checkpoint that walks its validation walks best ({label}): ATE "
+        f"{scores[best]['mean']:.2f}x standing still's, mean over {datasets}"
+    )
+    if len(ranked) > 1:
+        why += "; against " + ", ".join(figure(name) for name in ranked[1:])
+    return {"model": best, "source": source, "scores": scores, "why": why}

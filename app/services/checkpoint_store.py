@@ -8,14 +8,17 @@ Decisions:
 - A model's name is its checkpoint's file stem (``ftin-oxiod.safetensors`` -> ``ftin-oxiod``), and
   names are matched case-insensitively: ``FTIN-OxIOD`` (the paper's spelling) finds ``ftin-oxiod``.
   Two checkpoints whose names differ only in case are refused at start-up.
-- The default model is ``FTIN_DEFAULT_MODEL`` (built-in: ``ftin-pedestrian``) when loaded. When that name
-  was set explicitly and is missing, start-up fails; when it is only the built-in default, the
+- The default model is ``FTIN_DEFAULT_MODEL`` when set; else the one the checkpoint folder's
+  ``default.json`` names (``ftin campaign ship`` writes it: the pedestrian checkpoint best on
+  validation, whatever its architecture, and why: ``default_why``); else the built-in
+  ``ftin-pedestrian``. When the name was set explicitly and is missing, start-up fails; otherwise the
   first FTIN checkpoint (else the first checkpoint) stands in and ``/health`` says so, naming the
-  file it looked for.
+  file it looked for. A ``default.json`` that cannot be read stops the start-up, naming the file.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 from collections.abc import Callable
@@ -31,6 +34,24 @@ from ftin.checkpoint import LoadedModel, load_model
 log = logging.getLogger(__name__)
 
 CHECKPOINT_SUFFIX = ".safetensors"
+DEFAULT_CHOICE_FILE = "default.json"  # ftin.campaign.collect.DEFAULT_FILE: the default model and why
+
+
+def read_default_choice(checkpoint_dir: Path) -> tuple[str, str] | None:
+    """``(model, why)`` from the folder's ``default.json``; None without one; ``StartupError`` for a
+    file that is not ``{"model": str, "why": str, ...}``."""
+    path = checkpoint_dir / DEFAULT_CHOICE_FILE
+    if not path.is_file():
+        return None
+    try:
+        choice = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise StartupError(f"cannot read {path}: {exc}") from exc
+    if not isinstance(choice, dict) or not all(isinstance(choice.get(k), str) for k in ("model", "why")):
+        raise StartupError(
+            f'{path}: expected {{"model": NAME, "why": TEXT}} (written by `ftin campaign ship`)'
+        )
+    return choice["model"], choice["why"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +121,7 @@ class ModelStore:
     entries: dict[str, ModelEntry]
     default_name: str | None
     notes: list[str] = field(default_factory=list)
+    default_why: str | None = None  # why the default is the default (``default.json``), for the page
 
     @classmethod
     def load(
@@ -139,6 +161,9 @@ class ModelStore:
             entries[name] = ModelEntry(name, path, loaded)
             log.info("loaded model %s (%s) from %s", name, loaded.model_name, path)
 
+        default_why = None
+        if not default_is_explicit and (chosen := read_default_choice(checkpoint_dir)) is not None:
+            default_model, default_why = chosen
         default_name = _find(entries, default_model)
         if default_name is None and default_is_explicit:
             raise StartupError(
@@ -152,7 +177,8 @@ class ModelStore:
                 f"default model {default_model!r} not found (no {checkpoint_dir / default_model}"
                 f"{CHECKPOINT_SUFFIX}); using {default_name!r} instead"
             )
-        return cls(checkpoint_dir, entries, default_name, notes)
+            default_why = None
+        return cls(checkpoint_dir, entries, default_name, notes, default_why)
 
     def names(self) -> list[str]:
         return list(self.entries)

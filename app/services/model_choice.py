@@ -53,7 +53,7 @@ def choose_model(
     if kind is None and upload_format is not None:
         rule = "upload_kind"
         if upload_format in PHONE_EXPORTS:
-            why = f"a phone app's export ({upload_format}): the default pedestrian model"
+            why = f"a phone app's export ({upload_format}): the default pedestrian model{_why(models)}"
             return default, ModelChoice(default.name, rule, why)
         kind = kind_of([upload_format, *upload_texts])
     trained = [e for e in models.entries.values() if kind is not None and kind in e.data_kinds]
@@ -62,5 +62,10 @@ def choose_model(
         where = "the sequence's suggested model" if rule == "sequence" else "the model for the upload's kind"
         return entry, ModelChoice(entry.name, rule, f"{where}: trained on {label(kind)}")
     return default, ModelChoice(
-        default.name, "default", "the default model (no model suits this recording's kind)"
+        default.name, "default", f"the default model (no model suits this recording's kind){_why(models)}"
     )
+
+
+def _why(models: ModelStore) -> str:
+    """Why the default is the default (``default.json``), as a clause; empty when no file says."""
+    return f", chosen as {models.default_why}" if models.default_why else ""

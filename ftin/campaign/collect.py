@@ -6,7 +6,8 @@ A record is ``{"training": done.json, "history": history.json, "evaluation": eva
 the best validation MSE is the candidate; it ships if it passes ``protocol.validation_gate``, else
 an earlier checkpoint of that name is withdrawn (a model that has not learned to walk is not hosted).
 FTIN's candidates are the variant validation chose. Walker-fold jobs are recorded but never shipped
-(``ftin campaign crossval`` compares them).
+(``ftin campaign crossval`` compares them). Among the shipped pedestrian checkpoints the manifest
+names the app's default (``protocol.choose_default``), which ``ship`` writes to ``default.json``.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from ftin.train.model_card import render_campaign_card
 from ftin.train.state import HISTORY_FILE
 
 MANIFEST = "manifest.json"
+DEFAULT_FILE = "default.json"  # in the checkpoint folder: the app's default model and why (app.services)
 CARD_SUFFIXES = (".safetensors", ".json", ".md")
 
 
@@ -60,10 +62,16 @@ def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> di
         "shipped": {},
         "not_shipped": {},
     }
+    candidates: dict[str, dict[str, Any]] = {}
     for stem, (val, job, record) in sorted(best.items()):
         gate = protocol.validation_gate(record)
         key = "not_shipped" if gate["refused"] else "shipped"
         manifest[key][stem] = {"job": job.name, **({} if gate["refused"] else {"val_mse": val}), **gate}
+        if not gate["refused"] and job.dataset in protocol.DEFAULT_CANDIDATE_DATASETS:
+            candidates[stem] = record
+    default = protocol.choose_default(candidates)
+    if default is not None:
+        manifest["default"] = default
     write_json(results / MANIFEST, manifest)
     return manifest
 
@@ -99,6 +107,10 @@ def ship(
         card = render_campaign_card(meta, record, seeds, manifest.get("ftin_variant"))
         (checkpoints / (stem + ".md")).write_text(card)
         written.append(checkpoints / (stem + ".md"))
+    if "default" in manifest:  # the app's default for requests that name no model, and why
+        default = {key: manifest["default"][key] for key in ("model", "why", "source", "scores")}
+        write_json(checkpoints / DEFAULT_FILE, default)
+        written.append(checkpoints / DEFAULT_FILE)
     return written
 
 

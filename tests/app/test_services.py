@@ -354,3 +354,46 @@ def test_a_checkpoint_trained_on_two_kinds_serves_both() -> None:
     assert (
         ModelStore(Path("."), {e.name: e for e in entries}, "ftin-sim", []).for_kind("oxiod") == "ftin-oxiod"
     )
+
+
+# --- the default chosen on validation (default.json, written by `ftin campaign ship`) -------------
+
+
+def _folder_with_default(tmp_path: Path, checkpoint_dir: Path, choice: object) -> Path:
+    for path in checkpoint_dir.iterdir():
+        (tmp_path / path.name).write_bytes(path.read_bytes())
+    (tmp_path / "default.json").write_text(json.dumps(choice))
+    return tmp_path
+
+
+def test_default_json_names_the_default_and_why(
+    tmp_path: Path, checkpoint_dir: Path, make_settings: Callable[..., Settings], csv_with_gt: bytes
+) -> None:
+    why = "the pedestrian checkpoint that walks its validation walks best (phone only): ATE 0.41x"
+    folder = _folder_with_default(tmp_path, checkpoint_dir, {"model": "resnet-tiny", "why": why})
+    store = ModelStore.load(folder, "ftin-pedestrian")
+    assert store.default_name == "resnet-tiny" and store.default_why == why and not store.notes
+    # FTIN_DEFAULT_MODEL still decides when set
+    explicit = ModelStore.load(folder, "ftin-oxiod", default_is_explicit=True)
+    assert explicit.default_name == "ftin-oxiod" and explicit.default_why is None
+    # the answer and the page say which and why
+    with TestClient(create_app(make_settings(checkpoint_dir=folder))) as client:
+        assert client.get("/health").json()["default_model_why"] == why
+        files = {"file": ("walk.csv", csv_with_gt, "text/csv")}
+        choice = client.post("/predict", files=files).json()["model_choice"]
+    assert choice["model"] == "resnet-tiny" and choice["rule"] == "default" and why in choice["reason"]
+
+
+def test_default_json_naming_a_missing_model_falls_back_and_a_broken_one_stops_the_start(
+    tmp_path: Path, checkpoint_dir: Path
+) -> None:
+    folder = _folder_with_default(tmp_path, checkpoint_dir, {"model": "gone", "why": "best on validation"})
+    store = ModelStore.load(folder, "ftin-pedestrian")
+    assert store.default_name == "ftin-oxiod" and store.default_why is None
+    assert "default model 'gone' not found" in store.notes[0]
+    (folder / "default.json").write_text('{"model": 3}')
+    with pytest.raises(StartupError, match=r"default\.json: expected"):
+        ModelStore.load(folder, "ftin-pedestrian")
+    (folder / "default.json").write_text("{not json")
+    with pytest.raises(StartupError, match=r"cannot read .*default\.json"):
+        ModelStore.load(folder, "ftin-pedestrian")

@@ -21,6 +21,7 @@ async def health(services: ServicesDep) -> HealthResponse:
         version=ftin.__version__,
         models=services.models.names(),
         default_model=services.models.default_name,
+        default_model_why=services.models.default_why,
         sequences=len(services.catalog.entries),
         scene_url=services.scene_url,
         notes=services.notes,
