@@ -438,6 +438,12 @@ def validation_gate(record: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+def path_ratio_bounds(carry: str) -> tuple[float, float]:
+    """The path ratio a walk of this carry mode must reach (the generalisation issue's acceptance:
+    0.8-1.2 of the walked distance, 0.7-1.3 running)."""
+    return (0.7, 1.3) if "running" in carry.lower() else (0.8, 1.2)
+
+
 # The app's default model (for requests that name none): the pedestrian checkpoint, of whatever
 # architecture, whose validation recordings it walks best, as a user would get them. Scored per
 # dataset as validation ATE over standing still's (scale-free: RIDI's long walks are not worth ten

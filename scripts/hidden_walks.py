@@ -35,10 +35,6 @@ LABELS = {protocol.OXIOD: "OxIOD", protocol.RIDI: "RIDI", protocol.INRIA: "Inria
 STILL_LIMIT = {protocol.OXIOD: 0.5, protocol.RIDI: 0.5, protocol.INRIA: 1.0}  # mean ATE / stand still
 
 
-def ratio_bounds(carry: str) -> tuple[float, float]:
-    return (0.7, 1.3) if "running" in carry.lower() else (0.8, 1.2)
-
-
 def score_dataset(model, data: Path, dataset: str) -> list[dict]:
     rows = []
     paths = protocol.split_paths(data, dataset, "test")
@@ -49,7 +45,7 @@ def score_dataset(model, data: Path, dataset: str) -> list[dict]:
         if "motion" in seq.meta:  # Inria: the motion says more (running, phoning, texting) and Dist
             carry = f"{carry} ({seq.meta['motion']}{', Dist' if seq.meta['magnetic_disturbance'] else ''})"
         ratio = scored.metrics.values.get("path_length_ratio")
-        low, high = ratio_bounds(carry)
+        low, high = protocol.path_ratio_bounds(carry)
         rows.append(
             {
                 "name": seq.name,

@@ -295,11 +295,13 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="summary (default: the runs folder's)")
     parser.add_argument("--fold", type=int, default=None, help="the walking dataset's walker fold")
     parser.add_argument("--stride", type=int, default=20, help="training windows every N samples")
+    parser.add_argument("--epochs", type=int, default=EPOCHS, help=f"epochs per run (default {EPOCHS})")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    global RUNS, TRAIN, VAL
+    global RUNS, TRAIN, VAL, EPOCHS
+    EPOCHS = args.epochs
     if args.fold is not None:
-        RUNS = Path(f"runs/probes/augment-f{args.fold}")
+        RUNS = Path(f"runs/probes/augment-f{args.fold}" + (f"-e{EPOCHS}" if EPOCHS != 6 else ""))
         TRAIN, VAL = walker_split(args.fold)
     args.out = args.out or RUNS / "summary.md"
     if args.phase == "summary":

@@ -73,7 +73,8 @@ def main() -> None:
         f"recorded and with every device axis clipped to ±{args.clip_g:g} g; change: clipped against "
         "as recorded.",
         "",
-        "| checkpoint | carry | walks | samples clipped | windows | ratio as recorded | ratio clipped | change |",
+        "| checkpoint | carry | walks | samples clipped | windows | ratio as recorded | ratio clipped "
+        "| change |",
         "|---|---|--:|--:|--:|--:|--:|--:|",
     ]
     for path in args.checkpoint:

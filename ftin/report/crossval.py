@@ -35,6 +35,9 @@ Decisions:
   that all agree, a two-sided sign test stands at 6 %, and a percentile bootstrap over so few clusters
   is too narrow; so the per-dataset sub-rows (OxIOD and RIDI have 4 walkers, Inria 2) show a direction
   and an interval, never a winner. Intervals are per row, not corrected for the number of rows.
+- Per carry mode (``carry_table``, phone only: what a user has): each arm's mean path ratio and how
+  many recordings x seeds reach the acceptance's bounds (``protocol.path_ratio_bounds``): a short
+  distance on swinging or running walks is hidden in a mean over every walk.
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from ftin import protocol
+from ftin.data.readers import oxiod, ridi
 from ftin.report.campaign import ORIENTATIONS
 
 ATE = "ate"  # the records' headline metric: RoNIN convention (no alignment, horizontal)
@@ -58,6 +62,7 @@ DATASETS = protocol.COMBINED[protocol.WALKING]  # oxiod, ridi, inria: the order 
 DATASET_LABELS = protocol.DATASET_LABELS
 ORIENTATION_LABELS = ORIENTATIONS
 GROUND_TRUTH = "ground_truth"
+PHONE_ONLY = protocol.PHONE_ONLY
 BOTH_FOLDS = "both folds"
 SCOPES: dict[str, tuple[int, ...]] = {
     **{f"fold {fold}": (fold,) for fold in protocol.FOLDS},
@@ -283,6 +288,57 @@ def stand_still_cell(scores: Sequence[Score], folds: tuple[int, ...]) -> dict[st
     return {"ate": float(np.mean(list(unique.values()))), "recordings": len(unique), "datasets": datasets}
 
 
+def carry_of(dataset: str, recording: str) -> str:
+    """A validation recording's carry mode: Inria's motion (AR, Swinging, RunningPocket, ...), else the
+    reader's carry mode (OxIOD: handheld, trolley; RIDI: bag, body, handheld, pocket)."""
+    if dataset == protocol.INRIA:
+        return recording.rsplit("_", 1)[-1]
+    if dataset == protocol.OXIOD:
+        return oxiod.carry_mode(Path(recording))
+    if dataset == protocol.RIDI:
+        return ridi.carry_mode(Path(recording))
+    return "unknown"
+
+
+def carry_table(scores: Sequence[Score], orientation: str = PHONE_ONLY) -> list[dict[str, Any]]:
+    """Per dataset and carry mode, with ``orientation`` (phone only: what a user has): per arm the
+    mean path ratio (over seeds of the mean over recordings) and how many of its recordings x seeds
+    lie within the acceptance's bounds (``protocol.path_ratio_bounds``)."""
+    by_carry: dict[tuple[str, str], list[Score]] = defaultdict(list)
+    for score in scores:
+        if score.orientation == orientation and score.path_length_ratio is not None:
+            by_carry[score.dataset, carry_of(score.dataset, score.recording)].append(score)
+    rows = []
+    order = sorted(
+        by_carry, key=lambda k: (DATASETS.index(k[0]) if k[0] in DATASETS else len(DATASETS), k[1])
+    )
+    for dataset, carry in order:
+        carry_scores = by_carry[dataset, carry]
+        low, high = protocol.path_ratio_bounds(carry)
+        arms = {}
+        for arm in arm_order(s.arm for s in carry_scores):
+            mine = [s for s in carry_scores if s.arm == arm]
+            per_seed = defaultdict(list)
+            for s in mine:
+                per_seed[s.seed].append(s.path_length_ratio)
+            arms[arm] = {
+                "path_length_ratio": float(np.mean([np.mean(r) for r in per_seed.values()])),
+                "within": sum(low <= s.path_length_ratio <= high for s in mine),
+                "runs": len(mine),
+            }
+        recordings = {(s.fold, s.recording) for s in carry_scores}
+        rows.append(
+            {
+                "dataset": dataset,
+                "carry": carry,
+                "bounds": [low, high],
+                "recordings": len(recordings),
+                "arms": arms,
+            }
+        )
+    return rows
+
+
 def validation_table(runs: Sequence[FoldRun], scores: Sequence[Score]) -> dict[str, Any]:
     """``{orientation: {"stand_still": {scope: cell}, "arms": {arm: {scope: cell}}}}``."""
     table: dict[str, Any] = {}
@@ -454,5 +510,6 @@ def crossval_summary(runs: Sequence[FoldRun], resamples: int = RESAMPLES) -> dic
         },
         "validation": validation_table(runs, scores),
         "walkers": walker_table(scores),
+        "carry": carry_table(scores),
         "comparisons": paired_comparisons(scores, resamples),
     }

@@ -50,6 +50,7 @@ def render_markdown(summary: dict[str, Any]) -> str:
             _header(summary),
             *_validation_sections(summary),
             _walker_section(summary),
+            _carry_section(summary),
             _comparison_section(summary),
         ]
     )
@@ -147,6 +148,35 @@ def _walker_section(summary: dict[str, Any]) -> str:
                 [label, row["walker"], folds, str(row["recordings"]), _number(row["stand_still"], 3), *cells]
             )
         )
+    return "\n".join(lines) + "\n"
+
+
+def _carry_section(summary: dict[str, Any]) -> str:
+    """Per carry mode, phone only: each arm's mean path ratio and how many walks reach the bounds."""
+    rows = summary.get("carry") or []
+    if not rows:
+        return ""
+    arms = summary["compared"]["arms"]
+    header = ["dataset", "carry", "recordings", "bounds", *(f"`{arm}`" for arm in arms)]
+    lines = [
+        "## Path ratio per carry mode, phone only\n",
+        "Mean path ratio (over seeds of the mean over the recordings) and, in brackets, how many "
+        "recordings x seeds lie within the bounds the generalisation issue asks of every walk.\n",
+        _row(header),
+        "|" + "|".join([":--"] * 2 + ["--:"] * (len(header) - 2)) + "|",
+    ]
+    for row in rows:
+        cells = []
+        for arm in arms:
+            figures = row["arms"].get(arm)
+            cells.append(
+                "—"
+                if figures is None
+                else f"{figures['path_length_ratio']:.2f} ({figures['within']}/{figures['runs']})"
+            )
+        low, high = row["bounds"]
+        label = DATASET_LABELS.get(row["dataset"], row["dataset"])
+        lines.append(_row([label, row["carry"], str(row["recordings"]), f"{low:g}-{high:g}", *cells]))
     return "\n".join(lines) + "\n"
 
 

@@ -15,6 +15,9 @@ from ftin.protocol import walker
 from ftin.report.crossval import (
     A_BETTER,
     NO_DIFFERENCE,
+    Score,
+    carry_of,
+    carry_table,
     crossval_summary,
     load_fold_runs,
     pairs,
@@ -296,3 +299,35 @@ def test_a_campaign_with_one_fold_done_has_no_both_folds_rows(tmp_path):
     assert validation["stand_still"]["fold 0"] is not None
     assert validation["stand_still"]["both folds"] is None and validation["stand_still"]["fold 1"] is None
     assert validation["arms"][A]["both folds"] is None
+
+
+def test_carry_table_counts_the_walks_each_arm_carries_far_enough_phone_only():
+    def score(arm, seed, dataset, recording, ratio, orientation="phone_only"):
+        return Score(arm, 0, seed, dataset, recording, orientation, 1.0, STILL, ratio)
+
+    scores = [
+        score(A, 0, "inria", "Guillaume_Nexus5_NoDist_Swinging", 0.6),
+        score(A, 1, "inria", "Guillaume_Nexus5_NoDist_Swinging", 0.9),
+        score(A, 0, "inria", "Guillaume_iPhone5_Dist_Swinging", 0.85),
+        score(A, 0, "inria", "Guillaume_Nexus5_NoDist_RunningHand", 0.75),  # within running's 0.7-1.3
+        score(B, 0, "inria", "Guillaume_Nexus5_NoDist_Swinging", 1.0),
+        score(B, 0, "ridi", "dan_leg1", 0.5),
+        score(B, 0, "oxiod", "trolley/data1/imu7", 1.0),
+        score(B, 0, "oxiod", "trolley/data1/imu7", 0.1, orientation="ground_truth"),  # not phone only
+    ]
+    rows = {(r["dataset"], r["carry"]): r for r in carry_table(scores)}
+    assert list(rows) == [
+        ("oxiod", "trolley"),
+        ("ridi", "pocket"),
+        ("inria", "RunningHand"),
+        ("inria", "Swinging"),
+    ]
+    swinging = rows["inria", "Swinging"]
+    assert swinging["recordings"] == 2 and swinging["bounds"] == [0.8, 1.2]
+    # seed 0: mean(0.6, 0.85); seed 1: 0.9; then the mean over seeds
+    assert swinging["arms"][A]["path_length_ratio"] == pytest.approx((0.725 + 0.9) / 2)
+    assert (swinging["arms"][A]["within"], swinging["arms"][A]["runs"]) == (2, 3)
+    assert rows["inria", "RunningHand"]["arms"][A]["within"] == 1
+    assert rows["ridi", "pocket"]["arms"][B]["within"] == 0
+    assert rows["oxiod", "trolley"]["arms"][B] == {"path_length_ratio": 1.0, "within": 1, "runs": 1}
+    assert carry_of("oxiod", "handheld/data1/imu2") == "handheld" and carry_of("ridi", "dan_bag1") == "bag"
