@@ -284,6 +284,7 @@ def carry_summary(results: list[dict[str, Any]]) -> str:
 
 
 def main() -> None:
+    global RUNS, TRAIN, VAL, EPOCHS  # a fold's split and budget replace the module's
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -298,7 +299,6 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=EPOCHS, help=f"epochs per run (default {EPOCHS})")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    global RUNS, TRAIN, VAL, EPOCHS
     EPOCHS = args.epochs
     if args.fold is not None:
         RUNS = Path(f"runs/probes/augment-f{args.fold}" + (f"-e{EPOCHS}" if EPOCHS != 6 else ""))
