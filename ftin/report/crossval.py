@@ -79,6 +79,10 @@ COMPARISONS: tuple[tuple[str, str, str], ...] = (
     ("ftin-mixed-yaw", "ftin-ordered-yaw", "TDL: the paper's flattening vs ordered"),
     ("ftin-ordered-aug", "ftin-ordered-yaw", "augmentation"),
     ("ronin_resnet-aug", "ronin_resnet-yaw", "augmentation"),
+    ("ftin-ordered-mirror", "ftin-ordered-yaw", "mirror augmentation"),
+    ("ronin_resnet-mirror", "ronin_resnet-yaw", "mirror augmentation"),
+    ("ftin-ordered-aug", "ronin_resnet-aug", "FTIN vs RoNIN ResNet, both augmented"),
+    ("ftin-ordered-mirror", "ronin_resnet-mirror", "FTIN vs RoNIN ResNet, both mirrored"),
     ("ftin-ordered-paper", "ftin-ordered-yaw", "the paper's optimiser recipe"),
     ("ronin_resnet-paper", "ronin_resnet-yaw", "the paper's optimiser recipe"),
 )
