@@ -9,6 +9,7 @@ import pytest
 
 from ftin import protocol
 from ftin.train.config import TrainConfig
+from tests.utils.stage_one import STAGE_ONE, stage_one_comparisons
 
 INRIA_CARRY = {"AR": "handheld", "Texting": "handheld", "Phoning": "handheld", "RunningHand": "handheld"}
 
@@ -200,3 +201,38 @@ def _members(job, part):
     for dataset in protocol.COMBINED[job.dataset]:
         for path in job.paths(Path("/data"), part, dataset):
             yield dataset, path.relative_to(Path("/data") / protocol.DATA_FOLDERS[dataset]).as_posix()
+
+
+def test_stage_two_takes_stage_one_choices_from_the_phone_only_rows_over_every_dataset():
+    choices = protocol.stage_two_choices(stage_one_comparisons(STAGE_ONE))
+    assert choices.ftin_variant == "mixed" and choices.recipe == "ours"
+    assert choices.augment["ftin"] == {**protocol.GENERALISATION_AUGMENT, "mirror": None}
+    assert choices.augment["ronin_resnet"] == {"mirror": None}
+    assert "mean d -0.200 m" in choices.why["ftin_variant"] and "ours" in choices.why["recipe"]
+    missing = {k: v for k, v in STAGE_ONE.items() if k != ("ronin_resnet-paper", "ronin_resnet-yaw")}
+    with pytest.raises(ValueError, match="not compared ronin_resnet-paper with ronin_resnet-yaw"):
+        protocol.stage_two_choices(stage_one_comparisons(missing))
+
+
+def test_stage_two_retrains_every_checkpoint_with_the_choices_default_candidates_first():
+    choices = protocol.StageTwoChoices("mixed", "paper", {"ftin": {"mirror": None}, "ronin_resnet": {}}, {})
+    jobs = protocol.stage_two_jobs(choices)
+    names = [job.name for job in jobs]
+    assert len(set(names)) == len(names)
+    assert names[:2] == ["walking/ftin-mixed-s0", "walking/ronin_resnet-s0"]  # the default's candidates
+    assert {job.checkpoint_stem for job in jobs[:2]} == {"ftin-walking", "ronin_resnet-walking"}
+    for model, seeds in (
+        ("ftin-mixed", 5),
+        ("resnet_tdl", 5),
+        ("ronin_resnet", 5),
+        ("resnet_fdl", 3),
+        ("tlio", 1),
+    ):
+        for dataset in ("oxiod", "ridi"):
+            assert sum(n.startswith(f"{dataset}/{model}-s") for n in names) == seeds, (model, dataset)
+    by_name = {job.name: job for job in jobs}
+    assert by_name["oxiod/resnet_tdl-s4"].options["augment"] == {"mirror": None}  # FTIN's family
+    assert "augment" not in by_name["ridi/rnin-s0"].options  # ResNet's choice: yaw only
+    assert all(job.options["lr"] == 1e-4 and job.options["batch_size"] == 512 for job in jobs)
+    assert by_name["oxiod/ftin-mixed-s3"].options["model_kwargs"]["fdl_output"] == "mixed"
+    assert names[-1] == "sim/ftin-mixed-s0" and jobs[-1].options["augment"] == {"mirror": None}

@@ -47,8 +47,11 @@ def write_json(path: Path, value: Any) -> None:
     atomic_write_text(path, json.dumps(value, indent=1) + "\n")
 
 
-def load_job_list(source: str | Path) -> str | list[dict[str, Any]]:
-    """A protocol campaign's name, or the job specs of a JSON file (a list of ``Job.to_json`` objects)."""
+def load_job_list(source: str | Path | list[protocol.Job]) -> str | list[dict[str, Any]]:
+    """A protocol campaign's name, the job specs of a JSON file (a list of ``Job.to_json`` objects), or
+    jobs made by the caller (stage two's, from stage one's choices)."""
+    if isinstance(source, list):
+        return [job.to_json() for job in source]
     if str(source) in protocol.CAMPAIGNS:
         return str(source)
     path = Path(source)
@@ -99,7 +102,11 @@ class Campaign:
 
     @classmethod
     def create(
-        cls, runs: Path, data_root: Path, jobs: str | Path, skip_recorded: Path | None = None
+        cls,
+        runs: Path,
+        data_root: Path,
+        jobs: str | Path | list[protocol.Job],
+        skip_recorded: Path | None = None,
     ) -> Campaign:
         runs = Path(runs).expanduser().resolve()
         if (runs / STATE_FILE).exists():

@@ -10,6 +10,7 @@ naming the extra to install.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
@@ -17,6 +18,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from ftin import protocol
 from ftin.campaign import CampaignError, engine
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
@@ -42,6 +44,22 @@ DEFAULT_RUNS = Path("runs/campaign")
 DEFAULT_RESULTS = Path("docs/results/campaign")
 
 
+STAGE_TWO = "stage-two"
+
+
+def stage_two_choices_of(crossval_json: Path) -> protocol.StageTwoChoices:
+    """Stage one's choices from its cross-validation report (``ftin campaign crossval``)."""
+    if not crossval_json.is_file():
+        raise CampaignError(f"--choices {crossval_json}: no such file; run `ftin campaign crossval` first")
+    try:
+        comparisons = json.loads(crossval_json.read_text(encoding="utf-8"))["comparisons"]
+        return protocol.stage_two_choices(comparisons)
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise CampaignError(f"--choices {crossval_json}: not a crossval.json ({exc})") from None
+    except ValueError as exc:
+        raise CampaignError(f"--choices {crossval_json}: {exc}") from None
+
+
 @campaign_app.command("plan")
 def plan_command(
     runs: RunsOption = DEFAULT_RUNS,
@@ -51,9 +69,17 @@ def plan_command(
     jobs: Annotated[
         str,
         typer.Option(
-            "--jobs", help="A protocol campaign (table1, generalisation) or a JSON file of job specs."
+            "--jobs",
+            help="A protocol campaign (table1, generalisation), stage-two (stage one's choices, read from "
+            "--choices), or a JSON file of job specs.",
         ),
     ] = "table1",
+    choices: Annotated[
+        Path,
+        typer.Option(
+            "--choices", help="--jobs stage-two: stage one's crossval.json (its paired comparisons)."
+        ),
+    ] = Path("docs/results/generalisation/crossval.json"),
     refresh_code: Annotated[
         bool,
         typer.Option("--refresh-code", help="Existing campaign: jobs not yet started run on this code."),
@@ -75,7 +101,12 @@ def plan_command(
             return
         if not data.is_dir():
             raise CampaignError(f"--data {data}: no such folder")
-        campaign = Campaign.create(runs, data, jobs, skip_recorded)
+        chosen = stage_two_choices_of(choices) if jobs == STAGE_TWO else None
+        job_list = protocol.stage_two_jobs(chosen) if chosen else jobs
+        campaign = Campaign.create(runs, data, job_list, skip_recorded)
+        if chosen:  # what the jobs were made from, in words, beside them
+            campaign.state["stage_one_choices"] = chosen.why
+            campaign.save()
     names = [job.name for job in campaign.jobs()]
     typer.echo(f"campaign in {campaign.runs}: {len(names)} job(s) now, code {campaign.state['code']}")
     for name in names:

@@ -8,6 +8,7 @@ import sys
 from ftin.campaign.folder import Campaign
 from ftin.cli import app
 from tests.utils.cli import fails_cleanly, runner
+from tests.utils.stage_one import STAGE_ONE, stage_one_comparisons
 
 
 def _jobs_file(tmp_path):
@@ -83,3 +84,23 @@ def test_a_running_driver_starts_new_jobs_on_code_refreshed_beside_it(tmp_path):
     (runs / "campaign.json").write_text(json.dumps(state))
     assert driver.code_for(second).name == "code-newer"  # the job not yet started takes it
     assert driver.code_for(first).name != "code-newer"  # a started job keeps the code it started on
+
+
+def test_plan_stage_two_from_stage_ones_crossval(tmp_path):
+    crossval = tmp_path / "crossval.json"
+    crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(STAGE_ONE)}))
+    args = ["campaign", "plan", "--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--jobs", "stage-two"]
+    result = runner.invoke(app, [*args, "--choices", str(crossval)])
+    assert result.exit_code == 0, result.output
+    state = json.loads((tmp_path / "r" / "campaign.json").read_text())
+    assert len(state["jobs"]) == 49 and state["jobs"][0]["name"] == "walking/ftin-mixed-s0"
+    assert "mixed" in state["stage_one_choices"]["ftin_variant"]
+    unanswered = dict(STAGE_ONE)
+    del unanswered["ftin-mixed-yaw", "ftin-ordered-yaw"]
+    crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(unanswered)}))
+    again = runner.invoke(app, [*args[:3], str(tmp_path / "r2"), *args[4:], "--choices", str(crossval)])
+    fails_cleanly(again, "has not compared ftin-mixed-yaw with ftin-ordered-yaw")
+    missing = runner.invoke(
+        app, [*args[:3], str(tmp_path / "r3"), *args[4:], "--choices", str(tmp_path / "no.json")]
+    )
+    fails_cleanly(missing, "no such file", "ftin campaign crossval")
