@@ -131,8 +131,10 @@ def stale_samples(directory: Path = SAMPLES_DIR) -> list[str]:
 
 
 def matches_simulation(stored: ImuSequence, simulated: ImuSequence) -> bool:
-    """True when ``stored`` is ``simulated`` at the storage precision (half a unit, plus 1e-12 for
-    the reader's quaternion renormalisation and cross-platform last-bit differences)."""
+    """True when ``stored`` is ``simulated`` at the storage precision: half a unit, plus 1e-9 for the
+    reader's quaternion renormalisation and for float noise across library versions (a value that sat
+    on a rounding boundary when the file was written may round the other way: scipy 1.17 moved one
+    acceleration by 1.7e-11 past the half unit). Another seed differs by whole units."""
     if len(stored) != len(simulated) or stored.gt is None or stored.q_world_device_wxyz is None:
         return False
     pairs = {
@@ -146,7 +148,7 @@ def matches_simulation(stored: ImuSequence, simulated: ImuSequence) -> bool:
     for group, (a, b) in pairs.items():
         # q: the reader renormalises, which moves a component by up to one more storage unit.
         units = 1.5 if group == "q" else 0.5
-        if np.max(np.abs(a - b)) > units * 10.0 ** -STORAGE_DECIMALS[group] + 1e-12:
+        if np.max(np.abs(a - b)) > units * 10.0 ** -STORAGE_DECIMALS[group] + 1e-9:
             return False
     return True
 
