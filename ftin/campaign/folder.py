@@ -69,20 +69,29 @@ def load_job_list(source: str | Path | list[protocol.Job]) -> str | list[dict[st
     return [job.to_json() for job in jobs]
 
 
+def _specs(job_list: str | list[dict[str, Any]], ftin_variant: str | None = None) -> list[dict[str, Any]]:
+    """A job list as specs: a protocol campaign's name made into its jobs."""
+    if isinstance(job_list, str):
+        return [job.to_json() for job in protocol.CAMPAIGNS[job_list](ftin_variant)]
+    return list(job_list)
+
+
 def record_name(job_name: str) -> str:
     """A finished job's record in a results folder (``ftin campaign collect``)."""
     return job_name.replace("/", "__") + ".json"
 
 
+def unrecorded(specs: list[dict[str, Any]], results: Path) -> list[dict[str, Any]]:
+    """The job specs whose record is not in ``results`` yet (``ftin campaign collect`` writes them)."""
+    if not Path(results).is_dir():
+        raise CampaignError(f"--skip-recorded {results}: no such folder")
+    return [spec for spec in specs if not (Path(results) / record_name(spec["name"])).exists()]
+
+
 def without_recorded(job_list: str | list[dict[str, Any]], results: Path) -> list[dict[str, Any]]:
     """The job specs whose record is not in ``results`` yet: a campaign replanned after its folder was
     lost runs only what its committed records lack. The list is written out, so it stays fixed."""
-    specs = (
-        [job.to_json() for job in protocol.CAMPAIGNS[job_list]()] if isinstance(job_list, str) else job_list
-    )
-    if not Path(results).is_dir():
-        raise CampaignError(f"--skip-recorded {results}: no such folder")
-    left = [spec for spec in specs if not (Path(results) / record_name(spec["name"])).exists()]
+    left = unrecorded(_specs(job_list), results)
     if not left:
         raise CampaignError(f"--skip-recorded {results}: every job already has its record there")
     return left
@@ -149,9 +158,10 @@ class Campaign:
         return Path(self.state["data_root"])
 
     def jobs(self) -> list[protocol.Job]:
-        """Every job known now (a protocol campaign grows once FTIN's variant is chosen); a started
-        job keeps the spec it started with."""
-        source = self.state["jobs"]
+        """Every job known now (a protocol campaign grows once FTIN's variant is chosen; ``extend``
+        adds jobs, read from the state file so that a running driver sees them); a started job keeps
+        the spec it started with."""
+        source = read_json(self.runs / STATE_FILE)["jobs"]
         if isinstance(source, str):
             jobs = protocol.CAMPAIGNS[source](self.state.get("ftin_variant"))
         else:
@@ -160,6 +170,25 @@ class Campaign:
             protocol.Job.from_json(read_json(p)) if (p := self.job_dir(j) / JOB_FILE).exists() else j
             for j in jobs
         ]
+
+    def extend(self, jobs: str | Path | list[protocol.Job], skip_recorded: Path | None = None) -> list[str]:
+        """Add the jobs of ``jobs`` this campaign lacks (without those recorded in ``skip_recorded``)
+        and order the list as ``jobs`` orders it (a job it does not name stays, after them); a job
+        already in the list keeps its spec. A running driver starts them as slots free. The names added."""
+        new = _specs(load_job_list(jobs))
+        if skip_recorded is not None:
+            new = unrecorded(new, skip_recorded)
+        state = read_json(self.runs / STATE_FILE)
+        current = _specs(state["jobs"], state.get("ftin_variant"))  # from now on a written-out list
+        known = {spec["name"]: spec for spec in current}
+        added = [spec["name"] for spec in new if spec["name"] not in known]
+        named = {spec["name"] for spec in new}
+        ordered = [known.get(spec["name"], spec) for spec in new]
+        ordered += [spec for spec in current if spec["name"] not in named]
+        state["jobs"] = ordered
+        write_json(self.runs / STATE_FILE, state)
+        self.state = state
+        return added
 
     def job_dir(self, job: protocol.Job) -> Path:
         return self.runs / job.name

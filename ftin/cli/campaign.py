@@ -84,6 +84,14 @@ def plan_command(
         bool,
         typer.Option("--refresh-code", help="Existing campaign: jobs not yet started run on this code."),
     ] = False,
+    extend: Annotated[
+        bool,
+        typer.Option(
+            "--extend",
+            help="Existing campaign: add the jobs of --jobs it lacks, in --jobs' order (a running driver "
+            "starts them as slots free).",
+        ),
+    ] = False,
     skip_recorded: Annotated[
         Path | None,
         typer.Option(
@@ -99,10 +107,14 @@ def plan_command(
             code = campaign.refresh_code()
             typer.echo(f"jobs not yet started run on {code.name} from now on")
             return
-        if not data.is_dir():
-            raise CampaignError(f"--data {data}: no such folder")
         chosen = stage_two_choices_of(choices) if jobs == STAGE_TWO else None
         job_list = protocol.stage_two_jobs(chosen) if chosen else jobs
+        if extend:
+            added = Campaign(runs).extend(job_list, skip_recorded)
+            typer.echo(f"added {len(added)} job(s) to {runs}" + "".join(f"\n  {name}" for name in added))
+            return
+        if not data.is_dir():
+            raise CampaignError(f"--data {data}: no such folder")
         campaign = Campaign.create(runs, data, job_list, skip_recorded)
         if chosen:  # what the jobs were made from, in words, beside them
             campaign.state["stage_one_choices"] = chosen.why

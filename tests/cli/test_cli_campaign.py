@@ -104,3 +104,28 @@ def test_plan_stage_two_from_stage_ones_crossval(tmp_path):
         app, [*args[:3], str(tmp_path / "r3"), *args[4:], "--choices", str(tmp_path / "no.json")]
     )
     fails_cleanly(missing, "no such file", "ftin campaign crossval")
+
+
+def test_extend_adds_the_jobs_a_campaign_lacks_in_their_order_and_a_running_driver_sees_them(tmp_path):
+    runs = tmp_path / "runs"
+    args = ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path), "--jobs"]
+    assert runner.invoke(app, [*args, str(_jobs_file(tmp_path))]).exit_code == 0
+    driver = Campaign(runs)  # what `campaign run` holds while it runs
+    first, second = driver.jobs()
+    started = {**first.to_json(), "options": {"lr": 0.5}}  # the spec it started with
+    (runs / first.name).mkdir(parents=True)
+    (runs / first.name / "job.json").write_text(json.dumps(started))
+    more = [first.to_json(), {**second.to_json(), "name": "walks/ronin_tcn-s7", "seed": 7}, second.to_json()]
+    (tmp_path / "more.json").write_text(json.dumps(more))
+    extended = runner.invoke(app, [*args, str(tmp_path / "more.json"), "--extend"])
+    assert extended.exit_code == 0, extended.output
+    assert "added 1 job(s)" in extended.output and "walks/ronin_tcn-s7" in extended.output
+    names = [job.name for job in driver.pending()]
+    assert names == ["walks/ronin_tcn-s0", "walks/ronin_tcn-s7", "walks/ronin_tcn-s1"]
+    assert driver.jobs()[0].options == {"lr": 0.5}  # a started job keeps its spec
+    again = runner.invoke(app, [*args, str(tmp_path / "more.json"), "--extend"])
+    assert "added 0 job(s)" in again.output
+    nowhere = runner.invoke(
+        app, ["campaign", "plan", "--runs", str(tmp_path / "none"), "--jobs", "table1", "--extend"]
+    )
+    fails_cleanly(nowhere, "holds no campaign")
