@@ -362,9 +362,10 @@ def generalisation_jobs(_variant: str | None = None) -> list[Job]:
     yaw = [("ftin", "ordered", "yaw", {}), ("ronin_resnet", None, "yaw", {})]
     aug = [(m, v, "aug", {"augment": dict(GENERALISATION_AUGMENT)}) for m, v, _, _ in yaw]
     mirror = [(m, v, "mirror", {"augment": {"mirror": None}}) for m, v, _, _ in yaw]
+    pace = [(m, v, "pace", {"augment": {"pace": None}}) for m, v, _, _ in yaw]
     mixed = [("ftin", "mixed", "yaw", {})]
     paper = [(m, v, "paper", dict(RECIPES["paper"])) for m, v, _, _ in yaw]
-    order = [(seed, question) for seed in (0, 1) for question in (yaw, aug, mirror, mixed)]
+    order = [(seed, question) for seed in (0, 1) for question in (yaw, aug, mirror, pace, mixed)]
     order.append((0, paper))  # the recipe question gets one seed per fold
     jobs: list[Job] = []
     for seed, question in order:
@@ -504,7 +505,7 @@ def choose_default(candidates: Mapping[str, Mapping[str, Any]]) -> dict[str, Any
 STAGE_TWO_SEEDS = (0, 1, 2, 3, 4)  # FTIN, +TDL and RoNIN ResNet (the five)
 STAGE_TWO_MULTI_SEED = ("ftin", "resnet_tdl", "ronin_resnet")
 FTIN_FAMILY = ("ftin", "resnet_fdl", "resnet_tdl")  # take FTIN's augmentations; every other model ResNet's
-STAGE_TWO_AUGMENT_ARMS = ("aug", "mirror")  # each chosen against yaw only; the chosen ones are combined
+STAGE_TWO_AUGMENT_ARMS = ("aug", "mirror", "pace")  # each chosen against yaw only; the chosen combined
 
 
 @dataclass(frozen=True)

@@ -177,7 +177,7 @@ def test_the_gate_refuses_what_has_not_learned_to_walk():
 def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
     jobs = protocol.generalisation_jobs()
     names = [job.name for job in jobs]
-    assert len(set(names)) == len(jobs) == 7 * 2 * 2 + 2 * 2  # 7 arms x 2 seeds x 2 folds; paper: 1 seed
+    assert len(set(names)) == len(jobs) == 9 * 2 * 2 + 2 * 2  # 9 arms x 2 seeds x 2 folds; paper: 1 seed
     # each question's pair of arms on both folds before the next one; the 100-epoch paper recipe last
     assert names[:4] == [
         "walking-f0/ftin-ordered-yaw-s0",
@@ -186,7 +186,7 @@ def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
         "walking-f1/ronin_resnet-yaw-s0",
     ]
     assert all(job.options.get("lr") == 1e-4 for job in jobs[-4:])
-    assert all(job.seed == 0 for job in jobs[:14]) and all(job.seed == 1 for job in jobs[14:28])
+    assert all(job.seed == 0 for job in jobs[:18]) and all(job.seed == 1 for job in jobs[18:36])
     assert jobs[8].options["augment"] == {"mirror": None}
     assert all(job.fold in protocol.FOLDS for job in jobs)
     for job in jobs:
@@ -194,7 +194,14 @@ def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
         val = {(d, protocol.walker(d, rel)) for d, rel in _members(job, "val")}
         assert train and val and not train & val, job.name
     arms = {job.name.split("/")[1].rsplit("-s", 1)[0] for job in jobs}
-    assert {"ftin-ordered-aug", "ronin_resnet-paper", "ftin-mixed-yaw", "ronin_resnet-mirror"} <= arms
+    assert {
+        "ftin-ordered-aug",
+        "ronin_resnet-paper",
+        "ftin-mixed-yaw",
+        "ronin_resnet-mirror",
+        "ftin-ordered-pace",
+    } <= arms
+    assert jobs[12].options["augment"] == {"pace": None}
 
 
 def _members(job, part):
@@ -207,7 +214,7 @@ def test_stage_two_takes_stage_one_choices_from_the_phone_only_rows_over_every_d
     choices = protocol.stage_two_choices(stage_one_comparisons(STAGE_ONE))
     assert choices.ftin_variant == "mixed" and choices.recipe == "ours"
     assert choices.augment["ftin"] == {**protocol.GENERALISATION_AUGMENT, "mirror": None}
-    assert choices.augment["ronin_resnet"] == {"mirror": None}
+    assert choices.augment["ronin_resnet"] == {"mirror": None, "pace": None}
     assert "mean d -0.200 m" in choices.why["ftin_variant"] and "ours" in choices.why["recipe"]
     missing = {k: v for k, v in STAGE_ONE.items() if k != ("ronin_resnet-paper", "ronin_resnet-yaw")}
     with pytest.raises(ValueError, match="not compared ronin_resnet-paper with ronin_resnet-yaw"):

@@ -81,6 +81,8 @@ COMPARISONS: tuple[tuple[str, str, str], ...] = (
     ("ronin_resnet-aug", "ronin_resnet-yaw", "augmentation"),
     ("ftin-ordered-mirror", "ftin-ordered-yaw", "mirror augmentation"),
     ("ronin_resnet-mirror", "ronin_resnet-yaw", "mirror augmentation"),
+    ("ftin-ordered-pace", "ftin-ordered-yaw", "pace augmentation"),
+    ("ronin_resnet-pace", "ronin_resnet-yaw", "pace augmentation"),
     ("ftin-ordered-aug", "ronin_resnet-aug", "FTIN vs RoNIN ResNet, both augmented"),
     ("ftin-ordered-mirror", "ronin_resnet-mirror", "FTIN vs RoNIN ResNet, both mirrored"),
     ("ftin-ordered-paper", "ftin-ordered-yaw", "the paper's optimiser recipe"),

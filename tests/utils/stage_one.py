@@ -34,6 +34,8 @@ STAGE_ONE = {
     ("ftin-ordered-mirror", "ftin-ordered-yaw"): -0.3,  # FTIN: mirror yes
     ("ronin_resnet-aug", "ronin_resnet-yaw"): +0.4,  # ResNet: aug no
     ("ronin_resnet-mirror", "ronin_resnet-yaw"): -0.1,  # ResNet: mirror yes
+    ("ftin-ordered-pace", "ftin-ordered-yaw"): +0.2,  # FTIN: pace no
+    ("ronin_resnet-pace", "ronin_resnet-yaw"): -0.2,  # ResNet: pace yes
     ("ftin-ordered-paper", "ftin-ordered-yaw"): -0.5,  # pooled: -0.5 * 40 + 0.8 * 40 > 0: ours
     ("ronin_resnet-paper", "ronin_resnet-yaw"): +0.8,
 }
