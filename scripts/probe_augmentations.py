@@ -83,6 +83,7 @@ ARMS: dict[str, dict[str, float | None]] = {
     "orientation": {"orientation": None},
     "mirror": {"mirror": None},
     "pace": {"pace": None},
+    "speed_loss": {},  # no augmentation beyond yaw: the loss changes (ARM_OPTIONS)
     "all": {
         "shift": None,
         "acc_bias": None,
@@ -94,6 +95,8 @@ ARMS: dict[str, dict[str, float | None]] = {
         "orientation": None,
     },
 }
+# Training options an arm changes besides its augmentations.
+ARM_OPTIONS: dict[str, dict[str, Any]] = {"speed_loss": {"speed_weight": 1.0}}
 BASELINE = "yaw_only"
 ORDER = (
     "vertical",
@@ -191,6 +194,7 @@ def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20) -> dict
         augment_yaw=True,
         augment=ARMS[arm],
         orientation="ground_truth",
+        **ARM_OPTIONS.get(arm, {}),
     )
     trained = train(config, train_seqs, val_seqs, progress=False)
     if not trained.finished:  # stopped by a signal: no result, so a re-run trains it again

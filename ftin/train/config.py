@@ -25,6 +25,11 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
   reader's default (as configs written before the option had more choices).
 - ``augment``: the augmentations beyond yaw (``ftin.train.augment``), name -> magnitude (``None``:
   its default); empty by default, as the shipped models were trained.
+- ``speed_weight`` (0: off, as every shipped model): for the ``velocity`` loss, the mean squared
+  error of the predicted speed ``|v|`` added with this weight. The MSE of a velocity whose direction
+  is uncertain is least for a shrunken vector (the mean of vectors pointing several ways is shorter
+  than each), so a model walks short where it doubts the heading; the speed term pays for the
+  distance directly.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
   there are two or more) is held out whole, so no validation window overlaps a training window.
 """
@@ -87,6 +92,7 @@ class TrainConfig:
     early_stop_patience: int | None = None  # epochs without validation improvement; None: never
     orientation: str | None = None  # ftin.data.orientation_option choice, or None: the readers' default
     log_std_range: tuple[float, float] = (-5.0, 3.0)
+    speed_weight: float = 0.0  # weight of the speed error beside the velocity MSE (module docstring)
     val_fraction: float = 0.1
     device: str = "cpu"
     save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
@@ -119,6 +125,7 @@ class TrainConfig:
         _positive("plateau_patience", self.plateau_patience, integer=True, allow_zero=True)
         _positive("nll_warmup_epochs", self.nll_warmup_epochs, integer=True, allow_zero=True)
         _positive("save_every_min", self.save_every_min)
+        _positive("speed_weight", self.speed_weight, allow_zero=True)
         for name in ("imu_rate_hz", "max_minutes"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name))

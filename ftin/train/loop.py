@@ -139,7 +139,14 @@ def _setup(
         raise ConfigError(f"--window {window}: {exc}") from None
     use_nll = uses_nll(config.loss, model, config.model)
     try:
-        loss_fn = make_loss(model, window, rate_hz, use_nll=use_nll, log_std_range=config.log_std_range)
+        loss_fn = make_loss(
+            model,
+            window,
+            rate_hz,
+            use_nll=use_nll,
+            log_std_range=config.log_std_range,
+            speed_weight=config.speed_weight,
+        )
     except ValueError as exc:
         raise ConfigError(f"model {config.model!r} with --window {window}: {exc}") from None
     model.to(config.device)

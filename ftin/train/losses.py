@@ -5,7 +5,8 @@ dataset's part targets ``(B, K, D)`` (``ftin.data.windows.part_velocity_targets`
 trains with is how its reference trains it:
 
 - ``"velocity"`` (window models, K = 1): ``velocity_loss``, MSE on the window's velocity, or a
-  Gaussian NLL for models with uncertainty (the paper's training).
+  Gaussian NLL for models with uncertainty (the paper's training); optionally plus a speed term
+  (``TrainConfig.speed_weight``).
 - ``"rnin_displacement"`` (RNIN, K sub-windows): the reference's
   ``mean(cat((d - d*)^2, 8 (cumsum(d)[:, 1:] - cumsum(d*)[:, 1:])^2))`` on per-sub-window
   displacements ``d = v * part duration`` (on the uniform grid a part lasts ``window / K / rate``
@@ -54,21 +55,29 @@ def velocity_loss(
     use_nll: bool,
     warmup: bool,
     log_std_range: tuple[float, float],
+    speed_weight: float = 0.0,
 ) -> torch.Tensor:
-    """MSE, or Gaussian NLL (per element, constant dropped) with a clamped log-std.
+    """MSE, or Gaussian NLL (per element, constant dropped) with a clamped log-std; plus
+    ``speed_weight`` x the speed's squared error (``TrainConfig.speed_weight``).
 
     Shapes only need to agree (``(B, D)`` or ``(B, K, D)``): every term is a mean over elements.
     During ``warmup`` the velocity gets the MSE gradient and the log-std learns from the detached
     error, so a bad early uncertainty cannot slow down the mean (TLIO's motivation for MSE first).
     """
+    speed = speed_weight * speed_loss(output.velocity, target) if speed_weight else 0.0
     if not use_nll:
-        return F.mse_loss(output.velocity, target)
+        return F.mse_loss(output.velocity, target) + speed
     log_std = output.log_std.clamp(*log_std_range)
     error = output.velocity - target
     if warmup:
         nll = 0.5 * error.detach() ** 2 * torch.exp(-2.0 * log_std) + log_std
-        return F.mse_loss(output.velocity, target) + nll.mean()
-    return (0.5 * error**2 * torch.exp(-2.0 * log_std) + log_std).mean()
+        return F.mse_loss(output.velocity, target) + nll.mean() + speed
+    return (0.5 * error**2 * torch.exp(-2.0 * log_std) + log_std).mean() + speed
+
+
+def speed_loss(velocity: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Mean squared error of the speeds ``|v|`` (norm over the last axis) of ``(..., D)`` velocities."""
+    return F.mse_loss(torch.linalg.vector_norm(velocity, dim=-1), torch.linalg.vector_norm(target, dim=-1))
 
 
 def rnin_displacement_loss(velocity: torch.Tensor, target: torch.Tensor, part_s: float) -> torch.Tensor:
@@ -108,6 +117,7 @@ def make_loss(
     *,
     use_nll: bool,
     log_std_range: tuple[float, float],
+    speed_weight: float = 0.0,
 ) -> LossFn:
     """The loss ``model`` trains with on ``window``-sample chunks at ``rate_hz`` (module docstring).
 
@@ -119,8 +129,14 @@ def make_loss(
         raise ValueError(f"unknown train_loss {name!r}; known: {', '.join(LOSS_NAMES)}")
     if use_nll and name != "velocity":
         raise ValueError(f"loss 'nll' is not how this model trains: it uses its reference's {name!r} loss")
+    if speed_weight and name != "velocity":
+        raise ValueError(
+            f"speed_weight: only the 'velocity' loss has a speed term; this model trains with {name!r}"
+        )
     if name == "velocity":
-        return lambda output, target, warmup: velocity_loss(output, target, use_nll, warmup, log_std_range)
+        return lambda output, target, warmup: velocity_loss(
+            output, target, use_nll, warmup, log_std_range, speed_weight
+        )
     if name == "rnin_displacement":
         part_s = window / model.target_parts(window) / rate_hz
         return lambda output, target, warmup: rnin_displacement_loss(output.velocity, target, part_s)

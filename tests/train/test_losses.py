@@ -10,6 +10,7 @@ import torch
 from ftin.data.windows import WindowDataset
 from ftin.models import VelocityOutput, create_model
 from ftin.train import TrainConfig, load_model, train
+from ftin.train.config import ConfigError
 from ftin.train.losses import (
     block_means,
     make_loss,
@@ -140,3 +141,25 @@ def test_rnin_trains_on_sequences_of_sub_windows(tmp_path, sim_sequences):
     assert result.history[0]["val_mse"] is not None and np.isfinite(result.history[0]["train_loss"])
     with pytest.raises(ValueError, match="nll"):
         train(_config(tmp_path / "nll", "rnin", loss="nll"), sim_sequences, progress=False)
+
+
+def test_the_speed_term_pays_for_the_distance_a_shrunken_velocity_loses():
+    """Two windows of the same speed whose directions the model cannot tell apart: their mean (zero) is
+    the least MSE; with the speed term, a vector of the right length costs less than a shrunken one."""
+    target = torch.tensor([[[1.0, 0.0]], [[-1.0, 0.0]]])  # (B=2, K=1, D=2)
+    shrunk = VelocityOutput(torch.zeros_like(target), None)
+    full = VelocityOutput(torch.tensor([[[0.0, 1.0]], [[0.0, 1.0]]]), None)  # right speed, direction unknown
+    plain = [velocity_loss(out, target, False, False, (-5.0, 3.0)).item() for out in (shrunk, full)]
+    assert plain[0] < plain[1]  # MSE alone walks short
+    speed = [velocity_loss(out, target, False, False, (-5.0, 3.0), 3.0).item() for out in (shrunk, full)]
+    assert speed == pytest.approx([plain[0] + 3.0 * 1.0, plain[1]])  # |0| - 1 squared, weighted; none
+    assert speed[1] < speed[0]
+    resnet = create_model("ronin_resnet", window=50)
+    with_speed = make_loss(resnet, 50, RATE_HZ, use_nll=False, log_std_range=(-5.0, 3.0), speed_weight=3.0)
+    assert with_speed(shrunk, target, False).item() == pytest.approx(speed[0])
+    with pytest.raises(ValueError, match="only the 'velocity' loss has a speed term"):
+        make_loss(
+            create_model("ronin_lstm"), 3, RATE_HZ, use_nll=False, log_std_range=(-5.0, 3.0), speed_weight=1.0
+        )
+    with pytest.raises(ConfigError, match="speed_weight"):
+        TrainConfig(model="ftin", data=("x",), out_dir="o", speed_weight=-1.0)
