@@ -161,11 +161,8 @@ class Campaign:
         """Every job known now (a protocol campaign grows once FTIN's variant is chosen; ``extend``
         adds jobs, read from the state file so that a running driver sees them); a started job keeps
         the spec it started with."""
-        source = read_json(self.runs / STATE_FILE)["jobs"]
-        if isinstance(source, str):
-            jobs = protocol.CAMPAIGNS[source](self.state.get("ftin_variant"))
-        else:
-            jobs = [protocol.Job.from_json(spec) for spec in source]
+        state = read_json(self.runs / STATE_FILE)
+        jobs = [protocol.Job.from_json(spec) for spec in _specs(state["jobs"], state.get("ftin_variant"))]
         return [
             protocol.Job.from_json(read_json(p)) if (p := self.job_dir(j) / JOB_FILE).exists() else j
             for j in jobs
