@@ -35,6 +35,7 @@ the reference never switches to the NLL within its epochs).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -538,7 +539,7 @@ def stage_two_choices(comparisons: Sequence[Mapping[str, Any]]) -> StageTwoChoic
     tdl = row("ftin-mixed-yaw", "ftin-ordered-yaw")
     variant = "mixed" if tdl["lower_mean"] == "a" else "ordered"
     why["ftin_variant"] = f"{variant} ({said('ftin-mixed-yaw', 'ftin-ordered-yaw')})"
-    arms = {arm_label(job): job for job in generalisation_jobs()}
+    arms = {arm_of(job.name): job for job in generalisation_jobs()}
     augment: dict[str, dict[str, float | None]] = {}
     for family, prefix in (("ftin", "ftin-ordered"), ("ronin_resnet", "ronin_resnet")):
         chosen: dict[str, float | None] = {}
@@ -555,9 +556,15 @@ def stage_two_choices(comparisons: Sequence[Mapping[str, Any]]) -> StageTwoChoic
     return StageTwoChoices(variant, recipe, augment, why)
 
 
-def arm_label(job: Job) -> str:
-    """A generalisation job's arm: ``walking-f0/ftin-ordered-aug-s1`` -> ``ftin-ordered-aug``."""
-    return job.name.split("/", 1)[1].rsplit("-s", 1)[0]
+_ARM_JOB_NAME = re.compile(r"[^/]+/(?P<arm>.+)-s(?P<seed>\d+)")
+
+
+def arm_of(job_name: str) -> str:
+    """A walker-fold job's arm: ``walking-f0/ftin-ordered-yaw-s1`` -> ``ftin-ordered-yaw``."""
+    match = _ARM_JOB_NAME.fullmatch(job_name)
+    if match is None:
+        raise ValueError(f"job {job_name!r}: not a walker-fold job name (<dataset>-f<fold>/<arm>-s<seed>)")
+    return match["arm"]
 
 
 def stage_two_jobs(choices: StageTwoChoices) -> list[Job]:

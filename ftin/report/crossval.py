@@ -43,7 +43,6 @@ Decisions:
 from __future__ import annotations
 
 import json
-import re
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -88,7 +87,6 @@ COMPARISONS: tuple[tuple[str, str, str], ...] = (
     ("ftin-ordered-paper", "ftin-ordered-yaw", "the paper's optimiser recipe"),
     ("ronin_resnet-paper", "ronin_resnet-yaw", "the paper's optimiser recipe"),
 )
-_JOB_NAME = re.compile(r"[^/]+/(?P<arm>.+)-s(?P<seed>\d+)")
 
 
 # --- the records -----------------------------------------------------------------------------------
@@ -128,14 +126,6 @@ class Score:
         return self.dataset, protocol.walker(self.dataset, self.recording)
 
 
-def arm_of(job_name: str) -> str:
-    """``walking-f0/ftin-ordered-yaw-s1`` -> ``ftin-ordered-yaw``."""
-    match = _JOB_NAME.fullmatch(job_name)
-    if match is None:
-        raise ValueError(f"job {job_name!r}: not a walker-fold job name (<dataset>-f<fold>/<arm>-s<seed>)")
-    return match["arm"]
-
-
 def load_fold_runs(folder: Path) -> list[FoldRun]:
     """The walker-fold records of a collected campaign (``<job name with / as __>.json``)."""
     folder = Path(folder)
@@ -152,7 +142,9 @@ def load_fold_runs(folder: Path) -> list[FoldRun]:
                 f"{path}: a walker-fold record without evaluation.parts (collected before scoring?)"
             )
         runs.append(
-            FoldRun(training["job"], arm_of(training["job"]), training["fold"], training["seed"], record)
+            FoldRun(
+                training["job"], protocol.arm_of(training["job"]), training["fold"], training["seed"], record
+            )
         )
     if not runs:
         raise ValueError(
@@ -208,7 +200,9 @@ def arm_order(arms: Iterable[str]) -> list[str]:
     """The protocol's order of the generalisation arms, then any other arm by name."""
     present = set(arms)
     known = [
-        arm for arm in dict.fromkeys(arm_of(j.name) for j in protocol.generalisation_jobs()) if arm in present
+        arm
+        for arm in dict.fromkeys(protocol.arm_of(j.name) for j in protocol.generalisation_jobs())
+        if arm in present
     ]
     return known + sorted(present - set(known))
 
