@@ -71,11 +71,17 @@ def test_run_without_ray_says_how_to_install_it(tmp_path, monkeypatch):
     fails_cleanly(result, 'pip install -e ".[cluster]"')
 
 
-def test_a_running_driver_starts_new_jobs_on_code_refreshed_beside_it(tmp_path):
+def _planned(tmp_path):
+    """A planned two-job campaign: its folder, the plan command's arguments (before the job list) and
+    the campaign as a running driver holds it."""
     runs = tmp_path / "runs"
     args = ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path), "--jobs"]
     assert runner.invoke(app, [*args, str(_jobs_file(tmp_path))]).exit_code == 0
-    driver = Campaign(runs)  # what `campaign run` holds while it runs
+    return runs, args, Campaign(runs)  # what `campaign run` holds while it runs
+
+
+def test_a_running_driver_starts_new_jobs_on_code_refreshed_beside_it(tmp_path):
+    runs, _, driver = _planned(tmp_path)
     first, second = driver.jobs()
     assert driver.code_for(first).name == driver.state["code"]
     # `plan --refresh-code` in another process froze newer code (a new folder named in the state)
@@ -107,10 +113,7 @@ def test_plan_stage_two_from_stage_ones_crossval(tmp_path):
 
 
 def test_extend_adds_the_jobs_a_campaign_lacks_in_their_order_and_a_running_driver_sees_them(tmp_path):
-    runs = tmp_path / "runs"
-    args = ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path), "--jobs"]
-    assert runner.invoke(app, [*args, str(_jobs_file(tmp_path))]).exit_code == 0
-    driver = Campaign(runs)  # what `campaign run` holds while it runs
+    runs, args, driver = _planned(tmp_path)
     first, second = driver.jobs()
     started = {**first.to_json(), "options": {"lr": 0.5}}  # the spec it started with
     (runs / first.name).mkdir(parents=True)
