@@ -11,10 +11,11 @@ written; a killed worker loses at most the steps since the last save (every epoc
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -54,7 +55,7 @@ def run_job(
     torch.set_num_threads(threads)
     out = Path(runs) / spec["name"]
     out.mkdir(parents=True, exist_ok=True)
-    with _locked(out / LOCK_FILE):
+    with locked(out / LOCK_FILE):
         if (out / DONE_FILE).exists():
             return "done"
         if not (out / JOB_FILE).exists():  # the spec is fixed at the first start
@@ -109,20 +110,47 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
     """Per-recording metrics of the best checkpoint on the job's validation and test parts, each
     orientation source (``protocol.EVAL_ORIENTATIONS``), with the stand-still baseline
     (``ftin.report.evaluation``, RoNIN convention)."""
-    datasets = []
-    for dataset, part, orientations in job.evaluation_sets():
-        paths = job.paths(root, part, dataset)
-        for orientation in orientations:
-            key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
-            sequences = evaluation_sequences(paths, key, orientation)
-            datasets.append(LoadedDataset(DatasetSpec(key, tuple(paths)), sequences))
-    results = evaluate_checkpoints([load_model(checkpoint)], datasets, Convention.RONIN)
-    reports = results.checkpoints[0].reports
+    return evaluate_jobs([(job, checkpoint)], root)[0]
+
+
+def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path]], root: Path) -> list[dict[str, Any]]:
+    """``evaluate_job`` of several jobs, each part read once for every job scored on the same parts
+    (a walker fold's jobs): reading and orienting the recordings costs more than running a model."""
+    groups: dict[str, list[int]] = {}
+    for index, (job, _) in enumerate(finished):
+        sets = job.evaluation_sets()
+        parts = [(d, part, [str(p) for p in job.paths(root, part, d)], o) for d, part, o in sets]
+        groups.setdefault(json.dumps(parts), []).append(index)
+    evaluations: list[dict[str, Any]] = [{} for _ in finished]
+    for indices in groups.values():
+        job = finished[indices[0]][0]
+        datasets = []
+        for dataset, part, orientations in job.evaluation_sets():
+            paths = job.paths(root, part, dataset)
+            for orientation in orientations:
+                key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
+                sequences = evaluation_sequences(paths, key, orientation)
+                datasets.append(LoadedDataset(DatasetSpec(key, tuple(paths)), sequences))
+        models = [load_model(finished[i][1]) for i in indices]
+        results = evaluate_checkpoints(models, datasets, Convention.RONIN)
+        for index, scored in zip(indices, results.checkpoints, strict=True):
+            evaluations[index] = {
+                "checkpoint": finished[index][1].name,
+                "convention": Convention.RONIN.value,
+                "parts": _part_rows(scored.reports, datasets, results.ground_truth),
+            }
+    return evaluations
+
+
+def _part_rows(
+    reports: Any, datasets: Sequence[LoadedDataset], ground_truth: Any
+) -> dict[str, list[dict[str, Any]]]:
+    """Each part's per-recording metrics beside standing still's."""
     parts: dict[str, list[dict[str, Any]]] = {}
     for dataset in datasets:
         rows = []
         for res in reports[dataset.name].sequences:
-            gt = results.ground_truth[dataset.name][res.name]
+            gt = ground_truth[dataset.name][res.name]
             still = evaluate_trajectory(stand_still(gt), gt, Convention.RONIN)
             rows.append(
                 {
@@ -133,7 +161,7 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
                 }
             )
         parts[dataset.name] = rows
-    return {"checkpoint": checkpoint.name, "convention": Convention.RONIN.value, "parts": parts}
+    return parts
 
 
 def evaluation_sequences(paths: list[Path], key: str, orientation: str | None) -> list[Any]:
@@ -145,7 +173,7 @@ def evaluation_sequences(paths: list[Path], key: str, orientation: str | None) -
 
 def make_sim_data(folder: Path) -> None:
     """The simulator model's walks, seeds disjoint from the app's bundled samples (made once)."""
-    with _locked(folder.with_name(folder.name + ".lock")):
+    with locked(folder.with_name(folder.name + ".lock")):
         for part, count, seed in (
             ("train", protocol.SIM_TRAIN_WALKS, 1000),
             ("val", protocol.SIM_VAL_WALKS, 5000),
@@ -156,7 +184,7 @@ def make_sim_data(folder: Path) -> None:
 
 
 @contextmanager
-def _locked(path: Path) -> Iterator[None]:
+def locked(path: Path) -> Iterator[None]:
     """Hold ``path``'s exclusive lock: one worker per job, even while a cancelled one still saves."""
     path.parent.mkdir(parents=True, exist_ok=True)
     deadline = time.monotonic() + LOCK_WAIT_S

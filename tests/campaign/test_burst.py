@@ -1,0 +1,127 @@
+"""A burst on a lent machine (``ftin.campaign.burst``): the packed recordings give training the same
+windows as the recordings, and a job trained there and finished here is recorded as the campaign
+records its own jobs, without touching the jobs the campaign runs here."""
+
+from __future__ import annotations
+
+import io
+import json
+import tarfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ftin.campaign import burst
+from ftin.campaign.collect import job_record
+from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign
+from ftin.campaign.job import evaluate_job, evaluate_jobs
+from ftin.data.loading import load_sequences
+from ftin.data.prepare import prepare
+from ftin.data.windows import WindowDataset
+from ftin.sim.samples import write_walks
+from ftin.train.state import RESUME_FILE
+
+OPTIONS = {
+    "model_kwargs": {"channels": [8, 8]},
+    "imu_rate_hz": 50.0,
+    "window": 50,
+    "stride": 5,
+    "batch_size": 16,
+    "max_epochs": 2,
+    "orientation": None,
+}
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory) -> Campaign:
+    """Simulated walks and a campaign of three tiny TCN jobs on them."""
+    root = tmp_path_factory.mktemp("data")
+    write_walks(root / "walks" / "train", 2, 40.0, 50.0, seed=100)
+    write_walks(root / "walks" / "val", 1, 20.0, 50.0, seed=200)
+    write_walks(root / "walks" / "test", 1, 20.0, 50.0, seed=300)
+    parts = {part: [f"walks/{part}"] for part in ("train", "val", "test")}
+    jobs = [
+        {"name": f"walks/ronin_tcn-s{seed}", "model": "ronin_tcn", "dataset": "walks", "seed": seed,
+         "options": OPTIONS, "parts": parts}
+        for seed in (0, 1, 2)
+    ]  # fmt: skip
+    (root / "jobs.json").write_text(json.dumps(jobs))
+    return Campaign.create(tmp_path_factory.mktemp("runs") / "c", root, root / "jobs.json")
+
+
+@pytest.fixture(scope="module")
+def packed(campaign, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("pack")
+    summary = burst.pack(campaign.runs, [j.name for j in campaign.jobs()], out)
+    assert summary["jobs"] == 3 and summary["sequences"] == 3  # two training walks and one validation walk
+    return out
+
+
+def test_packed_recordings_give_training_the_same_windows(campaign, packed):
+    job = campaign.jobs()[0]
+    config = job.config(campaign.data_root)
+    rate = config["imu_rate_hz"]
+    raw = [prepare(s, rate).seq for s in load_sequences(config["data"], "--data", None)]
+    unpacked = burst.unpacked_sequences(packed)
+    again = [prepare(s, rate).seq for p in config["data"] for s in unpacked[(p, None, rate)]]
+    a, b = (WindowDataset(seqs, 50, 5, 2, seed=3) for seqs in (raw, again))
+    np.testing.assert_array_equal(a.starts, b.starts)
+    x_a, v_a = a.get_batch(np.arange(0, len(a), 3))
+    x_b, v_b = b.get_batch(np.arange(0, len(b), 3))
+    assert np.array_equal(x_a.numpy(), x_b.numpy())  # the input, bit for bit
+    np.testing.assert_allclose(v_a.numpy(), v_b.numpy(), atol=1e-4)  # float32 positions
+
+
+def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packed, tmp_path):
+    out_runs, archives = tmp_path / "there", tmp_path / "back"
+    work = burst.Burst(packed, out_runs, deadline=float("inf"), device="cpu")
+    reports = burst.train(work, workers=1, first=2)
+    assert [r["status"] for r in reports] == ["finished", "finished"]
+    names = burst.archive(out_runs, archives)
+    assert names == ["walks/ronin_tcn-s0", "walks/ronin_tcn-s1"]
+    assert not any("resume" in m for f in archives.iterdir() for m in tarfile.open(f).getnames())
+
+    # seed 1 was started here meanwhile: the burst must leave it to the campaign
+    started = campaign.runs / "walks/ronin_tcn-s1"
+    started.mkdir(parents=True)
+    (started / RESUME_FILE).write_bytes(b"state")
+    outcomes = burst.finish(campaign.runs, sorted(archives.iterdir()), on_event=lambda _: None)
+    assert outcomes == {
+        "walks/ronin_tcn-s0": "done",
+        "walks/ronin_tcn-s1": "left alone: the campaign already started or finished it here",
+    }
+    job = campaign.jobs()[0]
+    folder = campaign.runs / job.name
+    record = job_record(campaign, job)
+    assert record["training"]["epochs"] == 2 and record["training"]["stop_reason"] == "max_epochs"
+    assert len(record["history"]) == 2
+    direct = evaluate_job(job, campaign.data_root, folder / "ronin_tcn-walks.safetensors")
+    assert json.loads((folder / EVAL_FILE).read_text())["parts"] == json.loads(json.dumps(direct["parts"]))
+    assert [j.name for j in campaign.pending()] == ["walks/ronin_tcn-s1", "walks/ronin_tcn-s2"]
+    # finishing the same archives again changes nothing
+    before = (folder / DONE_FILE).read_text()
+    again = burst.finish(campaign.runs, sorted(archives.iterdir()), on_event=lambda _: None)
+    assert again["walks/ronin_tcn-s0"].startswith("left alone")
+    assert (folder / DONE_FILE).read_text() == before
+
+
+def test_scoring_several_jobs_at_once_equals_scoring_each(campaign, packed, tmp_path):
+    work = burst.Burst(packed, tmp_path / "there", deadline=float("inf"), device="cpu")
+    burst.train(work, workers=1, first=1)
+    first = tmp_path / "there" / "walks/ronin_tcn-s0" / "ronin_tcn-walks.safetensors"
+    jobs = campaign.jobs()
+    together = evaluate_jobs([(jobs[0], first), (jobs[2], first)], campaign.data_root)
+    alone = evaluate_job(jobs[2], campaign.data_root, first)
+    assert together[1] == alone and together[0]["parts"] == alone["parts"]
+
+
+def test_an_archive_reaching_outside_its_job_folder_is_refused(campaign, tmp_path):
+    bad = tmp_path / "bad.tar.gz"
+    with tarfile.open(bad, "w:gz") as tar:
+        data = b"{}"
+        info = tarfile.TarInfo("walks/../../escape.json")
+        info.size = len(data)
+        tar.addfile(info, io.BytesIO(data))
+    with pytest.raises(ValueError, match="unexpected member"):
+        burst.finish(campaign.runs, [bad], on_event=lambda _: None)
