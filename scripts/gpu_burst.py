@@ -1,7 +1,8 @@
 """Campaign jobs trained in a burst on a lent GPU machine (``ftin.campaign.burst``: why and how).
 
 Here:  python scripts/gpu_burst.py pack --runs runs/generalisation --out gpu_pack [--jobs N] [--skip NAME ...]
-There: python scripts/gpu_burst.py train --pack gpu_pack --out "$OUT" --workers 12 --minutes 7
+There: python scripts/gpu_burst.py train --pack gpu_pack --out "$OUT" --workers 14 --minutes 8
+There: python scripts/gpu_burst.py fetch --out "$OUT" --skip-first 7   (the next call, while warm)
 Here:  python scripts/gpu_burst.py finish --runs runs/generalisation --results OUT/*.tar.gz
 
 ``--smoke`` (train) ends every job after one epoch: a check of the whole path on a CPU, not a result.
@@ -16,6 +17,9 @@ from pathlib import Path
 
 from ftin.campaign import burst
 from ftin.campaign.folder import Campaign
+
+RUNS_THERE = Path("/tmp/burst-runs")  # the run folders on the lent machine (kept while it is warm)
+FILES_BACK = 7  # one checkpoint (8.5 MiB) a file: 7 fit the 8 files and 64 MiB a call brings back
 
 
 def main() -> None:
@@ -36,6 +40,10 @@ def main() -> None:
     t.add_argument("--minutes", type=float, required=True, help="no job runs past this many minutes")
     t.add_argument("--device", default="cuda")
     t.add_argument("--smoke", action="store_true")
+    t.add_argument("--keep", type=int, default=FILES_BACK, help="archive at most N finished jobs")
+    a = sub.add_parser("fetch", help="archive finished jobs again (a warm machine keeps them)")
+    a.add_argument("--out", type=Path, required=True)
+    a.add_argument("--skip-first", type=int, default=0, help="leave out the first N finished jobs")
     f = sub.add_parser("finish", help="unpack a burst's finished jobs into the campaign and score them")
     f.add_argument("--runs", type=Path, required=True)
     f.add_argument("--results", type=Path, nargs="+", required=True, help="the burst's .tar.gz files")
@@ -50,11 +58,13 @@ def main() -> None:
         print("\n".join(names))
     elif args.verb == "train":
         started = time.time()
-        runs = Path("/tmp/burst-runs")
-        work = burst.Burst(args.pack, runs, started + 60 * args.minutes, args.device, args.smoke)
+        work = burst.Burst(args.pack, RUNS_THERE, started + 60 * args.minutes, args.device, args.smoke)
         burst.train(work, args.workers, args.first, args.skip_first)
-        names = burst.archive(runs, args.out)
-        print(json.dumps({"wall_s": round(time.time() - started, 1), "finished": names}))
+        names = burst.archive(RUNS_THERE, args.out, limit=args.keep)
+        print(json.dumps({"wall_s": round(time.time() - started, 1), "archived": names}))
+    elif args.verb == "fetch":
+        names = burst.archive(RUNS_THERE, args.out, skip=args.skip_first, limit=FILES_BACK)
+        print(json.dumps({"archived": names}))
     else:
         for name, outcome in burst.finish(args.runs, args.results).items():
             print(f"{name}: {outcome}")

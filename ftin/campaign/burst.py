@@ -230,10 +230,12 @@ def _train_one(
     return report
 
 
-def archive(out_runs: Path, target: Path) -> list[str]:
-    """Each finished job folder (its ``KEPT`` files) as one ``.tar.gz`` in ``target`` (one file a job:
-    a lent machine returns few files of a bounded size); the jobs' names."""
+def archive(out_runs: Path, target: Path, skip: int = 0, limit: int | None = None) -> list[str]:
+    """The finished job folders (their ``KEPT`` files; the ``limit`` after the first ``skip`` by name),
+    each as one ``.tar.gz`` in ``target``: a lent machine returns few files of a bounded size, and a
+    warm one keeps ``out_runs``, so the rest come back with the next call; the jobs' names."""
     names = sorted(str(p.parent.relative_to(out_runs)) for p in out_runs.rglob(RESULT_FILE))
+    names = names[skip:][:limit]
     target.mkdir(parents=True, exist_ok=True)
     for name in names:
         with tarfile.open(target / f"{name.replace('/', '__')}.tar.gz", "w:gz") as tar:

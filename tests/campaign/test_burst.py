@@ -80,6 +80,9 @@ def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packe
     assert [r["status"] for r in reports] == ["finished", "finished"]
     names = burst.archive(out_runs, archives)
     assert names == ["walks/ronin_tcn-s0", "walks/ronin_tcn-s1"]
+    # what one call cannot bring back, the next one fetches
+    assert burst.archive(out_runs, tmp_path / "first", limit=1) == ["walks/ronin_tcn-s0"]
+    assert burst.archive(out_runs, tmp_path / "rest", skip=1) == ["walks/ronin_tcn-s1"]
     assert not any("resume" in m for f in archives.iterdir() for m in tarfile.open(f).getnames())
 
     # seed 1 was started here meanwhile: the burst must leave it to the campaign
