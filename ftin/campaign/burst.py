@@ -304,7 +304,7 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
             evaluation["checkpoint"] = str(checkpoint.relative_to(runs))
             write_json(folder / EVAL_FILE, evaluation)
             trained = TrainedElsewhere(**{k: result[k] for k in TrainedElsewhere.__annotations__})
-            write_json(folder / DONE_FILE, job_module.summary(job, trained))
+            write_json(folder / DONE_FILE, {**job_module.summary(job, trained), "trained_on": result["host"]})
             _log(folder, f"scored on {socket.gethostname()} (trained on {result['host']})")
             outcomes[job.name] = "done"
     return outcomes

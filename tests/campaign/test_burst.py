@@ -98,6 +98,7 @@ def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packe
     folder = campaign.runs / job.name
     record = job_record(campaign, job)
     assert record["training"]["epochs"] == 2 and record["training"]["stop_reason"] == "max_epochs"
+    assert record["training"]["trained_on"].endswith("(cpu)")  # where it trained, in the record
     assert len(record["history"]) == 2
     direct = evaluate_job(job, campaign.data_root, folder / "ronin_tcn-walks.safetensors")
     assert json.loads((folder / EVAL_FILE).read_text())["parts"] == json.loads(json.dumps(direct["parts"]))
