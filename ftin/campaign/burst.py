@@ -51,6 +51,7 @@ KEPT = (".json", ".safetensors", ".txt")  # a finished job's files that travel b
 def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     """Write ``out/sequences.npz`` and ``out/jobs.json`` for the campaign jobs ``names``."""
     from ftin.campaign.folder import Campaign
+    from ftin.campaign.job import SIM_DATA, make_sim_data
     from ftin.data.loading import load_sequences
     from ftin.data.prepare import prepare
     from ftin.files import to_json_safe
@@ -62,8 +63,11 @@ def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
         raise ValueError(f"not jobs of {runs}: {unknown}")
     jobs = [by_name[n] for n in names]
     wanted: dict[tuple[str, str | None, float], None] = {}
+    configs = {}
     for job in jobs:
-        config = job.config(campaign.data_root)
+        if job.dataset == protocol.SIM:  # the simulator's walks live in the campaign folder
+            make_sim_data(campaign.runs / SIM_DATA)
+        config = configs[job.name] = job.config(data_root(campaign, job))
         for path in (*config["data"], *config["val"]):
             wanted[(path, config.get("orientation"), float(config["imu_rate_hz"]))] = None
     arrays: dict[str, np.ndarray] = {}
@@ -93,13 +97,18 @@ def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / DATA_FILE, **arrays)
     spec = {
-        "data_root": str(campaign.data_root),
+        "configs": configs,  # each job's TrainConfig options, its paths as the pack names them
         "code": campaign.state["code"],
         "jobs": [job.to_json() for job in jobs],
         "sequences": index,
     }
     (out / JOBS_FILE).write_text(json.dumps(spec, indent=1))
     return {"jobs": len(jobs), "sequences": len(index), "bytes": (out / DATA_FILE).stat().st_size}
+
+
+def data_root(campaign: Any, job: protocol.Job) -> Path:
+    """Where a job's recordings lie, as ``ftin.campaign.job.run_job`` reads them."""
+    return campaign.runs if job.dataset == protocol.SIM else campaign.data_root
 
 
 # --- train (there) ----------------------------------------------------------------------------------
@@ -184,7 +193,7 @@ def _train_one(
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
     (out / "job.json").write_text(json.dumps(job.to_json(), indent=1))
-    options = {**job.config(Path(spec["data_root"])), "device": burst.device}
+    options = {**spec["configs"][job.name], "device": burst.device}
     options["max_minutes"] = minutes if math.isfinite(minutes) else None
     if burst.smoke:
         options["max_epochs"] = 1
@@ -294,12 +303,10 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
                 (folder / CODE_FILE).write_text(campaign.state["code"] + "\n")
                 result = json.loads(files[RESULT_FILE])
                 finished.append((job, folder / result["checkpoint"], result))
-        if finished:
-            on_event(f"scoring {len(finished)} job(s) here")
-            evaluations = job_module.evaluate_jobs([(j, c) for j, c, _ in finished], campaign.data_root)
-        for (job, checkpoint, result), evaluation in zip(
-            finished, evaluations if finished else [], strict=True
-        ):
+        on_event(f"scoring {len(finished)} job(s) here")
+        scoring = [(j, data_root(campaign, j), checkpoint) for j, checkpoint, _ in finished]
+        evaluations = job_module.evaluate_jobs(scoring)
+        for (job, checkpoint, result), evaluation in zip(finished, evaluations, strict=True):
             folder = runs / job.name
             evaluation["checkpoint"] = str(checkpoint.relative_to(runs))
             write_json(folder / EVAL_FILE, evaluation)

@@ -110,20 +110,21 @@ def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, A
     """Per-recording metrics of the best checkpoint on the job's validation and test parts, each
     orientation source (``protocol.EVAL_ORIENTATIONS``), with the stand-still baseline
     (``ftin.report.evaluation``, RoNIN convention)."""
-    return evaluate_jobs([(job, checkpoint)], root)[0]
+    return evaluate_jobs([(job, root, checkpoint)])[0]
 
 
-def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path]], root: Path) -> list[dict[str, Any]]:
-    """``evaluate_job`` of several jobs, each part read once for every job scored on the same parts
-    (a walker fold's jobs): reading and orienting the recordings costs more than running a model."""
+def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path, Path]]) -> list[dict[str, Any]]:
+    """``evaluate_job`` of several ``(job, data root, checkpoint)``, each part read once for every job
+    scored on the same parts (a walker fold's jobs): reading and orienting the recordings costs more
+    than running a model."""
     groups: dict[str, list[int]] = {}
-    for index, (job, _) in enumerate(finished):
+    for index, (job, root, _) in enumerate(finished):
         sets = job.evaluation_sets()
         parts = [(d, part, [str(p) for p in job.paths(root, part, d)], o) for d, part, o in sets]
         groups.setdefault(json.dumps(parts), []).append(index)
     evaluations: list[dict[str, Any]] = [{} for _ in finished]
     for indices in groups.values():
-        job = finished[indices[0]][0]
+        job, root, _ = finished[indices[0]]
         datasets = []
         for dataset, part, orientations in job.evaluation_sets():
             paths = job.paths(root, part, dataset)
@@ -131,11 +132,11 @@ def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path]], root: Path) -> 
                 key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
                 sequences = evaluation_sequences(paths, key, orientation)
                 datasets.append(LoadedDataset(DatasetSpec(key, tuple(paths)), sequences))
-        models = [load_model(finished[i][1]) for i in indices]
+        models = [load_model(finished[i][2]) for i in indices]
         results = evaluate_checkpoints(models, datasets, Convention.RONIN)
         for index, scored in zip(indices, results.checkpoints, strict=True):
             evaluations[index] = {
-                "checkpoint": finished[index][1].name,
+                "checkpoint": finished[index][2].name,
                 "convention": Convention.RONIN.value,
                 "parts": _part_rows(scored.reports, datasets, results.ground_truth),
             }

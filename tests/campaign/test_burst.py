@@ -115,7 +115,8 @@ def test_scoring_several_jobs_at_once_equals_scoring_each(campaign, packed, tmp_
     burst.train(work, workers=1, first=1)
     first = tmp_path / "there" / "walks/ronin_tcn-s0" / "ronin_tcn-walks.safetensors"
     jobs = campaign.jobs()
-    together = evaluate_jobs([(jobs[0], first), (jobs[2], first)], campaign.data_root)
+    root = campaign.data_root
+    together = evaluate_jobs([(jobs[0], root, first), (jobs[2], root, first)])
     alone = evaluate_job(jobs[2], campaign.data_root, first)
     assert together[1] == alone and together[0]["parts"] == alone["parts"]
 
