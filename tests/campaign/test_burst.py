@@ -19,35 +19,18 @@ from ftin.campaign.job import evaluate_job, evaluate_jobs
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
 from ftin.data.windows import WindowDataset
-from ftin.sim.samples import write_walks
 from ftin.train.state import RESUME_FILE
+from tests.utils.tiny_campaign import TINY_OPTIONS, tiny_jobs_file
 
-OPTIONS = {
-    "model_kwargs": {"channels": [8, 8]},
-    "imu_rate_hz": 50.0,
-    "window": 50,
-    "stride": 5,
-    "batch_size": 16,
-    "max_epochs": 2,
-    "orientation": None,
-}
+OPTIONS = {**TINY_OPTIONS, "max_epochs": 2}
 
 
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory) -> Campaign:
     """Simulated walks and a campaign of three tiny TCN jobs on them."""
     root = tmp_path_factory.mktemp("data")
-    write_walks(root / "walks" / "train", 2, 40.0, 50.0, seed=100)
-    write_walks(root / "walks" / "val", 1, 20.0, 50.0, seed=200)
-    write_walks(root / "walks" / "test", 1, 20.0, 50.0, seed=300)
-    parts = {part: [f"walks/{part}"] for part in ("train", "val", "test")}
-    jobs = [
-        {"name": f"walks/ronin_tcn-s{seed}", "model": "ronin_tcn", "dataset": "walks", "seed": seed,
-         "options": OPTIONS, "parts": parts}
-        for seed in (0, 1, 2)
-    ]  # fmt: skip
-    (root / "jobs.json").write_text(json.dumps(jobs))
-    return Campaign.create(tmp_path_factory.mktemp("runs") / "c", root, root / "jobs.json")
+    jobs = tiny_jobs_file(root, OPTIONS, seeds=(0, 1, 2), train_walks=2, train_s=40.0)
+    return Campaign.create(tmp_path_factory.mktemp("runs") / "c", root, jobs)
 
 
 @pytest.fixture(scope="module")

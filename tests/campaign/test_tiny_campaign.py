@@ -17,8 +17,8 @@ from ftin.campaign import engine  # noqa: E402
 from ftin.campaign.collect import collect, ship  # noqa: E402
 from ftin.campaign.folder import Campaign  # noqa: E402
 from ftin.campaign.status import campaign_status  # noqa: E402
-from ftin.sim.samples import write_walks  # noqa: E402
 from ftin.train.state import RESUME_FILE  # noqa: E402
+from tests.utils.tiny_campaign import TINY_OPTIONS, tiny_jobs_file  # noqa: E402
 
 EPOCHS = 3
 TIMING_KEYS = {"wall_time_s", "finished", "elapsed_s"}  # the only fields a stop may change
@@ -28,30 +28,14 @@ TIMING_KEYS = {"wall_time_s", "finished", "elapsed_s"}  # the only fields a stop
 def jobs_file(tmp_path_factory) -> Path:
     """Simulated walks under a data root, and two jobs of a tiny TCN (seeds 0 and 1) on them."""
     root = tmp_path_factory.mktemp("data")
-    write_walks(root / "walks" / "train", 3, 60.0, 50.0, seed=100)
-    write_walks(root / "walks" / "val", 1, 20.0, 50.0, seed=200)
-    write_walks(root / "walks" / "test", 1, 20.0, 50.0, seed=300)
     options = {
-        "model_kwargs": {"channels": [8, 8]},
-        "imu_rate_hz": 50.0,
-        "window": 50,
-        "stride": 5,
-        "batch_size": 16,
+        **TINY_OPTIONS,
         # Three short epochs: the stop is set during the first, and the driver's poll plus Ray's cancel
         # must land before the last step (one epoch was not always long enough on a fast machine).
         "max_epochs": EPOCHS,
-        "orientation": None,
         "save_every_min": 1e-4,  # a resume state after (almost) every step: the stop lands mid-epoch
     }
-    parts = {part: [f"walks/{part}"] for part in ("train", "val", "test")}
-    jobs = [
-        {"name": f"walks/ronin_tcn-s{seed}", "model": "ronin_tcn", "dataset": "walks", "seed": seed,
-         "options": options, "parts": parts}
-        for seed in (0, 1)
-    ]  # fmt: skip
-    path = root / "jobs.json"
-    path.write_text(json.dumps(jobs))
-    return path
+    return tiny_jobs_file(root, options, seeds=(0, 1))
 
 
 def _records(folder: Path) -> dict[str, object]:
