@@ -9,9 +9,10 @@ trains in an hour, but it reaches no shared filesystem and only tens of MiB trav
   the job specs. Re-read there, a prepared sequence carries its orientation choice, its uniform grid
   and an identity attitude, so ``prepare`` returns it unchanged and ``world_imu`` gives the same input.
 - ``train`` (there): the jobs, several processes sharing the device, each job until it finishes or the
-  deadline; the run folders of finished jobs (best checkpoint, history, config, the result) in one
-  ``.tar.gz``. A job the deadline stops is dropped: its resume state is too big to bring back, and the
-  campaign trains it again (``ftin campaign run``).
+  deadline; each finished job's run folder (best checkpoint, history, config, the result) as one
+  ``.tar.gz`` (``archive``: as many as one call brings back; the next call fetches the rest). A job the
+  deadline stops is dropped: its resume state is too big to bring back, and the campaign trains it
+  again (``ftin campaign run``).
 - ``finish`` (here): each finished job unpacked into the campaign folder, under the job's lock, and
   scored as ``ftin campaign run`` scores it (``ftin.campaign.job.evaluate_jobs``): ``eval.json`` and
   ``done.json``, so ``collect`` and ``crossval`` read it like any other job. A job the campaign has
@@ -32,6 +33,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from queue import Empty
 from typing import Any
 
 import numpy as np
@@ -161,9 +163,9 @@ def train(burst: Burst, workers: int, first: int | None = None, skip: int = 0) -
     while any(p.is_alive() for p in procs) or not reports.empty():
         try:
             done.append(reports.get(timeout=1.0))
-            print(json.dumps(done[-1]), flush=True)
-        except Exception:
-            pass
+        except Empty:
+            continue
+        print(json.dumps(done[-1]), flush=True)
     for proc in procs:
         proc.join()
     return done
@@ -185,14 +187,16 @@ def _worker(burst: Burst, spec: dict[str, Any], queue: Any, reports: Any) -> Non
 def _train_one(
     burst: Burst, spec: dict[str, Any], job_spec: dict[str, Any], sequences: Any, minutes: float
 ) -> dict[str, Any]:
+    from ftin.campaign.folder import JOB_FILE
     from ftin.train.config import TrainConfig
     from ftin.train.loop import train
+    from ftin.train.state import RESUME_FILE
 
     job = protocol.Job.from_json(job_spec)
     out = burst.out_runs / job.name
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
-    (out / "job.json").write_text(json.dumps(job.to_json(), indent=1))
+    (out / JOB_FILE).write_text(json.dumps(job.to_json(), indent=1))
     options = {**spec["configs"][job.name], "device": burst.device}
     options["max_minutes"] = minutes if math.isfinite(minutes) else None
     if burst.smoke:
@@ -222,7 +226,7 @@ def _train_one(
         "steps_per_s": round(result.steps / wall, 2) if wall > 0 else None,
     }
     if result.finished:
-        (out / "resume.safetensors").unlink(missing_ok=True)  # too big to travel
+        (out / RESUME_FILE).unlink(missing_ok=True)  # too big to travel
         record = {
             "stop_reason": result.stop_reason,
             "epochs_done": result.epochs_done,
@@ -268,7 +272,15 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
     """Unpack the burst's finished jobs (``archive``'s files) into the campaign folder ``runs`` and
     score them; each job's outcome (``done``, or why it was left alone)."""
     from ftin.campaign import job as job_module
-    from ftin.campaign.folder import CODE_FILE, DONE_FILE, EVAL_FILE, LOCK_FILE, Campaign, write_json
+    from ftin.campaign.folder import (
+        CODE_FILE,
+        DONE_FILE,
+        EVAL_FILE,
+        JOB_FILE,
+        LOCK_FILE,
+        Campaign,
+        write_json,
+    )
     from ftin.train.state import RESUME_FILE
 
     campaign = Campaign(runs)
@@ -293,7 +305,7 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
                 outcomes[name] = "left alone: not a job of this campaign"
                 continue
             locks.enter_context(job_module.locked(folder / LOCK_FILE))
-            if protocol.Job.from_json(json.loads(files["job.json"])) != job:
+            if protocol.Job.from_json(json.loads(files[JOB_FILE])) != job:
                 outcomes[name] = "left alone: trained with another spec"
             elif (folder / DONE_FILE).exists() or (folder / RESUME_FILE).exists():
                 outcomes[name] = "left alone: the campaign already started or finished it here"
