@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from ftin.campaign import burst
-from ftin.campaign.folder import Campaign
+from ftin.campaign.folder import CODE_FILE, Campaign
 
 RUNS_THERE = Path("/tmp/burst-runs")  # the run folders on the lent machine (kept while it is warm)
 FILES_BACK = 7  # one checkpoint (8.5 MiB) a file: 7 fit the 8 files and 64 MiB a call brings back
@@ -51,8 +51,12 @@ def main() -> None:
 
     if args.verb == "pack":
         campaign = Campaign(args.runs)
-        taken = {j.name for j in campaign.pending() if (campaign.runs / j.name / "code.txt").exists()}
-        names = [j.name for j in campaign.pending() if j.name not in taken | set(args.skip)]
+        # a job a driver here has taken has its code marker; --skip names others to leave here
+        names = [
+            j.name
+            for j in campaign.pending()
+            if not (campaign.runs / j.name / CODE_FILE).exists() and j.name not in args.skip
+        ]
         names = names[: args.jobs] if args.jobs else names
         print(json.dumps(burst.pack(args.runs, names, args.out)))
         print("\n".join(names))

@@ -39,6 +39,8 @@ from typing import Any
 import numpy as np
 
 from ftin import protocol
+from ftin.campaign import job as job_module
+from ftin.campaign.job import SIM_DATA, log, make_sim_data
 from ftin.data.types import ImuSequence, Trajectory
 
 DATA_FILE = "sequences.npz"
@@ -53,7 +55,6 @@ KEPT = (".json", ".safetensors", ".txt")  # a finished job's files that travel b
 def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     """Write ``out/sequences.npz`` and ``out/jobs.json`` for the campaign jobs ``names``."""
     from ftin.campaign.folder import Campaign
-    from ftin.campaign.job import SIM_DATA, make_sim_data
     from ftin.data.loading import load_sequences
     from ftin.data.prepare import prepare
     from ftin.files import to_json_safe
@@ -208,15 +209,15 @@ def _train_one(
 
     started = time.time()
     host = f"{socket.gethostname()} pid {os.getpid()} ({burst.device})"
-    _log(out, f"starting on {host}, burst of code {spec['code']}")
+    log(out, f"starting on {host}, burst of code {spec['code']}")
     try:
         config = TrainConfig(out_dir=str(out), **options)
         result = train(config, read(config.data), read(config.val), progress=False)
     except Exception as exc:  # one job's failure must not end the burst
-        _log(out, f"failed: {exc!r}")
+        log(out, f"failed: {exc!r}")
         return {"job": job.name, "status": f"failed: {exc!r}"}
     wall = time.time() - started
-    _log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
+    log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
     report = {
         "job": job.name,
         "status": "finished" if result.finished else f"stopped: {result.stop_reason}",
@@ -258,20 +259,12 @@ def archive(out_runs: Path, target: Path, skip: int = 0, limit: int | None = Non
     return names
 
 
-def _log(out: Path, message: str) -> None:
-    from ftin.campaign.folder import LOG_FILE
-
-    with open(out / LOG_FILE, "a") as log:
-        log.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {message}\n")
-
-
 # --- finish (here) ----------------------------------------------------------------------------------
 
 
 def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> dict[str, str]:
     """Unpack the burst's finished jobs (``archive``'s files) into the campaign folder ``runs`` and
     score them; each job's outcome (``done``, or why it was left alone)."""
-    from ftin.campaign import job as job_module
     from ftin.campaign.folder import (
         CODE_FILE,
         DONE_FILE,
@@ -324,7 +317,7 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
             write_json(folder / EVAL_FILE, evaluation)
             trained = TrainedElsewhere(**{k: result[k] for k in TrainedElsewhere.__annotations__})
             write_json(folder / DONE_FILE, {**job_module.summary(job, trained), "trained_on": result["host"]})
-            _log(folder, f"scored on {socket.gethostname()} (trained on {result['host']})")
+            log(folder, f"scored on {socket.gethostname()} (trained on {result['host']})")
             outcomes[job.name] = "done"
     return outcomes
 

@@ -65,19 +65,19 @@ def run_job(
         resume = (out / RESUME_FILE).exists()
         host = f"{socket.gethostname()} pid {os.getpid()} {where}".strip()
         code = Path(__file__).resolve().parents[2]  # the frozen copy this job runs on
-        _log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
+        log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
         try:
             if job.dataset == protocol.SIM:
                 make_sim_data(Path(runs) / SIM_DATA)
             config = TrainConfig(out_dir=str(out), **{**job.config(root), "device": device})
             result = run_training(config, resume=resume, progress=False)
-            _log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
+            log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
             if not result.finished:
                 return result.stop_reason  # stopped: the next `ftin campaign run` resumes it
             evaluation = evaluate_job(job, root, result.checkpoint)
         except Exception as exc:  # recorded, so the campaign goes on with the other jobs
             write_json(out / FAILED_FILE, {"error": repr(exc)})
-            _log(out, f"failed: {exc!r}")
+            log(out, f"failed: {exc!r}")
             raise
         evaluation["checkpoint"] = str(result.checkpoint.relative_to(Path(runs)))
         write_json(out / EVAL_FILE, evaluation)
@@ -117,17 +117,15 @@ def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path, Path]]) -> list[d
     """``evaluate_job`` of several ``(job, data root, checkpoint)``, each part read once for every job
     scored on the same parts (a walker fold's jobs): reading and orienting the recordings costs more
     than running a model."""
-    groups: dict[str, list[int]] = {}
+    groups: dict[str, tuple[list[tuple[str, str, list[Path], Any]], list[int]]] = {}
     for index, (job, root, _) in enumerate(finished):
-        sets = job.evaluation_sets()
-        parts = [(d, part, [str(p) for p in job.paths(root, part, d)], o) for d, part, o in sets]
-        groups.setdefault(json.dumps(parts), []).append(index)
+        parts = [(d, part, job.paths(root, part, d), o) for d, part, o in job.evaluation_sets()]
+        key = json.dumps([(d, part, [str(p) for p in paths], o) for d, part, paths, o in parts])
+        groups.setdefault(key, (parts, []))[1].append(index)
     evaluations: list[dict[str, Any]] = [{} for _ in finished]
-    for indices in groups.values():
-        job, root, _ = finished[indices[0]]
+    for parts, indices in groups.values():
         datasets = []
-        for dataset, part, orientations in job.evaluation_sets():
-            paths = job.paths(root, part, dataset)
+        for dataset, part, paths, orientations in parts:
             for orientation in orientations:
                 key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
                 sequences = evaluation_sequences(paths, key, orientation)
@@ -204,7 +202,8 @@ def locked(path: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def _log(out: Path, message: str) -> None:
-    with open(out / LOG_FILE, "a") as log:
-        log.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {message}\n")
+def log(out: Path, message: str) -> None:
+    """A line in the job's ``log.txt`` (timestamped), echoed to stdout."""
+    with open(out / LOG_FILE, "a") as handle:
+        handle.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {message}\n")
     print(f"{out.name}: {message}", flush=True)
