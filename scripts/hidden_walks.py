@@ -8,8 +8,10 @@ else; Inria: the iPhone 4S, a phone no training or validation walk comes from) i
 alone would be (``ftin.data.loading.load_phone_only``: ``auto`` from gyroscope, accelerometer and
 magnetometer; the truth turned into the estimate's world at the start, as the campaign's phone-only
 rows) and scored by ``ftin.evaluate.score`` (RoNIN convention, no alignment). Per recording:
-carry mode, ATE, ATE of standing still and the path ratio (both paths smoothed over the model's
-1 s window). The issue's thresholds: path ratio 0.8-1.2 on every walking recording (0.7-1.3 running);
+carry mode, ATE, ATE of standing still, the distance ratio (the issue's measure: the path as predicted
+over the walked distance, the true path smoothed over 1 s) and, beside it, the campaign's path ratio
+(both paths smoothed over the model's 1 s window, ``ftin.metrics.definitions``). The issue's thresholds:
+distance ratio 0.8-1.2 on every walking recording (0.7-1.3 running);
 mean ATE at or below 0.5x standing still on OxIOD and RIDI, below standing still on Inria.
 Writes ``<checkpoint name>.md`` and ``.json`` under ``--out``.
 """
@@ -44,7 +46,7 @@ def score_dataset(model, data: Path, dataset: str) -> list[dict]:
         carry = str(seq.meta.get("carry", "unknown"))
         if "motion" in seq.meta:  # Inria: the motion says more (running, phoning, texting) and Dist
             carry = f"{carry} ({seq.meta['motion']}{', Dist' if seq.meta['magnetic_disturbance'] else ''})"
-        ratio = scored.metrics.values.get("path_length_ratio")
+        ratio = scored.metrics.values.get("distance_ratio")
         low, high = protocol.path_ratio_bounds(carry)
         rows.append(
             {
@@ -54,7 +56,8 @@ def score_dataset(model, data: Path, dataset: str) -> list[dict]:
                 "orientation": (prediction.orientation_choice or {}).get("source"),
                 "ate_m": scored.metrics.values["ate"],
                 "stand_still_ate_m": scored.stand_still.values["ate"],
-                "path_ratio": ratio,
+                "distance_ratio": ratio,
+                "path_ratio": scored.metrics.values.get("path_length_ratio"),
                 "ratio_ok": ratio is not None and low <= ratio <= high,
                 # how fast the walk is (its smoothed true path over its duration): an AR walk shuffles
                 # at 0.1-0.2 m/s, where a fraction of a step is a large share of the distance
@@ -82,9 +85,10 @@ def markdown(name: str, results: dict) -> str:
         f"# `{name}` on hidden recordings, phone only\n",
         "Made by `scripts/hidden_walks.py` (its docstring: recordings, scoring, thresholds). ATE in m, "
         "RoNIN convention (no alignment; the truth turned into the estimate's world over the first 2 s "
-        "through the phone's attitude, which the estimate never reads); path ratio with both paths "
-        "smoothed over 1 s.\n",
-        "| dataset | walks | mean ATE | stand still | ratio (limit) | path ratio in bounds |",
+        "through the phone's attitude, which the estimate never reads); distance ratio: the path as "
+        "predicted over the walked distance (the true path smoothed over 1 s), the issue's measure; path "
+        "ratio: both paths smoothed over 1 s, as the campaign's records.\n",
+        "| dataset | walks | mean ATE | stand still | ratio (limit) | distance ratio in bounds |",
         "|---|--:|--:|--:|--:|--:|",
     ]
     for dataset, part in results.items():
@@ -99,16 +103,20 @@ def markdown(name: str, results: dict) -> str:
             f"{s['ratio_ok']} of {s['recordings']}",
         ]
         lines.append("| " + " | ".join(cells) + " |")
-    header = "| dataset | recording | carry | orientation | speed (m/s) | ATE | stand still | path ratio |"
-    lines += ["", header, "|---|---|---|---|--:|--:|--:|--:|"]
+    header = (
+        "| dataset | recording | carry | orientation | speed (m/s) | ATE | stand still | distance ratio "
+        "| path ratio |"
+    )
+    lines += ["", header, "|---|---|---|---|--:|--:|--:|--:|--:|"]
     for dataset, part in results.items():
         for r in part["rows"]:
-            ratio = "—" if r["path_ratio"] is None else f"{r['path_ratio']:.2f}"
+            ratio = "—" if r["distance_ratio"] is None else f"{r['distance_ratio']:.2f}"
             ratio += "" if r["ratio_ok"] else " ✘"
+            path = "—" if r["path_ratio"] is None else f"{r['path_ratio']:.2f}"
             lines.append(
                 f"| {LABELS[dataset]} | {r['name']} | {r['carry']} | {r['orientation']} "
                 f"| {r['true_speed_m_s']:.2f} | {r['ate_m']:.2f} "
-                f"| {r['stand_still_ate_m']:.2f} | {ratio} |"
+                f"| {r['stand_still_ate_m']:.2f} | {ratio} | {path} |"
             )
     return "\n".join(lines) + "\n"
 

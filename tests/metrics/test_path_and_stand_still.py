@@ -15,6 +15,7 @@ from ftin.metrics import (
     path_length_ratio,
     stand_still,
 )
+from ftin.metrics.definitions import distance_ratio
 
 
 def _square_walk(n: int = 401) -> Trajectory:
@@ -64,14 +65,17 @@ def test_mean_metrics_averages_known_ratios_only():
     assert mean_metrics([exact, still]).path_length_ratio == pytest.approx(0.5)
 
 
-def _swaying_walk_and_a_correct_window_model() -> tuple[Trajectory, Trajectory]:
-    """A 1.2 m/s loop walk at 100 Hz with 3 cm lateral sway at the 1 Hz stride frequency, a vertical
-    bounce and 3 mm tracking jitter; and what a perfect 1 s-window model (stride 0.2 s) predicts:
-    the true mean velocity of every window, integrated as inference integrates it."""
+def _swaying_walk_and_a_correct_window_model(
+    speed_m_s: float = 1.2, radius_m: float = 60.0 * 1.2 / (2 * np.pi)
+) -> tuple[Trajectory, Trajectory]:
+    """A loop walk at 100 Hz (by default 1.2 m/s around a 11.5 m circle) with 3 cm lateral sway at
+    the 1 Hz stride frequency, a vertical bounce and 3 mm tracking jitter; and what a perfect 1 s-window
+    model (stride 0.2 s) predicts: the true mean velocity of every window, integrated as inference
+    integrates it."""
     rate_hz, window, stride = 100.0, 100, 20
     t = np.arange(0.0, 120.0, 1.0 / rate_hz)
-    heading = 2 * np.pi * t / 60.0
-    centre = np.c_[np.cumsum(1.2 * np.cos(heading)), np.cumsum(1.2 * np.sin(heading))] / rate_hz
+    heading = speed_m_s * t / radius_m
+    centre = np.c_[np.cumsum(np.cos(heading)), np.cumsum(np.sin(heading))] * speed_m_s / rate_hz
     sway = 0.03 * np.sin(2 * np.pi * t)[:, None] * np.c_[-np.sin(heading), np.cos(heading)]
     rng = np.random.default_rng(0)
     p = np.c_[centre + sway, 0.02 * np.sin(4 * np.pi * t)] + rng.normal(scale=0.003, size=(len(t), 3))
@@ -93,6 +97,26 @@ def test_a_correct_prediction_of_a_swaying_walk_reads_one_when_paths_compare_lik
     # Smoothing hides no real error: half the speed still reads half the path.
     slow = Trajectory(est.t_s, est.p_world_m[0] + 0.5 * (est.p_world_m - est.p_world_m[0]))
     assert evaluate_trajectory(slow, gt, smooth_s=1.0).path_length_ratio == pytest.approx(0.5, abs=0.01)
+
+
+def test_distance_ratio_is_the_issues_walked_distance_and_reads_a_correct_window_model_near_one():
+    """The walked distance (the truth smoothed over 1 s) against the estimate as predicted: on a wide
+    loop it agrees with the path ratio; on a room-sized loop the path ratio's second smoothing of an
+    already averaged trace cuts the corners again, the distance ratio does not."""
+    gt, est = _swaying_walk_and_a_correct_window_model()
+    wide = evaluate_trajectory(est, gt, smooth_s=1.0)
+    assert wide.distance_ratio == pytest.approx(1.0, abs=0.01)
+    assert wide.distance_ratio == pytest.approx(wide.path_length_ratio, abs=0.01)
+    gt, est = _swaying_walk_and_a_correct_window_model(speed_m_s=1.2, radius_m=1.5)
+    room = evaluate_trajectory(est, gt, smooth_s=1.0)
+    assert room.distance_ratio == pytest.approx(0.975, abs=0.01)
+    assert room.path_length_ratio < room.distance_ratio - 0.02
+    # it is a ratio of distances: half the speed reads half, a rigid motion nothing, the truth one
+    slow = Trajectory(est.t_s, est.p_world_m[0] + 0.5 * (est.p_world_m - est.p_world_m[0]))
+    assert evaluate_trajectory(slow, gt).distance_ratio == pytest.approx(0.5 * room.distance_ratio)
+    assert distance_ratio(gt.p_world_m + 4.0, gt.p_world_m, gt.t_s) > 1.0  # jitter and sway are not distance
+    assert evaluate_trajectory(stand_still(gt), gt).distance_ratio == 0.0
+    assert distance_ratio(np.ones((50, 3)), np.zeros((50, 3)), np.arange(50) / 100.0) is None
 
 
 def test_heading_error_is_the_angle_between_directions_of_travel():
