@@ -43,6 +43,7 @@ from ftin.metrics import (
     mean_metrics,
     stand_still,
 )
+from ftin.yaw_average import YAW_COPIES
 
 
 @dataclass(frozen=True)
@@ -176,6 +177,7 @@ def evaluate_checkpoint(
     on_sequence: Callable[[str], None] | None = None,
     alignment: Alignment | str | None = None,
     orientation: str | None = None,
+    yaw_copies: int = YAW_COPIES,
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
 
@@ -196,7 +198,7 @@ def evaluate_checkpoint(
         if on_sequence is not None:
             on_sequence(seq.name)
         prediction = predict_trajectory(
-            loaded, seq, stride=stride, keep_prepared=False, orientation=orientation
+            loaded, seq, stride=stride, keep_prepared=False, orientation=orientation, yaw_copies=yaw_copies
         )
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:

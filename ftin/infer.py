@@ -25,6 +25,10 @@ call. Steps and decisions:
      state between chunks: the same per-frame velocities as the reference's single pass over the
      whole sequence, in bounded memory. Progress is reported (and a caller may cancel) per chunk, in
      frames; there are no windows, so no feature taps.
+   Every velocity is the mean over ``yaw_copies`` (default ``ftin.yaw_average.YAW_COPIES``, 4) copies of
+   the input turned by quarter turns about the vertical, each velocity turned back (``ftin.yaw_average``:
+   the mean keeps the part of the output that turns with the walk; 1 is the network alone). Feature
+   taps are those of the input as it is.
    What grows with the recording is linear in the number of samples and small per sample: the
    resampled, rotated IMU, the velocities and the trajectory (``scripts/bench_memory.py`` measures
    the peak RSS of a 1-hour 200 Hz recording).
@@ -51,6 +55,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import torch
@@ -62,6 +67,7 @@ from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
+from ftin.yaw_average import YAW_COPIES, mean_turned_back, turned_copies
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
@@ -102,6 +108,7 @@ def predict_trajectory(
     return_features: bool = False,
     keep_prepared: bool = True,
     orientation: str | None = None,
+    yaw_copies: int = YAW_COPIES,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
     carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
@@ -119,14 +126,22 @@ def predict_trajectory(
     if loaded.model.streams:
         _check_length(loaded, seq, n, 2, "two samples (one interval)")
         chunk = min(batch_size * stride, STREAM_CHUNK_MAX_FRAMES)
-        velocity = _run_stream(loaded, prepared.imu_world, chunk, progress)  # (N - 1, D) per interval
+        velocity = _run_stream(loaded, prepared.imu_world, chunk, progress, yaw_copies)  # (N - 1, D)
         span_start = np.arange(n - 1)
         span_end = span_start + 1
     else:
         window, parts = _window_and_parts(loaded, seq, n, short)
         starts = prepared.starts if window == loaded.window else window_starts(n, window, stride)
         part_velocity, features = run_windows(
-            loaded, prepared.imu_world, starts, window, parts, batch_size, progress, return_features
+            loaded,
+            prepared.imu_world,
+            starts,
+            window,
+            parts,
+            batch_size,
+            progress,
+            return_features,
+            yaw_copies,
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     gt = prepared.seq.gt
@@ -277,11 +292,13 @@ def run_windows(
     batch_size: int,
     progress: Callable[[int, int], None] | None,
     return_features: bool,
+    yaw_copies: int = YAW_COPIES,
 ) -> tuple[np.ndarray, dict | None]:
     """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps.
 
     K = 1 models go through ``forward`` (their taps and log-std exactly as ever), others through
-    ``forward_parts``.
+    ``forward_parts``. Velocities are the mean over ``yaw_copies`` turned copies of each window
+    (``ftin.yaw_average``); taps are those of the window as it is (copy 0).
     """
     model = loaded.model
     device = next(model.parameters()).device
@@ -289,15 +306,24 @@ def run_windows(
     total = len(starts)
     velocity = np.empty((total, parts, loaded.out_dim))
     taps: dict[str, list[np.ndarray]] | None = {} if return_features else None
+
+    def call(inputs: torch.Tensor, features: dict | None) -> Any:
+        inputs = loaded.normalization.apply(inputs)
+        return (
+            model(inputs, features=features) if parts == 1 else model.forward_parts(inputs, features=features)
+        )
+
     model.eval()
     with torch.inference_mode():
         for first in range(0, total, batch_size):
             batch_starts = starts[first : first + batch_size]
             x = torch.from_numpy(np.ascontiguousarray(view[batch_starts])).to(device)  # (B, 6, L)
             features: dict | None = {} if return_features else None
-            x = loaded.normalization.apply(x)
-            output = model(x, features=features) if parts == 1 else model.forward_parts(x, features=features)
+            output = call(x, features)  # the window as it is, with its taps
             batch_velocity = output.velocity.double().cpu().numpy()  # (B, D) or (B, K, D)
+            if yaw_copies > 1:
+                turned = call(turned_copies(x, yaw_copies)[len(x) :], None).velocity.double().cpu().numpy()
+                batch_velocity = mean_turned_back(np.concatenate([batch_velocity, turned]), yaw_copies)
             velocity[first : first + len(batch_starts)] = batch_velocity.reshape(len(batch_starts), parts, -1)
             if taps is not None:
                 if output.log_std is not None:
@@ -311,25 +337,40 @@ def run_windows(
 
 
 def _run_stream(
-    loaded: LoadedModel, imu: np.ndarray, chunk: int, progress: Callable[[int, int], None] | None
+    loaded: LoadedModel,
+    imu: np.ndarray,
+    chunk: int,
+    progress: Callable[[int, int], None] | None,
+    yaw_copies: int = YAW_COPIES,
 ) -> np.ndarray:
     """Per-frame velocities ``(N - 1, D)`` (float64) of a streaming model over the whole recording.
 
     Frame i's velocity is over the interval ``[t[i], t[i+1]]``, so the last frame (which has no
     interval after it) is not run.
     """
-    model = loaded.model
-    device = next(model.parameters()).device
     total = len(imu) - 1
     velocity = np.empty((total, loaded.out_dim))
     state = None
+    for first in range(0, total, chunk):
+        frames = imu[first : min(first + chunk, total)]  # (T, 6)
+        velocity[first : first + len(frames)], state = stream_step(loaded, frames, state, yaw_copies)
+        if progress is not None:
+            progress(first + len(frames), total)
+    return velocity
+
+
+def stream_step(
+    loaded: LoadedModel, frames: np.ndarray, state: Any, yaw_copies: int = YAW_COPIES
+) -> tuple[np.ndarray, Any]:
+    """A streaming model's per-frame velocities ``(T, D)`` (float64) for the next ``(T, 6)`` world-frame
+    frames, and the state to carry on: the mean over ``yaw_copies`` turned copies, which run as one
+    batch with one state each (``ftin.yaw_average``)."""
+    model = loaded.model
+    device = next(model.parameters()).device
     model.eval()
     with torch.inference_mode():
-        for first in range(0, total, chunk):
-            frames = imu[first : min(first + chunk, total)]  # (T, 6)
-            x = torch.from_numpy(np.ascontiguousarray(frames.T)).to(device)[None]  # (1, 6, T)
-            per_frame, state = model.forward_stream(loaded.normalization.apply(x), state)
-            velocity[first : first + len(frames)] = per_frame[0].double().cpu().numpy()
-            if progress is not None:
-                progress(first + len(frames), total)
-    return velocity
+        x = torch.from_numpy(np.ascontiguousarray(frames.T)).to(device)[None]  # (1, 6, T)
+        per_frame, state = model.forward_stream(
+            loaded.normalization.apply(turned_copies(x, yaw_copies)), state
+        )
+    return mean_turned_back(per_frame.double().cpu().numpy(), yaw_copies)[0], state

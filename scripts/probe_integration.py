@@ -76,7 +76,7 @@ def main() -> None:
         parts = ("train", "val") if dataset == protocol.INRIA else ("val",)
         paths = [p for part in parts for p in protocol.split_paths(args.data, dataset, part)]
         for seq in tqdm(load_phone_only(paths, f"{dataset} probe walks"), desc=dataset, unit="walk"):
-            prediction = predict_trajectory(loaded, seq, keep_prepared=False)
+            prediction = predict_trajectory(loaded, seq, keep_prepared=False, yaw_copies=1)
             t_s, starts = prediction.trajectory.t_s, prediction.starts
             assert len(starts) == len(prediction.velocity_m_s), "a window model with one part per window"
             gt = prediction.truth

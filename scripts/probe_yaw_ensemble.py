@@ -109,7 +109,7 @@ def main() -> None:
             parts = ("train", "val") if dataset == protocol.INRIA else ("val",)
             paths = [p for part in parts for p in protocol.split_paths(args.data, dataset, part)]
         for seq in tqdm(load_phone_only(paths, f"{dataset} probe walks"), desc=dataset, unit="walk"):
-            prediction = predict_trajectory(loaded, seq, keep_prepared=False)
+            prediction = predict_trajectory(loaded, seq, keep_prepared=False, yaw_copies=1)
             vs = [velocities(loaded, prediction.imu_world, prediction.starts, yaw) for yaw in turns]
             assert np.allclose(vs[0], prediction.velocity_m_s, atol=1e-5), "copy at 0° = inference"
             label = protocol.DATASET_LABELS[dataset]

@@ -3,6 +3,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from scipy.spatial.transform import Rotation
 
 import ftin.data.prepare
 from ftin.checkpoint import LoadedModel, load_model
@@ -127,14 +128,57 @@ def test_resamples_to_the_checkpoint_rate():
     assert score(pred).metrics.ate < 0.05
 
 
+def _turn(values: np.ndarray, angle: float, axis: int) -> np.ndarray:
+    """x and y of every 3-vector along ``axis`` (gyro, acc; or a velocity) turned by ``angle``."""
+    out = np.array(values, dtype=np.float64, copy=True)
+    c, s = np.cos(angle), np.sin(angle)
+    for first in range(0, out.shape[axis] - 1, 3):
+        x, y = np.take(values, first, axis=axis), np.take(values, first + 1, axis=axis)
+        index = [slice(None)] * out.ndim
+        index[axis] = first
+        out[tuple(index)] = c * x - s * y
+        index[axis] = first + 1
+        out[tuple(index)] = s * x + c * y
+    return out
+
+
 def test_velocities_are_the_model_on_training_windows(tiny_checkpoint, walk):
-    pred = predict_trajectory(tiny_checkpoint, walk, batch_size=7)
+    """One copy: the model on the training windows; by default the mean over the four quarter-turned
+    copies of each window, each velocity turned back (ftin.yaw_average), computed here by hand."""
     windows = make_windows(walk, WINDOW, 5)
     with torch.inference_mode():
-        expected = tiny_checkpoint.model(torch.from_numpy(windows.x)).velocity.double().numpy()
-    np.testing.assert_allclose(pred.velocity_m_s, expected, rtol=1e-5, atol=1e-7)
+
+        def model(x: np.ndarray) -> np.ndarray:
+            return tiny_checkpoint.model(torch.from_numpy(x.astype(np.float32))).velocity.double().numpy()
+
+        alone = model(windows.x)
+        turns = [k * np.pi / 2 for k in range(4)]
+        averaged = np.mean([_turn(model(_turn(windows.x, a, axis=1)), -a, axis=1) for a in turns], axis=0)
+    single = predict_trajectory(tiny_checkpoint, walk, batch_size=7, yaw_copies=1)
+    np.testing.assert_allclose(single.velocity_m_s, alone, rtol=1e-5, atol=1e-7)
+    pred = predict_trajectory(tiny_checkpoint, walk, batch_size=7)
+    np.testing.assert_allclose(pred.velocity_m_s, averaged, rtol=1e-5, atol=1e-6)
+    assert np.abs(averaged - alone).max() > 1e-4  # an untrained model is far from equivariant
     assert pred.features is None
     assert len(pred.trajectory) == len(walk)
+
+
+def _quarter_turn_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
+    """The same attitudes in a world turned a quarter turn about the vertical."""
+    turned = Rotation.from_euler("z", 90, degrees=True) * Rotation.from_quat(q_wxyz, scalar_first=True)
+    return turned.as_quat(scalar_first=True)
+
+
+@pytest.mark.parametrize("copies", [1, 4])
+def test_turning_the_world_a_quarter_turn_turns_the_walk(tiny_checkpoint, walk, copies):
+    """With four copies inference is equivariant to quarter turns by construction, for any model
+    (this one is untrained); the network alone is not."""
+    turned = walk.with_(q_world_device_wxyz=_quarter_turn_wxyz(walk.q_world_device_wxyz), gt=None)
+    plain = predict_trajectory(tiny_checkpoint, walk.with_(gt=None), yaw_copies=copies)
+    quarter = predict_trajectory(tiny_checkpoint, turned, yaw_copies=copies)
+    expected = _turn(plain.velocity_m_s, np.pi / 2, axis=1)
+    gap = np.abs(quarter.velocity_m_s - expected).max()
+    assert (gap < 1e-5) if copies == 4 else (gap > 1e-4)
 
 
 def test_streaming_progress_and_features(tiny_checkpoint, walk):
@@ -194,12 +238,17 @@ def _recording(loaded: LoadedModel) -> LoadedModel:
 
 
 def test_streamed_equals_unstreamed(tiny_checkpoint, walk):
-    """Batches of 4 give the trajectory of one pass over all windows, and never more than 4 at once."""
+    """Batches of 4 give the trajectory of one pass over all windows, and never more than 4 at once
+    (the network alone; with the turned copies, the batch as it is, then its 3 turned copies at once)."""
     streamed_model = _recording(tiny_checkpoint)
-    streamed = predict_trajectory(streamed_model, walk, batch_size=4)
+    streamed = predict_trajectory(streamed_model, walk, batch_size=4, yaw_copies=1)
     total = len(streamed.velocity_m_s)
     assert total > 40
-    assert streamed_model.model.batch_sizes == [4] * (total // 4) + ([total % 4] if total % 4 else [])
+    batches = [4] * (total // 4) + ([total % 4] if total % 4 else [])
+    assert streamed_model.model.batch_sizes == batches
+    averaged_model = _recording(tiny_checkpoint)
+    predict_trajectory(averaged_model, walk, batch_size=4)
+    assert averaged_model.model.batch_sizes == [n for b in batches for n in (b, 3 * b)]
 
     # The unstreamed reference: every window materialised, one forward pass, then integration.
     windows = make_windows(walk, WINDOW, tiny_checkpoint.stride)
@@ -333,8 +382,9 @@ def test_per_frame_oracle_reproduces_the_ground_truth():
 
 
 def test_streaming_model_equals_one_pass_over_the_sequence(tiny_streaming, walk):
-    """Chunks of 15 frames through forward_stream give the per-frame output of one whole pass."""
-    pred = predict_trajectory(tiny_streaming, walk, batch_size=3, return_features=True)
+    """Chunks of 15 frames through forward_stream give the per-frame output of one whole pass (the
+    network alone; the turned copies: test_turning_the_world_turns_the_walk_for_every_kind_of_model)."""
+    pred = predict_trajectory(tiny_streaming, walk, batch_size=3, return_features=True, yaw_copies=1)
     assert pred.features is None  # no windows, so no per-window taps
     imu = torch.from_numpy(np.ascontiguousarray(world_imu(walk)[:-1].T))[None]  # (1, 6, N - 1)
     with torch.inference_mode():
@@ -348,7 +398,7 @@ def test_streaming_model_equals_one_pass_over_the_sequence(tiny_streaming, walk)
 
 def test_rnin_velocities_are_its_parts(make_checkpoint, walk):
     loaded = _tiny(make_checkpoint, "rnin", sub_window=5, out_dim=2)  # 5 parts of 0.1 s per window
-    pred = predict_trajectory(loaded, walk, batch_size=16)
+    pred = predict_trajectory(loaded, walk, batch_size=16, yaw_copies=1)
     windows = make_windows(walk, WINDOW, 5)
     with torch.inference_mode():
         parts = loaded.model.forward_parts(torch.from_numpy(windows.x)).velocity.double().numpy()
@@ -356,6 +406,19 @@ def test_rnin_velocities_are_its_parts(make_checkpoint, walk):
     np.testing.assert_allclose(pred.velocity_m_s, expected, rtol=1e-5, atol=1e-6)
     starts = np.concatenate([np.arange(5) * 5, windows.start[1:] + 20])
     np.testing.assert_allclose(pred.span_t_s[:, 0], walk.t_s[starts])
+
+
+def test_turning_the_world_turns_the_walk_for_every_kind_of_model(tiny_streaming, make_checkpoint, walk):
+    """Streaming models (turned copies as one batch, one state each) and multi-part models (RNIN) are
+    averaged the same way: equivariant to quarter turns with four copies, not alone."""
+    rnin = _tiny(make_checkpoint, "rnin", sub_window=5, out_dim=2)
+    turned = walk.with_(q_world_device_wxyz=_quarter_turn_wxyz(walk.q_world_device_wxyz), gt=None)
+    for loaded in (tiny_streaming, rnin):
+        for copies in (1, 4):
+            plain = predict_trajectory(loaded, walk.with_(gt=None), batch_size=3, yaw_copies=copies)
+            quarter = predict_trajectory(loaded, turned, batch_size=3, yaw_copies=copies)
+            gap = np.abs(quarter.velocity_m_s - _turn(plain.velocity_m_s, np.pi / 2, axis=1)).max()
+            assert (gap < 1e-5) if copies == 4 else (gap > 1e-5), (loaded.model_name, copies, gap)
 
 
 def test_select_parts_and_integrate_spans():

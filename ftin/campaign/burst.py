@@ -14,8 +14,10 @@ trains in an hour, but it reaches no shared filesystem and only tens of MiB trav
   deadline stops is dropped: its resume state is too big to bring back, and the campaign trains it
   again (``ftin campaign run``).
 - ``finish`` (here): each finished job unpacked into the campaign folder, under the job's lock, and
-  scored as ``ftin campaign run`` scores it (``ftin.campaign.job.evaluate_jobs``): ``eval.json`` and
-  ``done.json``, so ``collect`` and ``crossval`` read it like any other job. A job the campaign has
+  scored as ``ftin campaign run`` scores it: by the campaign's frozen code, in an interpreter of its own
+  (``evaluate_on_code``; this checkout's inference or metrics may have moved on since the campaign was
+  planned), into ``eval.json`` and ``done.json``, so ``collect`` and ``crossval`` read it like any other
+  job. A job the campaign has
   already started or finished here is left alone.
 """
 
@@ -28,7 +30,10 @@ import multiprocessing as mp
 import os
 import shutil
 import socket
+import subprocess
+import sys
 import tarfile
+import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -310,7 +315,7 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
                 finished.append((job, folder / result["checkpoint"], result))
         on_event(f"scoring {len(finished)} job(s) here")
         scoring = [(j, data_root(campaign, j), checkpoint) for j, checkpoint, _ in finished]
-        evaluations = job_module.evaluate_jobs(scoring)
+        evaluations = evaluate_on_code(runs / campaign.state["code"], scoring) if scoring else []
         for (job, checkpoint, result), evaluation in zip(finished, evaluations, strict=True):
             folder = runs / job.name
             evaluation["checkpoint"] = str(checkpoint.relative_to(runs))
@@ -320,6 +325,41 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
             log(folder, f"scored on {socket.gethostname()} (trained on {result['host']})")
             outcomes[job.name] = "done"
     return outcomes
+
+
+# Run by the campaign's frozen code (``evaluate_on_code``): whatever that code's ftin offers, it has
+# ``ftin.campaign.job.evaluate_job``; ``evaluate_jobs`` (each fold's recordings read once) came later.
+_SCORE_ON_CODE = """
+import json, sys
+from pathlib import Path
+code, request, answer = (Path(arg) for arg in sys.argv[1:4])
+import ftin
+if code.resolve() not in Path(ftin.__file__).resolve().parents:
+    raise SystemExit(f"scoring would run ftin from {ftin.__file__}, not the campaign's code {code}")
+import torch
+torch.set_num_threads(1)  # as a campaign worker scores its job
+from ftin import protocol
+from ftin.campaign import job
+asked = json.loads(request.read_text())
+jobs = [(protocol.Job.from_json(spec), Path(root), Path(ckpt)) for spec, root, ckpt in asked]
+if hasattr(job, "evaluate_jobs"):
+    out = job.evaluate_jobs(jobs)
+else:
+    out = [job.evaluate_job(*one) for one in jobs]
+answer.write_text(json.dumps(out))
+"""
+
+
+def evaluate_on_code(code: Path, jobs: Sequence[tuple[protocol.Job, Path, Path]]) -> list[dict[str, Any]]:
+    """``ftin.campaign.job.evaluate_jobs(jobs)`` as the frozen ``code`` computes it: a fresh interpreter
+    with ``code`` first on its path, as a campaign worker runs its job's code."""
+    with tempfile.TemporaryDirectory() as tmp:
+        request, answer = Path(tmp) / "request.json", Path(tmp) / "answer.json"
+        request.write_text(json.dumps([[j.to_json(), str(root), str(ckpt)] for j, root, ckpt in jobs]))
+        path = os.pathsep.join(p for p in (str(code), os.environ.get("PYTHONPATH", "")) if p)
+        command = [sys.executable, "-c", _SCORE_ON_CODE, str(code), str(request), str(answer)]
+        subprocess.run(command, env={**os.environ, "PYTHONPATH": path}, cwd=tmp, check=True)
+        return json.loads(answer.read_text())
 
 
 @dataclass

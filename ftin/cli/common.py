@@ -87,6 +87,15 @@ OrientationOption = Annotated[
         "recording has it).",
     ),
 ]
+YawCopiesOption = Annotated[
+    int,
+    typer.Option(
+        "--yaw-copies",
+        min=1,
+        help="Average the model over this many copies of the input turned about the vertical "
+        "(ftin/yaw_average.py); 1: the network alone.",
+    ),
+]
 StrideOption = Annotated[
     int | None, typer.Option("--stride", min=1, help="Window step (default: the checkpoint's).")
 ]

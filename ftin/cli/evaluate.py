@@ -22,6 +22,7 @@ from ftin.cli.common import (
     OrientationOption,
     RteWindowOption,
     WorkersOption,
+    YawCopiesOption,
     app,
     orientation_text,
     out_console,
@@ -33,6 +34,7 @@ from ftin.data.orientation_option import Orientation
 from ftin.evaluate import evaluate_checkpoint
 from ftin.files import atomic_write_text
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
+from ftin.yaw_average import YAW_COPIES
 
 
 @app.command("evaluate")
@@ -48,6 +50,7 @@ def evaluate_command(
     workers: WorkersOption = None,
     address: AddressOption = None,
     orientation: OrientationOption = Orientation.AUTO,
+    yaw_copies: YawCopiesOption = YAW_COPIES,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
     sequence and their mean, under a stated convention."""
@@ -65,6 +68,7 @@ def evaluate_command(
                 "rte_window_s": rte_window_s,
                 "alignment": align,
                 "orientation": orientation.value,
+                "yaw_copies": yaw_copies,
             }
             if workers is not None or address is not None:  # one Ray task per recording
                 report = evaluate_checkpoint_on_ray(

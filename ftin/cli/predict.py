@@ -17,6 +17,7 @@ from ftin.cli.common import (
     CheckpointOption,
     OrientationOption,
     StrideOption,
+    YawCopiesOption,
     app,
     err_console,
     orientation_text,
@@ -33,6 +34,7 @@ from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
 from ftin.metrics.verdicts import confinement_note, still_verdict
+from ftin.yaw_average import YAW_COPIES
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 
@@ -60,6 +62,7 @@ def predict_command(
         typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),
     ] = None,
     orientation: OrientationOption = Orientation.AUTO,
+    yaw_copies: YawCopiesOption = YAW_COPIES,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
     CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
@@ -80,7 +83,12 @@ def predict_command(
                 bar.update(task, completed=done)
 
             prediction = predict_trajectory(
-                loaded, seq, stride=stride, progress=report, orientation=orientation.value
+                loaded,
+                seq,
+                stride=stride,
+                progress=report,
+                orientation=orientation.value,
+                yaw_copies=yaw_copies,
             )
         scored = score(prediction, align)
         shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)

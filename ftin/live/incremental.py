@@ -9,7 +9,8 @@ the one it computes on the same samples):
 - Window models: every window whose end sample exists runs once (``ftin.infer.run_windows``); the
   first window gives all its parts, later ones their last ``ceil(stride / part)`` (``select_parts``).
   Streaming models (RoNIN LSTM, TCN): new frames go through ``forward_stream`` with the state carried
-  over, exactly as offline chunks do.
+  over, exactly as offline chunks do (``ftin.infer.stream_step``). Both average the model over turned
+  copies of its input as offline (``ftin.yaw_average``).
 - Integration (``ftin.infer.integrate_spans``) incrementally: an interval's velocity is the mean of the
   spans that cover it, and no later span starts before the latest span's start, so every interval
   before it is final and integrated once; the intervals after it (at most a window) are recomputed on
@@ -21,11 +22,10 @@ the one it computes on the same samples):
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
-from ftin.infer import run_windows, select_parts
+from ftin.infer import run_windows, select_parts, stream_step
 
 BATCH_WINDOWS = 64
 
@@ -150,17 +150,11 @@ class IncrementalPredictor:
         total = len(self) - 1  # frame i is the interval [t[i], t[i+1]]
         if total <= self._next_frame:
             return
-        model = self.loaded.model
-        device = next(model.parameters()).device
         frames_ = self._imu.view()[self._next_frame : total]
-        with torch.inference_mode():
-            x = torch.from_numpy(np.ascontiguousarray(frames_.T)).to(device)[None]
-            per_frame, self._stream_state = model.forward_stream(
-                self.loaded.normalization.apply(x), self._stream_state
-            )
+        velocity, self._stream_state = stream_step(self.loaded, frames_, self._stream_state)
         span_start = np.arange(self._next_frame, total, dtype=np.int64)
         self._next_frame = total
-        self._add_spans(span_start, span_start + 1, per_frame[0].double().cpu().numpy())
+        self._add_spans(span_start, span_start + 1, velocity)
 
     def _add_spans(self, start: np.ndarray, end: np.ndarray, velocity: np.ndarray) -> None:
         self._span_start.extend(start)

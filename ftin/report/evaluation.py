@@ -35,6 +35,7 @@ from ftin.report.results import (
     ReportError,
     ReportResults,
 )
+from ftin.yaw_average import YAW_COPIES
 
 
 def load_datasets(specs: Sequence[DatasetSpec], orientation: str | None = None) -> list[LoadedDataset]:
@@ -123,6 +124,7 @@ def evaluate_checkpoints(
     stride: int | None = None,
     on_evaluation: Callable[[str, str, str], None] | None = None,
     orientation: str | None = None,
+    yaw_copies: int = YAW_COPIES,
 ) -> ReportResults:
     """Score every checkpoint on every sequence of every dataset, once each, with the ``orientation``
     choice applied (``ftin.data.orientation_option``; ``None``: each sequence's own).
@@ -145,7 +147,12 @@ def evaluate_checkpoints(
                 if on_evaluation is not None:
                     on_evaluation(loaded.name, dataset.name, seq.name)
                 prediction = predict_trajectory(
-                    loaded, seq, stride=stride, keep_prepared=False, orientation=orientation
+                    loaded,
+                    seq,
+                    stride=stride,
+                    keep_prepared=False,
+                    orientation=orientation,
+                    yaw_copies=yaw_copies,
                 )
                 scored = score(prediction, None, convention, rte_window_s, default_alignment_rule=False)
                 if scored.metrics is None:

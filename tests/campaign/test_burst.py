@@ -72,6 +72,14 @@ def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packe
     started = campaign.runs / "walks/ronin_tcn-s1"
     started.mkdir(parents=True)
     (started / RESUME_FILE).write_bytes(b"state")
+    # scored by the campaign's frozen code, not by this checkout (whose inference may have moved on)
+    frozen_job = campaign.runs / campaign.state["code"] / "ftin" / "campaign" / "job.py"
+    frozen_job.write_text(
+        frozen_job.read_text()
+        + "\n_as_planned = evaluate_jobs\n"
+        + "def evaluate_jobs(finished):\n"
+        + "    return [{**e, 'scored_by': 'frozen code'} for e in _as_planned(finished)]\n"
+    )
     outcomes = burst.finish(campaign.runs, sorted(archives.iterdir()), on_event=lambda _: None)
     assert outcomes == {
         "walks/ronin_tcn-s0": "done",
@@ -84,7 +92,9 @@ def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packe
     assert record["training"]["trained_on"].endswith("(cpu)")  # where it trained, in the record
     assert len(record["history"]) == 2
     direct = evaluate_job(job, campaign.data_root, folder / "ronin_tcn-walks.safetensors")
-    assert json.loads((folder / EVAL_FILE).read_text())["parts"] == json.loads(json.dumps(direct["parts"]))
+    evaluation = json.loads((folder / EVAL_FILE).read_text())
+    assert _numbers(evaluation["parts"]) == pytest.approx(_numbers(json.loads(json.dumps(direct["parts"]))))
+    assert evaluation["scored_by"] == "frozen code"
     assert [j.name for j in campaign.pending()] == ["walks/ronin_tcn-s1", "walks/ronin_tcn-s2"]
     # finishing the same archives again changes nothing
     before = (folder / DONE_FILE).read_text()
@@ -113,3 +123,12 @@ def test_an_archive_reaching_outside_its_job_folder_is_refused(campaign, tmp_pat
         tar.addfile(info, io.BytesIO(data))
     with pytest.raises(ValueError, match="unexpected member"):
         burst.finish(campaign.runs, [bad], on_event=lambda _: None)
+
+
+def _numbers(value) -> list:
+    """Every number in a JSON value, in order, and every string (names) as it is."""
+    if isinstance(value, dict):
+        return [item for key in sorted(value) for item in [key, *_numbers(value[key])]]
+    if isinstance(value, list):
+        return [item for element in value for item in _numbers(element)]
+    return [value]
