@@ -136,12 +136,12 @@ def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path, Path]]) -> list[d
             evaluations[index] = {
                 "checkpoint": finished[index][2].name,
                 "convention": Convention.RONIN.value,
-                "parts": _part_rows(scored.reports, datasets, results.ground_truth),
+                "parts": part_rows(scored.reports, datasets, results.ground_truth),
             }
     return evaluations
 
 
-def _part_rows(
+def part_rows(
     reports: Any, datasets: Sequence[LoadedDataset], ground_truth: Any
 ) -> dict[str, list[dict[str, Any]]]:
     """Each part's per-recording metrics beside standing still's."""

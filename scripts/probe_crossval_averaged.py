@@ -1,0 +1,79 @@
+"""Probe: stage one's walker-held-out comparisons again, with the turned-copy average inference now runs.
+
+    .venv/bin/python scripts/probe_crossval_averaged.py [--runs runs/generalisation] \
+        [--records docs/results/generalisation] [--out runs/crossval_averaged]
+    .venv/bin/ftin campaign crossval --results runs/crossval_averaged --out runs/crossval_averaged
+
+Stage one's records score each network alone (one copy; its frozen code). Inference averages four
+quarter-turned copies since (``ftin/yaw_average.py``), which removes the part of a network's output that
+does not turn with the walk: the question is whether stage one's answers (FTIN against ResNet, each
+augmentation against yaw only) hold for the models as the app runs them. For every stage-one job whose
+checkpoint is still in the campaign folder (runs/ is lost with its machine; the committed records keep
+no weights), this writes a record like the committed one with its validation parts scored phone only
+with the average (each fold's recordings read once), for ``ftin campaign crossval`` to compare.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+from tqdm import tqdm
+
+from ftin import protocol
+from ftin.campaign.folder import Campaign, record_name
+from ftin.campaign.job import evaluation_sequences, part_rows
+from ftin.checkpoint import load_model
+from ftin.metrics import Convention
+from ftin.report.evaluation import evaluate_checkpoints
+from ftin.report.results import DatasetSpec, LoadedDataset
+from ftin.yaw_average import YAW_COPIES
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=Path, default=Path("runs/generalisation"))
+    parser.add_argument("--records", type=Path, default=Path("docs/results/generalisation"))
+    parser.add_argument("--out", type=Path, default=Path("runs/crossval_averaged"))
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    campaign = Campaign(args.runs)
+    by_fold: dict[int, list[tuple[protocol.Job, Path, dict]]] = {}
+    for job in campaign.jobs():
+        record_path = args.records / record_name(job.name)
+        checkpoints = [p for p in campaign.job_dir(job).glob(f"{job.checkpoint_stem}.safetensors")]
+        if campaign.is_done(job) and record_path.exists() and checkpoints:
+            record = json.loads(record_path.read_text())
+            by_fold.setdefault(job.fold, []).append((job, checkpoints[0], record))
+    args.out.mkdir(parents=True, exist_ok=True)
+    for fold, jobs in sorted(by_fold.items()):
+        datasets = []
+        for dataset, part, _ in jobs[0][0].evaluation_sets():
+            if part == "val":
+                key = f"{dataset}/{part}/{protocol.PHONE_ONLY}"
+                paths = jobs[0][0].paths(campaign.data_root, part, dataset)
+                datasets.append(
+                    LoadedDataset(
+                        DatasetSpec(key, tuple(paths)), evaluation_sequences(paths, key, protocol.PHONE_ONLY)
+                    )
+                )
+        for job, checkpoint, record in tqdm(jobs, desc=f"fold {fold}", unit="job"):
+            results = evaluate_checkpoints(
+                [load_model(checkpoint)], datasets, Convention.RONIN, yaw_copies=YAW_COPIES
+            )
+            parts = part_rows(results.checkpoints[0].reports, datasets, results.ground_truth)
+            evaluation = {
+                "checkpoint": checkpoint.name,
+                "convention": Convention.RONIN.value,
+                "yaw_copies": YAW_COPIES,
+                "parts": parts,
+            }
+            (args.out / record_name(job.name)).write_text(
+                json.dumps({**record, "evaluation": evaluation}) + "\n"
+            )
+
+
+if __name__ == "__main__":
+    main()
