@@ -15,7 +15,8 @@ Recordings: as ``scripts/probe_integration.py``, those that decide nothing else 
 walks; the test parts stay unread), phone only; with ``--fold K`` (a checkpoint of the generalisation
 campaign's fold K) that fold's held-out walkers. Per dataset: mean ATE, ATE over standing still and
 the distance ratio for one copy at each of the K turns (the spread a single world gives), and for the
-averages over K = 4 and 8.
+averages over K = 4 and 8, and over the 4 with their mirror images (the walk reflected through a
+vertical plane, as the ``mirror`` augmentation reflects it; the velocity reflected back).
 """
 
 from __future__ import annotations
@@ -49,14 +50,23 @@ def turn_xy(values: np.ndarray, yaw: float) -> np.ndarray:
     return out
 
 
-def velocities(loaded, imu: np.ndarray, starts: np.ndarray, yaw: float) -> np.ndarray:
-    """The model's window velocities for the input turned by ``yaw``, turned back."""
-    turned = turn_xy(imu, yaw).astype(np.float32)
+def mirror(imu: np.ndarray) -> np.ndarray:
+    """The walk's mirror image through the vertical x-z plane (as the ``mirror`` augmentation): the
+    gyroscope, an axial vector, changes the sign of x and z, the acceleration that of y."""
+    return imu * np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
+
+
+def velocities(loaded, imu: np.ndarray, starts: np.ndarray, yaw: float, mirrored: bool = False) -> np.ndarray:
+    """The model's window velocities for the input (mirrored, then) turned by ``yaw``, turned back."""
+    turned = turn_xy(mirror(imu) if mirrored else imu, yaw).astype(np.float32)
     parts, _ = run_windows(loaded, turned, starts, loaded.window, 1, 1024, None, False)
     v = parts[:, 0, :]
     back = np.zeros((len(v), 3))
     back[:, : v.shape[1]] = v
-    return turn_xy(back, -yaw)[:, : v.shape[1]]
+    back = turn_xy(back, -yaw)[:, : v.shape[1]]
+    if mirrored:
+        back[:, 1] *= -1.0
+    return back
 
 
 def averaged(vs: list[np.ndarray], keep_speed: bool) -> np.ndarray:
@@ -100,6 +110,7 @@ def main() -> None:
         "mean of 4, mean speed",
         "mean of 8",
         "mean of 8, mean speed",
+        "mean of 4 and their mirror images",
     ]
     rows: dict[str, dict[str, list[dict[str, float]]]] = defaultdict(lambda: defaultdict(list))
     for dataset in DATASETS:
@@ -112,6 +123,9 @@ def main() -> None:
             prediction = predict_trajectory(loaded, seq, keep_prepared=False, yaw_copies=1)
             vs = [velocities(loaded, prediction.imu_world, prediction.starts, yaw) for yaw in turns]
             assert np.allclose(vs[0], prediction.velocity_m_s, atol=1e-5), "copy at 0° = inference"
+            mirrored = [
+                velocities(loaded, prediction.imu_world, prediction.starts, yaw, True) for yaw in turns[::2]
+            ]
             label = protocol.DATASET_LABELS[dataset]
             for degrees, v in zip(np.degrees(turns), vs, strict=True):
                 rows[label][f"one copy at {degrees:.0f}°"].append(figures(prediction, v, loaded.window))
@@ -119,6 +133,8 @@ def main() -> None:
                 for keep_speed, suffix in ((False, ""), (True, ", mean speed")):
                     v = averaged(chosen, keep_speed)
                     rows[label][f"mean of {k}{suffix}"].append(figures(prediction, v, loaded.window))
+            both = averaged(vs[::2] + mirrored, False)
+            rows[label]["mean of 4 and their mirror images"].append(figures(prediction, both, loaded.window))
     labels = list(rows)
     walks = (
         "OxIOD and RIDI validation parts, Inria's Nexus 5 and iPhone 5 walks (no test part)"
