@@ -59,7 +59,7 @@ def mirror(imu: np.ndarray) -> np.ndarray:
 def velocities(loaded, imu: np.ndarray, starts: np.ndarray, yaw: float, mirrored: bool = False) -> np.ndarray:
     """The model's window velocities for the input (mirrored, then) turned by ``yaw``, turned back."""
     turned = turn_xy(mirror(imu) if mirrored else imu, yaw).astype(np.float32)
-    parts, _ = run_windows(loaded, turned, starts, loaded.window, 1, 1024, None, False)
+    parts, _ = run_windows(loaded, turned, starts, loaded.window, 1, 1024, None, False, yaw_copies=1)
     v = parts[:, 0, :]
     back = np.zeros((len(v), 3))
     back[:, : v.shape[1]] = v
