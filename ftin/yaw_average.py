@@ -7,8 +7,8 @@ largest where the model is least sure of the motion. Running the model on ``copi
 input turned by 360/``copies`` degree steps, turning each velocity back and taking the mean keeps
 exactly the part that turns (the mean is equivariant to those turns by construction) and removes the
 rest. Measured on walkers and carry modes the models never trained on, phone only
-(docs/results/probes/yaw_ensemble.md): four quarter turns beat every single copy on OxIOD, RIDI and
-Inria (ATE -4 to -59 %); eight add nothing. ``copies=1`` is the network alone.
+(docs/results/probes/yaw_ensemble.md): four quarter turns beat a single copy at an arbitrary heading on
+OxIOD, RIDI and Inria (mean ATE -4 to -59 %); eight add nothing. ``copies=1`` is the network alone.
 
 Inputs are ``(B, 6, L)`` world-frame windows or stream chunks, channels gyro xyz then acc xyz
 (``ftin.data.windows``), turned before normalisation, as the raw world-frame data would be; outputs
