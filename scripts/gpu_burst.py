@@ -2,7 +2,9 @@
 
 Here:  python scripts/gpu_burst.py pack --runs runs/generalisation --out gpu_pack [--jobs N] [--skip NAME ...]
 There: python scripts/gpu_burst.py train --pack gpu_pack --out "$OUT" --workers 14 --minutes 8
-There: python scripts/gpu_burst.py fetch --out "$OUT" --skip-first 7   (the next call, while warm)
+There: python scripts/gpu_burst.py fetch --out "$OUT"                  (the next call, while warm)
+There: python scripts/gpu_burst.py train --pack gpu_pack --out "$OUT" --workers 14 --minutes 4 --resume
+       (a next call, while warm: continues the jobs the deadline stopped)
 Here:  python scripts/gpu_burst.py finish --runs runs/generalisation --results OUT/*.tar.gz
 
 ``--smoke`` (train) ends every job after one epoch: a check of the whole path on a CPU, not a result.
@@ -41,9 +43,15 @@ def main() -> None:
     t.add_argument("--device", default="cuda")
     t.add_argument("--smoke", action="store_true")
     t.add_argument("--keep", type=int, default=FILES_BACK, help="archive at most N finished jobs")
-    a = sub.add_parser("fetch", help="archive finished jobs again (a warm machine keeps them)")
+    t.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue what an earlier call on this warm machine left: the jobs its deadline stopped",
+    )
+    a = sub.add_parser("fetch", help="archive the finished jobs no call has brought back (a warm machine)")
     a.add_argument("--out", type=Path, required=True)
-    a.add_argument("--skip-first", type=int, default=0, help="leave out the first N finished jobs")
+    a.add_argument("--again", action="store_true", help="also the jobs an earlier call archived")
+    a.add_argument("--skip-first", type=int, default=0, help="leave out the first N of them")
     f = sub.add_parser("finish", help="unpack a burst's finished jobs into the campaign and score them")
     f.add_argument("--runs", type=Path, required=True)
     f.add_argument("--results", type=Path, nargs="+", required=True, help="the burst's .tar.gz files")
@@ -63,11 +71,13 @@ def main() -> None:
     elif args.verb == "train":
         started = time.time()
         work = burst.Burst(args.pack, RUNS_THERE, started + 60 * args.minutes, args.device, args.smoke)
-        burst.train(work, args.workers, args.first, args.skip_first)
-        names = burst.archive(RUNS_THERE, args.out, limit=args.keep)
+        burst.train(work, args.workers, args.first, args.skip_first, resume=args.resume)
+        names = burst.archive(RUNS_THERE, args.out, limit=args.keep, new_only=True)
         print(json.dumps({"wall_s": round(time.time() - started, 1), "archived": names}))
     elif args.verb == "fetch":
-        names = burst.archive(RUNS_THERE, args.out, skip=args.skip_first, limit=FILES_BACK)
+        names = burst.archive(
+            RUNS_THERE, args.out, skip=args.skip_first, limit=FILES_BACK, new_only=not args.again
+        )
         print(json.dumps({"archived": names}))
     else:
         for name, outcome in burst.finish(args.runs, args.results).items():

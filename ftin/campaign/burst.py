@@ -11,8 +11,9 @@ trains in an hour, but it reaches no shared filesystem and only tens of MiB trav
 - ``train`` (there): the jobs, several processes sharing the device, each job until it finishes or the
   deadline; each finished job's run folder (best checkpoint, history, config, the result) as one
   ``.tar.gz`` (``archive``: as many as one call brings back; the next call fetches the rest). A job the
-  deadline stops is dropped: its resume state is too big to bring back, and the campaign trains it
-  again (``ftin campaign run``).
+  deadline stops keeps its resume state there, too big to bring back: a next call while the machine is
+  warm continues it (``train(resume=True)``: the jobs an earlier call finished are neither trained nor
+  archived again); once the machine is given back, the campaign trains it again here.
 - ``finish`` (here): each finished job unpacked into the campaign folder, under the job's lock, and
   scored as ``ftin campaign run`` scores it: by the campaign's frozen code, in an interpreter of its own
   (``evaluate_on_code``; this checkout's inference or metrics may have moved on since the campaign was
@@ -52,6 +53,7 @@ DATA_FILE = "sequences.npz"
 JOBS_FILE = "jobs.json"
 RESULT_FILE = "result.json"  # in a job folder: the TrainResult of a finished burst job
 KEPT = (".json", ".safetensors", ".txt")  # a finished job's files that travel back (not resume state)
+ARCHIVED_FILE = "archived"  # in a job folder there: an earlier call of this warm machine sent it back
 
 
 # --- pack (here) ------------------------------------------------------------------------------------
@@ -148,16 +150,27 @@ class Burst:
     smoke: bool = False  # one epoch a job (a check of the whole path, not a result)
 
 
-def train(burst: Burst, workers: int, first: int | None = None, skip: int = 0) -> list[dict[str, Any]]:
+def train(
+    burst: Burst, workers: int, first: int | None = None, skip: int = 0, *, resume: bool = False
+) -> list[dict[str, Any]]:
     """The packed jobs (the ``first`` N after ``skip``), ``workers`` processes at a time, until done or the
-    deadline; what each did."""
+    deadline; what each did. ``resume``: continue what an earlier call on this warm machine left (its
+    stopped jobs from their resume state; its finished ones are left as they are)."""
     spec = json.loads((burst.pack_dir / JOBS_FILE).read_text())
     spec["jobs"] = spec["jobs"][skip:][:first]
-    # A warm machine keeps /tmp between calls: an earlier burst's folders must not travel back again.
-    shutil.rmtree(burst.out_runs, ignore_errors=True)
+    if not resume:  # a warm machine keeps /tmp between calls: an earlier burst's folders must not travel
+        shutil.rmtree(burst.out_runs, ignore_errors=True)
+    done: list[dict[str, Any]] = []
+    todo = []
+    for job in spec["jobs"]:
+        if (burst.out_runs / job["name"] / RESULT_FILE).exists():
+            done.append({"job": job["name"], "status": "finished by an earlier call"})
+            print(json.dumps(done[-1]), flush=True)
+        else:
+            todo.append(job)
     context = mp.get_context("spawn")  # CUDA in child processes
     queue: Any = context.Queue()
-    for job in spec["jobs"]:
+    for job in todo:
         queue.put(job)
     for _ in range(workers):
         queue.put(None)
@@ -165,7 +178,6 @@ def train(burst: Burst, workers: int, first: int | None = None, skip: int = 0) -
     procs = [context.Process(target=_worker, args=(burst, spec, queue, reports)) for _ in range(workers)]
     for proc in procs:
         proc.start()
-    done: list[dict[str, Any]] = []
     while any(p.is_alive() for p in procs) or not reports.empty():
         try:
             done.append(reports.get(timeout=1.0))
@@ -200,9 +212,11 @@ def _train_one(
 
     job = protocol.Job.from_json(job_spec)
     out = burst.out_runs / job.name
-    shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True)
-    (out / JOB_FILE).write_text(json.dumps(job.to_json(), indent=1))
+    resume = (out / RESUME_FILE).exists()  # stopped by an earlier call's deadline: continue it
+    if not resume:
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True)
+        (out / JOB_FILE).write_text(json.dumps(job.to_json(), indent=1))
     options = {**spec["configs"][job.name], "device": burst.device}
     options["max_minutes"] = minutes if math.isfinite(minutes) else None
     if burst.smoke:
@@ -214,10 +228,10 @@ def _train_one(
 
     started = time.time()
     host = f"{socket.gethostname()} pid {os.getpid()} ({burst.device})"
-    log(out, f"starting on {host}, burst of code {spec['code']}")
+    log(out, f"{'resuming' if resume else 'starting'} on {host}, burst of code {spec['code']}")
     try:
         config = TrainConfig(out_dir=str(out), **options)
-        result = train(config, read(config.data), read(config.val), progress=False)
+        result = train(config, read(config.data), read(config.val), resume=resume, progress=False)
     except Exception as exc:  # one job's failure must not end the burst
         log(out, f"failed: {exc!r}")
         return {"job": job.name, "status": f"failed: {exc!r}"}
@@ -244,16 +258,19 @@ def _train_one(
             "host": host,
         }
         (out / RESULT_FILE).write_text(json.dumps(record, indent=1))
-    else:
-        shutil.rmtree(out, ignore_errors=True)
-    return report
+    return report  # a stopped job keeps its folder and resume state for a next call (``resume``)
 
 
-def archive(out_runs: Path, target: Path, skip: int = 0, limit: int | None = None) -> list[str]:
+def archive(
+    out_runs: Path, target: Path, skip: int = 0, limit: int | None = None, *, new_only: bool = False
+) -> list[str]:
     """The finished job folders (their ``KEPT`` files; the ``limit`` after the first ``skip`` by name),
     each as one ``.tar.gz`` in ``target``: a lent machine returns few files of a bounded size, and a
-    warm one keeps ``out_runs``, so the rest come back with the next call; the jobs' names."""
+    warm one keeps ``out_runs``, so the rest come back with the next call; the jobs' names.
+    ``new_only``: leave out the jobs an earlier call already archived (each archived one is marked)."""
     names = sorted(str(p.parent.relative_to(out_runs)) for p in out_runs.rglob(RESULT_FILE))
+    if new_only:
+        names = [n for n in names if not (out_runs / n / ARCHIVED_FILE).exists()]
     names = names[skip:][:limit]
     target.mkdir(parents=True, exist_ok=True)
     for name in names:
@@ -261,6 +278,7 @@ def archive(out_runs: Path, target: Path, skip: int = 0, limit: int | None = Non
             for path in sorted((out_runs / name).iterdir()):
                 if path.suffix in KEPT:
                     tar.add(path, arcname=f"{name}/{path.name}")
+        (out_runs / name / ARCHIVED_FILE).touch()
     return names
 
 

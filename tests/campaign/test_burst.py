@@ -103,6 +103,37 @@ def test_a_burst_job_is_recorded_as_the_campaign_records_its_own(campaign, packe
     assert (folder / DONE_FILE).read_text() == before
 
 
+def test_a_job_the_deadline_stopped_continues_on_the_next_call(packed, tmp_path):
+    """A warm machine keeps its /tmp: a next call (``resume``) continues the stopped job from its resume
+    state to the weights an unstopped run reaches, and sends back only what no call has sent."""
+    spec = json.loads((packed / burst.JOBS_FILE).read_text())
+    first, second = spec["jobs"][0]["name"], spec["jobs"][1]["name"]
+    there = tmp_path / "there"
+    work = burst.Burst(packed, there, deadline=float("inf"), device="cpu")
+    stopped = burst._train_one(work, spec, spec["jobs"][0], burst.unpacked_sequences(packed), minutes=1e-6)
+    assert stopped["status"] == "stopped: max_minutes" and stopped["steps"] == 0
+    assert (there / first / RESUME_FILE).exists()  # kept there, for the next call
+    assert burst.archive(there, tmp_path / "nothing") == []  # a stopped job never travels back
+
+    reports = burst.train(work, workers=1, first=2, resume=True)
+    assert sorted(r["status"] for r in reports) == ["finished", "finished"]
+    assert "resuming on" in (there / first / "log.txt").read_text()  # from its state, not started over
+    assert burst.archive(there, tmp_path / "back", new_only=True) == [first, second]
+    again = burst.train(work, workers=1, first=2, resume=True)
+    assert [r["status"] for r in again] == ["finished by an earlier call"] * 2
+    assert burst.archive(there, tmp_path / "more", new_only=True) == []  # already sent
+    assert burst.archive(there, tmp_path / "resent") == [first, second]  # unless asked for again
+
+    unstopped = burst.Burst(packed, tmp_path / "unstopped", deadline=float("inf"), device="cpu")
+    burst.train(unstopped, workers=1, first=1)
+    resumed = json.loads((there / first / burst.RESULT_FILE).read_text())
+    straight = json.loads((tmp_path / "unstopped" / first / burst.RESULT_FILE).read_text())
+    assert resumed["steps"] == straight["steps"] and resumed["epochs_done"] == straight["epochs_done"] == 2
+    assert [h["val_mse"] for h in resumed["history"]] == pytest.approx(
+        [h["val_mse"] for h in straight["history"]], rel=1e-6
+    )
+
+
 def test_scoring_several_jobs_at_once_equals_scoring_each(campaign, packed, tmp_path):
     work = burst.Burst(packed, tmp_path / "there", deadline=float("inf"), device="cpu")
     burst.train(work, workers=1, first=1)
