@@ -110,7 +110,11 @@ def plan_command(
         chosen = stage_two_choices_of(choices) if jobs == STAGE_TWO else None
         job_list = protocol.stage_two_jobs(chosen) if chosen else jobs
         if extend:
-            added = Campaign(runs).extend(job_list, skip_recorded)
+            campaign = Campaign(runs)
+            added = campaign.extend(job_list, skip_recorded)
+            if chosen:  # a campaign begun with a subset of stage two takes its choices in words too
+                campaign.state["stage_one_choices"] = chosen.why
+                campaign.save()
             typer.echo(f"added {len(added)} job(s) to {runs}" + "".join(f"\n  {name}" for name in added))
             return
         if not data.is_dir():

@@ -101,6 +101,18 @@ def test_plan_stage_two_from_stage_ones_crossval(tmp_path):
     state = json.loads((tmp_path / "r" / "campaign.json").read_text())
     assert len(state["jobs"]) == 49 and state["jobs"][0]["name"] == "walking/ftin-mixed-s0"
     assert "mixed" in state["stage_one_choices"]["ftin_variant"]
+    # begun with its first job alone (a slot free before stage one ended), then extended to the rest
+    first = tmp_path / "first.json"
+    first.write_text(json.dumps(state["jobs"][:1]))
+    begun = runner.invoke(app, [*args[:3], str(tmp_path / "r4"), *args[4:6], "--jobs", str(first)])
+    assert begun.exit_code == 0, begun.output
+    extended = runner.invoke(
+        app, [*args[:3], str(tmp_path / "r4"), *args[4:], "--choices", str(crossval), "--extend"]
+    )
+    assert "added 48 job(s)" in extended.output, extended.output
+    grown = json.loads((tmp_path / "r4" / "campaign.json").read_text())
+    assert [j["name"] for j in grown["jobs"]] == [j["name"] for j in state["jobs"]]
+    assert grown["stage_one_choices"] == state["stage_one_choices"]
     unanswered = dict(STAGE_ONE)
     del unanswered["ftin-mixed-yaw", "ftin-ordered-yaw"]
     crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(unanswered)}))
