@@ -174,6 +174,28 @@ def test_the_gate_refuses_what_has_not_learned_to_walk():
     assert "standing still" in protocol.validation_gate(_record(1.0, 2.5, 2.0))["refused"]
 
 
+def test_the_gate_weighs_each_validation_dataset_alike():
+    def rows(ratio: float, ate: float, still: float, n: int) -> list[dict]:
+        return [{"path_length_ratio": ratio, "ate": ate, "stand_still": {"ate": still}}] * n
+
+    parts = {
+        "oxiod/val/ground_truth": rows(0.95, 0.5, 2.5, 2),
+        "ridi/val/ground_truth": rows(0.95, 1.0, 12.0, 4),
+        "inria/val/ground_truth": rows(0.70, 1.1, 1.4, 28),  # many short walks in a small room
+        "inria/val/phone_only": rows(0.1, 9.0, 1.4, 28),  # other orientations do not count
+        "inria/test/ground_truth": rows(0.1, 9.0, 1.4, 28),  # nor the test part
+    }
+    gate = protocol.validation_gate({"evaluation": {"parts": parts}})
+    assert gate["refused"] is None
+    assert gate["val_path_length_ratio"] == pytest.approx((0.95 + 0.95 + 0.70) / 3)
+    assert gate["val_path_length_ratio_pooled"] == pytest.approx((6 * 0.95 + 28 * 0.70) / 34)
+    assert gate["val_path_length_ratio_per_dataset"]["inria"] == pytest.approx(0.70)
+    parts["inria/val/ground_truth"] = rows(0.70, 1.6, 1.4, 28)  # Inria above its standing still
+    parts["oxiod/val/ground_truth"] = rows(0.95, 2.4, 2.5, 2)
+    parts["ridi/val/ground_truth"] = rows(0.95, 11.0, 12.0, 4)
+    assert "standing still" in protocol.validation_gate({"evaluation": {"parts": parts}})["refused"]
+
+
 def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
     jobs = protocol.generalisation_jobs()
     names = [job.name for job in jobs]
