@@ -20,7 +20,9 @@ from typing import Any
 
 from ftin import protocol
 from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, read_json, record_name, write_json
+from ftin.files import atomic_write_text
 from ftin.train.model_card import render_campaign_card
+from ftin.train.provenance import convert_card
 from ftin.train.state import HISTORY_FILE
 
 MANIFEST = "manifest.json"
@@ -94,17 +96,18 @@ def ship(
                 on_event(f"withdrawn: {old} (its campaign run failed the validation gate)")
     for stem, entry in manifest["shipped"].items():
         folder = campaign.runs / entry["job"]
-        for suffix in (".safetensors", ".json"):
-            shutil.copy2(folder / (stem + suffix), checkpoints / (stem + suffix))
-            written.append(checkpoints / (stem + suffix))
+        shutil.copy2(folder / (stem + ".safetensors"), checkpoints / (stem + ".safetensors"))
+        # The card as published: recordings relative to the data folder, no path of this machine.
+        card_json = convert_card(read_json(folder / (stem + ".json")))
+        atomic_write_text(checkpoints / (stem + ".json"), json.dumps(card_json, indent=2) + "\n")
+        written += [checkpoints / (stem + ".safetensors"), checkpoints / (stem + ".json")]
         record = read_json(results / record_name(entry["job"]))
         seeds = [
             read_json(p)
             for p in sorted(results.glob("*__*.json"))
             if _same_model(read_json(p)["training"], record["training"])
         ]
-        meta = json.loads((folder / (stem + ".json")).read_text())
-        card = render_campaign_card(meta, record, seeds, manifest.get("ftin_variant"))
+        card = render_campaign_card(card_json, record, seeds, manifest.get("ftin_variant"))
         (checkpoints / (stem + ".md")).write_text(card)
         written.append(checkpoints / (stem + ".md"))
     if "default" in manifest:  # the app's default for requests that name no model, and why

@@ -14,11 +14,17 @@ from typing import Any
 from ftin.metrics import HEADLINE_METRIC, Better, get_metric, list_metrics
 from ftin.train.augment import resolve_augment
 
+_INRIA = (
+    "the Inria smartphone attitude benchmark (Michel, Genevès, Fourati, Layaïda, 'On Attitude Estimation "
+    "with Smartphones', PerCom 2017; CeCILL licence)"
+)
 _CITATION = {
     "oxiod": "OxIOD (Chen et al., 'OxIOD: The Dataset for Deep Inertial Odometry', 2018), research use",
     "ridi": "RIDI (Yan, Shan, Furukawa, 'RIDI: Robust IMU Double Integration', ECCV 2018), research use",
     "pedestrian": "OxIOD (Chen et al., 2018) and RIDI (Yan et al., ECCV 2018) together, research use",
     "sim": "FTIN Studio's own pedestrian simulator (ftin/sim)",
+    "inria_attitude": _INRIA,
+    "walking": "OxIOD (Chen et al., 2018), RIDI (Yan et al., ECCV 2018) and " + _INRIA + " together",
 }
 
 
@@ -27,6 +33,8 @@ def _dataset_of(meta: dict[str, Any]) -> str:
     datasets = (meta.get("training_data") or {}).get("datasets") or []
     if sorted(datasets) == ["oxiod", "ridi"]:
         return "pedestrian"
+    if sorted(datasets) == ["inria_attitude", "oxiod", "ridi"]:
+        return "walking"
     return datasets[0] if len(datasets) == 1 else " and ".join(datasets) or "unknown"
 
 

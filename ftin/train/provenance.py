@@ -45,7 +45,7 @@ def relative_recording(path: str | PurePath, datasets: Sequence[str]) -> str:
     parts = PurePath(str(path).replace("\\", "/")).parts
     names = {d.lower() for d in datasets}
     for i, part in enumerate(parts):
-        if names & set(_WORD.findall(part.lower())):
+        if names & {part.lower(), *_WORD.findall(part.lower())}:  # a name with "_": inria_attitude
             return "/".join(parts[i:])
     return parts[-1] if parts else ""
 
@@ -75,6 +75,18 @@ def convert_card(meta: dict[str, Any]) -> dict[str, Any]:
     else:
         datasets = list((data or {}).get("datasets") or []) if isinstance(data, dict) else []
     config = dict(meta.get("train_config") or {})
+    recorded = (data or {}).get("recordings") if isinstance(data, dict) else None
+    if (
+        isinstance(recorded, list)
+        and isinstance(config.get("data"), list)
+        and len(config["data"]) == len(recorded)
+    ):
+        # The recordings are the training paths cut (training_data_record); cut again, so that a
+        # card cut by an older rule (a folder name with "_" went unmatched) reads as today's.
+        out["training_data"] = {
+            **out["training_data"],
+            "recordings": [relative_recording(p, datasets) for p in config["data"]],
+        }
     for key in ("data", "val"):
         if isinstance(config.get(key), list):
             config[key] = [relative_recording(p, datasets) for p in config[key]]

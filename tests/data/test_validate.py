@@ -32,12 +32,16 @@ def test_a_good_sequence_passes_with_its_quaternions_normalised():
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        (lambda s: s.with_(gyro_rad_s=np.where(np.arange(300)[:, None] == 7, np.nan, s.gyro_rad_s)),
-         r"body: sample 7, column 'gyro_rad_s\[0\]': value is NaN"),
+        (
+            lambda s: s.with_(gyro_rad_s=np.where(np.arange(300)[:, None] == 7, np.nan, s.gyro_rad_s)),
+            r"body: sample 7, column 'gyro_rad_s\[0\]': value is NaN",
+        ),
         (lambda s: s.with_(acc_m_s2=s.acc_m_s2 / 9.80665), r"looks like g; multiply by 9.80665"),
         (lambda s: s.with_(gyro_rad_s=s.gyro_rad_s * 100), r"looks like deg/s"),
-        (lambda s: s.with_(acc_m_s2=np.where(np.arange(300)[:, None] == 5, 1e308, s.acc_m_s2)),
-         r"sample 5, column 'acc_m_s2\[0\]': 1e\+308 m/s\^2 is implausible"),
+        (
+            lambda s: s.with_(acc_m_s2=np.where(np.arange(300)[:, None] == 5, 1e308, s.acc_m_s2)),
+            r"sample 5, column 'acc_m_s2\[0\]': 1e\+308 m/s\^2 is implausible",
+        ),
         (lambda s: s.with_(q_world_device_wxyz=s.q_world_device_wxyz * 2.0), r"sample 0: .*norm 2"),
     ],
 )

@@ -25,6 +25,30 @@ def test_a_record_names_datasets_and_cuts_paths_at_the_dataset_folder() -> None:
     assert record["recordings"] == ["oxiod/handheld/data1/syn/imu2.csv", "ridi/dan_bag1", "mine.csv"]
     assert record["sequences"] == ["a", "b", "c"] and absolute_paths_in(record) == []
     assert relative_recording("/x/runs/campaign/sim-data/train", ["sim"]) == "sim-data/train"
+    walk = "/d/inria_attitude/datasets/ios/Thibaud_iPhone5_NoDist_AR"  # a dataset named with "_"
+    assert (
+        relative_recording(walk, ["oxiod", "inria_attitude"])
+        == "inria_attitude/datasets/ios/Thibaud_iPhone5_NoDist_AR"
+    )
+
+
+def test_a_card_cut_by_the_older_rule_reads_its_recordings_from_its_training_paths() -> None:
+    walk = "/work/shared/data/inria_attitude/datasets/ios/Thibaud_iPhone5_NoDist_AR"
+    card = {
+        "training_data": {
+            "datasets": ["oxiod", "inria_attitude"],
+            "recordings": ["oxiod/trolley/imu1.csv", "Thibaud_iPhone5_NoDist_AR"],  # the name alone
+            "sequences": ["trolley/imu1", "Thibaud_iPhone5_NoDist_AR"],
+        },
+        "train_config": {"data": ["/work/shared/data/oxiod/trolley/imu1.csv", walk], "out_dir": "/w/runs/a"},
+    }
+    converted = convert_card(card)
+    assert (
+        converted["training_data"]["recordings"][1] == "inria_attitude/datasets/ios/Thibaud_iPhone5_NoDist_AR"
+    )
+    assert converted["train_config"]["data"] == converted["training_data"]["recordings"]
+    assert absolute_paths_in(converted) == [] and convert_card(converted) == converted
+    assert _dataset_of({"training_data": {"datasets": ["oxiod", "ridi", "inria_attitude"]}}) == "walking"
 
 
 def test_a_legacy_card_is_converted_once_and_read_without_guessing() -> None:
