@@ -1,7 +1,10 @@
 """The generalisation issue's acceptance check: a model on recordings no choice has seen, phone only.
 
-    .venv/bin/python scripts/hidden_walks.py [--checkpoint checkpoints/ftin-pedestrian] \
+    .venv/bin/python scripts/hidden_walks.py [--checkpoint checkpoints/NAME] \
         [--data ../shared/data] [--out docs/results/hidden_walks]
+
+Without ``--checkpoint``: the app's default for a request that names no model (the one
+``checkpoints/default.json`` names, as ``app.services.checkpoint_store`` reads it).
 
 Every recording of the protocol's test parts (OxIOD, RIDI: walkers huayi and shali appear nowhere
 else; Inria: the iPhone 4S, a phone no training or validation walk comes from) is oriented as a phone
@@ -26,6 +29,8 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from app.services.checkpoint_store import read_default_choice
+from app.settings import DEFAULT_MODEL
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
@@ -34,6 +39,7 @@ from ftin.infer import predict_trajectory
 
 DATASETS = (protocol.OXIOD, protocol.RIDI, protocol.INRIA)
 LABELS = {protocol.OXIOD: "OxIOD", protocol.RIDI: "RIDI", protocol.INRIA: "Inria (iPhone 4S)"}
+CHECKPOINTS = Path(__file__).resolve().parents[1] / "checkpoints"
 STILL_LIMIT = {protocol.OXIOD: 0.5, protocol.RIDI: 0.5, protocol.INRIA: 1.0}  # mean ATE / stand still
 
 
@@ -123,11 +129,15 @@ def markdown(name: str, results: dict) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--checkpoint", type=Path, default=Path("checkpoints/ftin-pedestrian"))
+    parser.add_argument("--checkpoint", type=Path, default=None, help="default: the app's default model")
     parser.add_argument("--data", type=Path, default=Path("../shared/data"))
     parser.add_argument("--out", type=Path, default=Path("docs/results/hidden_walks"))
     args = parser.parse_args()
     torch.set_num_threads(1)
+    if args.checkpoint is None:
+        choice = read_default_choice(CHECKPOINTS)
+        args.checkpoint = CHECKPOINTS / (choice[0] if choice else DEFAULT_MODEL)
+        print(f"the app's default: {args.checkpoint.name}")
     model = load_model(args.checkpoint)
     results = {}
     for dataset in DATASETS:
