@@ -35,13 +35,10 @@ from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
 from ftin.data.windows import velocity_targets, window_starts
 from ftin.protocol import DATA_FOLDERS, INRIA, fold_parts
+from ftin.report.crossval import carry_of
 
 DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 BANDS = (("standing", 0.0, 0.1), ("slow", 0.1, 0.5), ("walking", 0.5, np.inf))
-
-
-def carry_mode(name: str) -> str:
-    return name.split("_")[-1]
 
 
 def main() -> None:
@@ -85,7 +82,7 @@ def main() -> None:
             pred = np.linalg.norm(
                 predict(time_warp(prepared.imu_world, starts, loaded.window, 1.0))[:, :2], axis=1
             )
-            mode = carry_mode(seq.name)
+            mode = carry_of(INRIA, seq.name)
             rows[mode].append(np.column_stack([true, pred]))
             bounce[mode].append(float(np.std(prepared.imu_world[:, 5])))  # channels: gyro, acc xyz
         name = Path(path).parent.parent.name + "/" + Path(path).parent.name
