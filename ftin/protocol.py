@@ -436,14 +436,10 @@ def validation_gate(record: Mapping[str, Any]) -> dict[str, Any]:
 
     ratios = {d: path_ratio(rows) for d, rows in per_dataset.items()}
     ratio = None if not ratios or None in ratios.values() else mean(list(ratios.values()))
-    ate = mean([mean([row["ate"] for row in rows]) for rows in per_dataset.values()])
-    still = mean([mean([row["stand_still"]["ate"] for row in rows]) for rows in per_dataset.values()])
-    ate_over_still = mean(
-        [
-            mean([row["ate"] for row in rows]) / mean([row["stand_still"]["ate"] for row in rows])
-            for rows in per_dataset.values()
-        ]
-    )
+    ates = [mean([row["ate"] for row in rows]) for rows in per_dataset.values()]
+    stills = [mean([row["stand_still"]["ate"] for row in rows]) for rows in per_dataset.values()]
+    ate, still = mean(ates), mean(stills)
+    ate_over_still = mean([a / s for a, s in zip(ates, stills, strict=True)])
     refused = None
     if ratio is None or not 0.8 <= ratio <= 1.25:
         refused = "validation path ratio outside 0.8-1.25"
