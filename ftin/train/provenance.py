@@ -75,21 +75,18 @@ def convert_card(meta: dict[str, Any]) -> dict[str, Any]:
     else:
         datasets = list((data or {}).get("datasets") or []) if isinstance(data, dict) else []
     config = dict(meta.get("train_config") or {})
+    for key in ("data", "val"):
+        if isinstance(config.get(key), list):
+            config[key] = [relative_recording(p, datasets) for p in config[key]]
     recorded = (data or {}).get("recordings") if isinstance(data, dict) else None
     if (
         isinstance(recorded, list)
         and isinstance(config.get("data"), list)
         and len(config["data"]) == len(recorded)
     ):
-        # The recordings are the training paths cut (training_data_record); cut again, so that a
-        # card cut by an older rule (a folder name with "_" went unmatched) reads as today's.
-        out["training_data"] = {
-            **out["training_data"],
-            "recordings": [relative_recording(p, datasets) for p in config["data"]],
-        }
-    for key in ("data", "val"):
-        if isinstance(config.get(key), list):
-            config[key] = [relative_recording(p, datasets) for p in config[key]]
+        # The recordings are the training paths cut (training_data_record): take them as cut today,
+        # so that a card cut by an older rule (a folder name with "_" went unmatched) reads as new.
+        out["training_data"] = {**out["training_data"], "recordings": list(config["data"])}
     if config.get("out_dir"):
         config["out_dir"] = relative_recording(config["out_dir"], ["runs"])
     if meta.get("train_config") is not None:
