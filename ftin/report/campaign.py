@@ -51,6 +51,8 @@ LABELS = {
     "ftin_other": "FTIN, other TDL variant (seed 0)",
     "ftin-pedestrian": "FTIN-pedestrian (both datasets)",
     "ftin-walking": "FTIN-walking (every walking dataset)",
+    "ronin_resnet-pedestrian": "RoNIN ResNet-pedestrian (both datasets)",
+    "ronin_resnet-walking": "RoNIN ResNet-walking (every walking dataset)",
 }
 # The registered table metrics (ftin.metrics): a record written before a metric existed shows "—".
 METRICS = tuple(m.name for m in list_metrics(in_tables=True))
@@ -153,13 +155,8 @@ def paired_difference(
 
 def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str, str, dict[str, Any]]:
     """``(table.md, table.csv, results dict)``."""
-    order = [
-        "stand_still",
-        *COMPARED,
-        *[m for m in ABLATIONS if m != "ftin"],
-        "ftin_other",
-        *sorted({r.model for r in results if r.dataset in COMBINED}),
-    ]
+    pedestrian = sorted({r.model for r in results if r.dataset in COMBINED})
+    order = ["stand_still", *COMPARED, *[m for m in ABLATIONS if m != "ftin"], "ftin_other", *pedestrian]
     md = io.StringIO()
     rows_csv: list[list[Any]] = []
     summary: dict[str, Any] = {"ftin_variant": manifest.get("ftin_variant"), "datasets": {}}
@@ -228,7 +225,39 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
         + " Stand still = the predictor that never moves.\n\n"
     )
     refused = set(manifest.get("not_shipped", {}))
-    return head + paper_layout_markdown(summary, refused) + md.getvalue(), out.getvalue(), summary
+    default = (manifest.get("default") or {}).get("model")
+    layout = paper_layout_markdown(summary, refused, pedestrian, default)
+    if default in pedestrian:
+        ratios = phone_only_ratios(summary, default)
+        summary["default"] = {"model": default, "phone_only_over_ground_truth": ratios}
+        layout += default_ratio_markdown(summary["default"])
+    return head + layout + md.getvalue(), out.getvalue(), summary
+
+
+def phone_only_ratios(summary: dict[str, Any], model: str, metric: str = HEADLINE_METRIC) -> dict[str, float]:
+    """Per dataset, ``model``'s test ATE with the phone alone over its ATE with ground-truth
+    orientation (mean over seeds of each): what a user's upload costs against the network alone."""
+    ratios = {}
+    for dataset in TABLE_DATASETS:
+        cells = summary["datasets"].get(dataset, {})
+        phone, truth = (
+            ((cells.get(f"test/{source}") or {}).get(model) or {}).get(metric)
+            for source in (PHONE_ONLY, "ground_truth")
+        )
+        if phone and truth and truth["mean"] > 0:
+            ratios[dataset] = phone["mean"] / truth["mean"]
+    return ratios
+
+
+def default_ratio_markdown(default: dict[str, Any]) -> str:
+    ratios = default["phone_only_over_ground_truth"]
+    if not ratios:
+        return ""
+    said = ", ".join(f"{DATASET_LABELS[d]} {r:.2f}x" for d, r in ratios.items())
+    return (
+        f"The app's default, `{default['model']}`: test {get_metric(HEADLINE_METRIC).header} with the phone "
+        f"alone over its ATE with ground-truth orientation: {said}.\n\n"
+    )
 
 
 def path_ratio_table(
@@ -257,16 +286,27 @@ def path_ratio_table(
     return "\n".join(lines) + "\n\n</details>\n"
 
 
-def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()) -> str:
+def paper_layout_markdown(
+    summary: dict[str, Any],
+    refused: Collection[str] = (),
+    pedestrian: Sequence[str] = (),
+    default: str | None = None,
+) -> str:
     """The test results in the paper's layout: datasets × metrics as rows, models and ablations as
-    columns (``PAPER_COLUMNS``), each cell mean ± sd over seeds; bold = lowest mean ATE / RTE among
-    the compared models and, separately, among the ablation columns; † = the shipping gate refused
-    that model's checkpoint (``refused``: checkpoint names, ``<model>-<dataset>``)."""
-    header = ["Dataset", "Orientation", "Metric", *(c.label for c in PAPER_COLUMNS)]
+    columns (``PAPER_COLUMNS``), then the checkpoints trained on several datasets together
+    (``pedestrian``, e.g. ``ronin_resnet-walking``; ``default`` is marked), each cell mean ± sd over
+    seeds; bold = lowest mean ATE / RTE among the compared models and, separately, among the
+    ablation and the pedestrian columns; † = the shipping gate refused that model's checkpoint
+    (``refused``: checkpoint names, ``<model>-<dataset>``)."""
+    columns = PAPER_COLUMNS + tuple(
+        Column(_short_label(name) + (" (default)" if name == default else ""), name, ColumnGroup.PEDESTRIAN)
+        for name in pedestrian
+    )
+    header = ["Dataset", "Orientation", "Metric", *(c.label for c in columns)]
     lines = [
         "## Test recordings, in the layout of the paper's Table 1\n",
         "| " + " | ".join(header) + " |",
-        "|" + "|".join([":--"] * 3 + ["--:"] * len(PAPER_COLUMNS)) + "|",
+        "|" + "|".join([":--"] * 3 + ["--:"] * len(columns)) + "|",
     ]
     for dataset in TABLE_DATASETS:
         for orientation in ORIENTATIONS:
@@ -275,20 +315,25 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
                 continue
             for i, definition in enumerate(list_metrics(in_tables=True)):
                 label, metric = definition.label, definition.name
-                stats = [_column_stats(cells, column, metric) for column in PAPER_COLUMNS]
+                stats = [_column_stats(cells, column, metric) for column in columns]
                 means = [None if stat is None else stat["mean"] for stat in stats]
                 if definition.better is Better.LOWER:
-                    bold = best_flags(PAPER_COLUMNS, means, definition.digits)
+                    bold = best_flags(columns, means, definition.digits)
                 else:
                     bold = [False] * len(stats)
                 texts = []
-                for column, column_stats, is_bold in zip(PAPER_COLUMNS, stats, bold, strict=True):
+                for column, column_stats, is_bold in zip(columns, stats, bold, strict=True):
                     if column.group is ColumnGroup.IMPROVEMENT:
                         texts.append(_improvement_text(cells, metric))
                     else:
                         text = _cell(column_stats, metric)
                         text = f"**{text}**" if is_bold else text
-                        gated = i == 0 and f"{column.model_name}-{dataset}" in refused
+                        checkpoint = (
+                            column.model_name
+                            if column.group is ColumnGroup.PEDESTRIAN
+                            else f"{column.model_name}-{dataset}"
+                        )
+                        gated = i == 0 and checkpoint in refused
                         texts.append(text + " †" if gated else text)
                 name = DATASET_LABELS[dataset] if i == 0 else ""
                 source = SOURCE_LABELS[orientation] if i == 0 else ""
@@ -300,6 +345,11 @@ def paper_layout_markdown(summary: dict[str, Any], refused: Collection[str] = ()
             "outside 0.8–1.25 (the shipping gate; `manifest.json` says which).",
         ]
     return "\n".join(lines) + "\n\n"
+
+
+def _short_label(name: str) -> str:
+    """``ronin_resnet-walking`` -> "RoNIN ResNet-walking": the column header of a pedestrian checkpoint."""
+    return LABELS.get(name, name).split(" (")[0]
 
 
 def _column_stats(cells: dict[str, Any], column: Column, metric: str) -> dict[str, Any] | None:
@@ -349,16 +399,16 @@ def ate_figure(summary: dict[str, Any]) -> Any:
     for i, dataset in enumerate(datasets):
         ax = fig.add_subplot(1, len(datasets), i + 1)
         cells = summary["datasets"][dataset]["test/ground_truth"]
-        models = [
-            m for m in (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other") if m in cells and cells[m][ate]
-        ]
+        pedestrian = sorted(m for m in cells if m.rsplit("-", 1)[-1] in COMBINED)
+        candidates = (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other", *pedestrian)
+        models = [m for m in candidates if m in cells and cells[m][ate]]
         means = [cells[m][ate]["mean"] for m in models]
         sds = [cells[m][ate]["sd"] or 0.0 for m in models]
-        colors = ["#1f77b4" if m == "ftin" else "#9aa7b4" for m in models]
+        colors = ["#1f77b4" if m.split("-")[0] == "ftin" else "#9aa7b4" for m in models]
         ax.bar(range(len(models)), means, yerr=sds, color=colors, capsize=3)
         ax.set_xticks(
             range(len(models)),
-            [LABELS[m].replace(", other TDL variant (seed 0)", " (other)") for m in models],
+            ["FTIN (other)" if m == "ftin_other" else _short_label(m) for m in models],
             rotation=45,
             ha="right",
             fontsize=8,

@@ -101,9 +101,9 @@ def _format_percent(value: float | None) -> str:
 
 
 def best_flags(columns: Sequence[Column], cells: Sequence[float | None], digits: int = 3) -> list[bool]:
-    """Best (lowest) displayed value per group of compared / ablation columns, ties included."""
+    """Best (lowest) displayed value per group of compared / ablation / pedestrian columns, ties included."""
     flags = [False] * len(cells)
-    for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION):
+    for group in (ColumnGroup.COMPARED, ColumnGroup.ABLATION, ColumnGroup.PEDESTRIAN):
         shown = {
             i: round(v, digits)
             for i, (c, v) in enumerate(zip(columns, cells, strict=True))

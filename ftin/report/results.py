@@ -40,6 +40,7 @@ class ColumnGroup(str, Enum):
     COMPARED = "compared"
     IMPROVEMENT = "improvement"
     ABLATION = "ablation"
+    PEDESTRIAN = "pedestrian"  # one checkpoint trained on several datasets together (as the app's default)
 
 
 @dataclass(frozen=True)

@@ -119,3 +119,20 @@ def test_the_default_is_the_pedestrian_checkpoint_best_on_validation_phone_only(
     choice = json.loads((tmp_path / "checkpoints" / "default.json").read_text())
     assert tmp_path / "checkpoints" / "default.json" in written
     assert choice["model"] == "ftin-walking" and choice["why"] == default["why"]
+
+
+def test_a_job_list_planned_after_the_variant_was_chosen_names_it_in_the_manifest(tmp_path):
+    """Stage two's FTIN jobs all use the variant stage one chose: the manifest says which, so that
+    Table 1 shows them as FTIN, not as the other variant's ablation row."""
+    ftin = {"model": "ftin", "dataset": "oxiod", "variant": "mixed"}
+    jobs = [{**ftin, "name": f"oxiod/ftin-mixed-s{s}", "seed": s} for s in (0, 1)]
+    jobs.append({"name": "oxiod/ronin_resnet-s0", "model": "ronin_resnet", "dataset": "oxiod", "seed": 0})
+    (tmp_path / "jobs.json").write_text(json.dumps(jobs))
+    campaign = Campaign.create(tmp_path / "runs", tmp_path, tmp_path / "jobs.json")
+    _finish(campaign, "oxiod/ftin-mixed-s0")
+    assert collect(campaign, tmp_path / "records")["ftin_variant"] == "mixed"
+    assert campaign.state["ftin_variant"] is None  # read from the list; the resume state is not rewritten
+
+    both = [*jobs, {**ftin, "name": "oxiod/ftin-ordered-s0", "seed": 0, "variant": "ordered"}]
+    (tmp_path / "both.json").write_text(json.dumps(both))
+    assert Campaign.create(tmp_path / "runs2", tmp_path, tmp_path / "both.json").choose_variant() is None

@@ -96,7 +96,32 @@ def test_a_walking_model_fills_an_inria_column_and_a_row_of_its_own(folder):
     assert "### Inria, test, ground-truth orientation" in md
     assert "| FTIN-walking (every walking dataset) | 1 | 0.600 |" in md
     layout = md.split("## Test recordings, in the layout of the paper's Table 1")[1].split("\n## ")[0]
-    assert [line.split("|")[1].strip() for line in layout.splitlines() if "| ATE |" in line][-1] == "Inria"
+    ate_rows = [
+        [c.strip() for c in line.strip("|").split("|")] for line in layout.splitlines() if "| ATE |" in line
+    ]
+    assert ate_rows[-1][0] == "Inria"
+    header = next(line for line in layout.splitlines() if line.startswith("| Dataset"))
+    column = [name.strip() for name in header.strip("|").split("|")].index("FTIN-walking")
+    assert ate_rows[-1][column] == "**0.600**"  # the only pedestrian column: best of its group
+
+
+def test_the_default_gets_its_column_marked_and_its_phone_only_cost_stated(folder):
+    walking = campaign_record("ronin_resnet", "walking", 0, (0.5, 0.7))
+    parts = walking["evaluation"]["parts"]
+    parts = {key.replace("walking", "inria"): rows for key, rows in parts.items()}
+    parts["inria/test/phone_only"] = [
+        {**row, "ate": 1.5 * row["ate"]} for row in parts["inria/test/ground_truth"]
+    ]
+    walking["evaluation"]["parts"] = parts
+    (folder / "walking__ronin_resnet-s0.json").write_text(json.dumps(walking))
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest["default"] = {"model": "ronin_resnet-walking", "source": "phone_only"}
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    results, manifest = load_results(folder)
+    md, _, summary = render(results, manifest)
+    assert "| RoNIN ResNet-walking (default) |" in md.split("\n## Per dataset")[0]
+    assert summary["default"]["phone_only_over_ground_truth"] == {"inria": pytest.approx(1.5)}
+    assert "The app's default, `ronin_resnet-walking`" in md and "Inria 1.50x" in md
 
 
 def test_each_part_folds_out_every_recordings_path_ratio(folder):
