@@ -231,15 +231,20 @@ class Campaign:
         marker.write_text(code + "\n")
         return self.runs / code
 
+    def known_variant(self) -> str | None:
+        """FTIN's TDL variant as far as it is known, without choosing (read only): the ``table1``
+        campaign's choice once made; for a written-out job list (stage two), the one variant all its
+        FTIN jobs share, chosen before it was planned (None when they differ)."""
+        if self.state.get("ftin_variant") is not None or self.state.get("jobs") == "table1":
+            return self.state.get("ftin_variant")
+        variants = {job.variant for job in self.jobs() if job.model == "ftin" and job.fold is None}
+        return variants.pop() if len(variants) == 1 else None
+
     def choose_variant(self) -> str | None:
-        """FTIN's TDL variant: for the ``table1`` campaign, validation's choice once both variants'
-        seed-0 runs are done; for a written-out job list (stage two), the one variant all its FTIN
-        jobs share, chosen before it was planned (None when they differ)."""
-        if self.state.get("ftin_variant") is not None:
-            return self.state["ftin_variant"]
-        if self.state.get("jobs") != "table1":
-            variants = {job.variant for job in self.jobs() if job.model == "ftin" and job.fold is None}
-            return variants.pop() if len(variants) == 1 else None
+        """FTIN's TDL variant (``known_variant``); the ``table1`` campaign chooses it on validation once
+        both variants' seed-0 runs are done, and keeps the choice in its state."""
+        if self.state.get("jobs") != "table1" or self.state.get("ftin_variant") is not None:
+            return self.known_variant()
         val_mse: dict[str, dict[str, float]] = {}
         for variant in protocol.FTIN_VARIANTS:
             for dataset in (protocol.OXIOD, protocol.RIDI):

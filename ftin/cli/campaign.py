@@ -180,7 +180,7 @@ def status_command(runs: RunsOption = DEFAULT_RUNS) -> None:
         campaign = Campaign(runs)
         rows = campaign_status(campaign)
     counts = {state: sum(r.state == state for r in rows) for state in STATES}
-    variant = campaign.state.get("ftin_variant") or "not chosen yet"
+    variant = campaign.known_variant() or "not chosen yet"
     where = f"campaign {escape(str(campaign.runs))} (code {campaign.state['code']}, FTIN variant {variant})"
     table = Table(title=where + ": " + ", ".join(f"{n} {state}" for state, n in counts.items()))
     for header in (
