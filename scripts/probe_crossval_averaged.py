@@ -24,11 +24,10 @@ from tqdm import tqdm
 
 from ftin import protocol
 from ftin.campaign.folder import Campaign, record_name
-from ftin.campaign.job import evaluation_sequences, part_rows
+from ftin.campaign.job import part_datasets, part_rows
 from ftin.checkpoint import load_model
 from ftin.metrics import Convention
 from ftin.report.evaluation import evaluate_checkpoints
-from ftin.report.results import DatasetSpec, LoadedDataset
 from ftin.yaw_average import YAW_COPIES
 
 
@@ -49,16 +48,7 @@ def main() -> None:
             by_fold.setdefault(job.fold, []).append((job, checkpoints[0], record))
     args.out.mkdir(parents=True, exist_ok=True)
     for fold, jobs in sorted(by_fold.items()):
-        datasets = []
-        for dataset, part, _ in jobs[0][0].evaluation_sets():
-            if part == "val":
-                key = f"{dataset}/{part}/{protocol.PHONE_ONLY}"
-                paths = jobs[0][0].paths(campaign.data_root, part, dataset)
-                datasets.append(
-                    LoadedDataset(
-                        DatasetSpec(key, tuple(paths)), evaluation_sequences(paths, key, protocol.PHONE_ONLY)
-                    )
-                )
+        datasets = part_datasets(jobs[0][0], campaign.data_root, "val", protocol.PHONE_ONLY)
         for job, checkpoint, record in tqdm(jobs, desc=f"fold {fold}", unit="job"):
             results = evaluate_checkpoints(
                 [load_model(checkpoint)], datasets, Convention.RONIN, yaw_copies=YAW_COPIES

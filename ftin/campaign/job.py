@@ -163,6 +163,20 @@ def part_rows(
     return parts
 
 
+def part_datasets(job: protocol.Job, root: Path, part: str, orientation: str | None) -> list[LoadedDataset]:
+    """The job's evaluation sets of one ``part``, each read for ``orientation``, keyed as its record
+    keys them (``<dataset>/<part>/<orientation>``): what a probe rescores (validation, phone only)."""
+    datasets = []
+    for dataset, each_part, _ in job.evaluation_sets():
+        if each_part == part:
+            key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
+            paths = job.paths(root, part, dataset)
+            datasets.append(
+                LoadedDataset(DatasetSpec(key, tuple(paths)), evaluation_sequences(paths, key, orientation))
+            )
+    return datasets
+
+
 def evaluation_sequences(paths: list[Path], key: str, orientation: str | None) -> list[Any]:
     """The part's recordings read for ``orientation`` (``protocol.PHONE_ONLY``: a phone alone)."""
     if orientation == protocol.PHONE_ONLY:
