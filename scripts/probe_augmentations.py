@@ -6,6 +6,8 @@
     PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
     PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --fold 0 --stride 50 \
         --phase seeds --arms yaw_only pace --seeds 0 1
+    PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --fold 0 --epochs 10 --phone-only \
+        --phase seeds --arms mirror mirror_tilt --seeds 0
 
 A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
 Adam 1e-3, ``EPOCHS`` epochs (390 steps, about 4 min of one thread), ground-truth orientation, yaw
@@ -17,7 +19,9 @@ baseline. Walker-held-out split (no test recording of ``ftin.protocol`` is read)
   the test part). The best epoch is picked on them too (the same rule for every arm).
 With ``--fold K`` the split is the walking dataset's walker fold K instead (``ftin.protocol``: OxIOD,
 RIDI and Inria, whose pockets, swinging and running the first split lacks; the test parts unread),
-``--stride`` sets the training windows' spacing (fewer windows per epoch at the same epochs).
+``--stride`` sets the training windows' spacing (fewer windows per epoch at the same epochs);
+``--phone-only`` scores the validation walkers phone only as well (``auto`` orientation, as a phone
+export gives them), for what orientation errors cost each arm.
 Each run lands in ``runs/probes/augment[-f<K>]/<arm>-s<seed>/`` with ``result.json``: per validation
 walker the mean ATE (``ftin.evaluate.score``, RoNIN's convention), the mean path ratio and the mean
 error of the predicted window velocities (m/s); per carry mode (Inria's motion, else the reader's
@@ -42,7 +46,7 @@ import torch
 
 from ftin import protocol
 from ftin.checkpoint import load_model
-from ftin.data.loading import load_sequences
+from ftin.data.loading import load_phone_only, load_sequences
 from ftin.evaluate import score
 from ftin.infer import predict_trajectory
 from ftin.train.config import TrainConfig
@@ -83,6 +87,10 @@ ARMS: dict[str, dict[str, float | None]] = {
     "orientation": {"orientation": None},
     "mirror": {"mirror": None},
     "pace": {"pace": None},
+    # the default's recipe (stage two: RoNIN ResNet + mirror) with an orientation error on top, for what
+    # a phone alone costs it (``--phone-only``; docs/results/probes/phone_cost.md: on OxIOD the tilt)
+    "mirror_tilt": {"mirror": None, "tilt": None},
+    "mirror_orientation": {"mirror": None, "orientation": None},
     "speed_loss": {},  # no augmentation beyond yaw: the loss changes (ARM_OPTIONS)
     "sim_walks": {},  # no augmentation beyond yaw: simulated walks join the training data (ARM_DATA)
     "all": {
@@ -178,7 +186,7 @@ def evaluate_run(checkpoint: Path, val_sequences, labels: list[str]) -> dict[str
     return {"sequences": rows, "walkers": walkers, "modes": modes, "mean_walker_ate": mean_ate}
 
 
-def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20) -> dict[str, Any]:
+def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20, phone_seqs=None) -> dict[str, Any]:
     folder = RUNS / f"{arm}-s{seed}"
     result_path = folder / "result.json"
     if result_path.exists():
@@ -221,6 +229,8 @@ def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20) -> dict
         "stride": stride,
         **evaluate_run(trained.checkpoint, val_seqs, walker_labels(VAL)),
     }
+    if phone_seqs is not None:  # the same walkers as a phone export gives them (``auto`` orientation)
+        result["phone_only"] = evaluate_run(trained.checkpoint, phone_seqs, walker_labels(VAL))
     result_path.write_text(json.dumps(result, indent=2) + "\n")
     print(f"{arm} s{seed}: mean walker ATE {result['mean_walker_ate']:.3f} m", flush=True)
     return result
@@ -266,7 +276,34 @@ def summary(results: list[dict[str, Any]]) -> str:
                 f"mean velocity error {vel:.3f} m/s"
             )
     text = "\n".join(lines) + ("\n\nArms with several seeds:\n" + "\n".join(means) if means else "") + "\n"
-    return text + carry_summary(results)
+    return text + carry_summary(results) + phone_only_summary(results)
+
+
+def phone_only_summary(results: list[dict[str, Any]]) -> str:
+    """Runs scored phone only too (``--phone-only``): per walker, ATE with ground-truth orientation /
+    phone only, and the mean over walkers of the phone-only ATE over the ground-truth one."""
+    results = [r for r in results if "phone_only" in r]
+    if not results:
+        return ""
+    walkers = sorted({w for r in results for w in r["walkers"]})
+    lines = [
+        "",
+        "Phone only (`auto` orientation from the phone's own sensors): per walker, ATE (m) with the",
+        "ground-truth orientation / phone only; last columns the means over walkers and their ratio:",
+        "",
+        "| arm | seed | " + " | ".join(walkers) + " | mean ATE truth / phone | phone / truth |",
+        "|---|---|" + "--:|" * (len(walkers) + 2),
+    ]
+    for r in sorted(results, key=lambda r: (list(ARMS).index(r["arm"]), r["seed"])):
+        truth = [r["walkers"][w]["ate"] for w in walkers]
+        phone = [r["phone_only"]["walkers"][w]["ate"] for w in walkers]
+        cells = [f"{t:.2f} / {p:.2f}" for t, p in zip(truth, phone, strict=True)]
+        lines.append(
+            f"| {r['arm']} | {r['seed']} | "
+            + " | ".join(cells)
+            + f" | {np.mean(truth):.3f} / {np.mean(phone):.3f} | {np.mean(phone) / np.mean(truth):.2f}x |"
+        )
+    return "\n".join(lines) + "\n"
 
 
 def carry_summary(results: list[dict[str, Any]]) -> str:
@@ -312,6 +349,9 @@ def main() -> None:
     parser.add_argument("--fold", type=int, default=None, help="the walking dataset's walker fold")
     parser.add_argument("--stride", type=int, default=20, help="training windows every N samples")
     parser.add_argument("--epochs", type=int, default=EPOCHS, help=f"epochs per run (default {EPOCHS})")
+    parser.add_argument(
+        "--phone-only", action="store_true", help="score the validation walkers phone only as well"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     EPOCHS = args.epochs
@@ -327,6 +367,7 @@ def main() -> None:
         return
     train_seqs = load_sequences(paths(TRAIN, DATA_ROOT), orientation="ground_truth")
     val_seqs = load_sequences(paths(VAL, DATA_ROOT), orientation="ground_truth")
+    phone_seqs = load_phone_only(paths(VAL, DATA_ROOT)) if args.phone_only else None
     if args.phase == "arms":
         arms = [arm for arm in (args.arms or ORDER) if arm != BASELINE]
         plan = [(BASELINE, 0), *[(arm, 0) for arm in arms], (BASELINE, 1)]
@@ -335,7 +376,7 @@ def main() -> None:
     else:
         plan = [(arm, 1) for arm in (args.arms or [best_arm(finished())])]
     for arm, seed in plan:
-        run_arm(arm, seed, train_seqs, val_seqs, args.stride)
+        run_arm(arm, seed, train_seqs, val_seqs, args.stride, phone_seqs)
 
 
 if __name__ == "__main__":
