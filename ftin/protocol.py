@@ -382,7 +382,38 @@ def generalisation_jobs(_variant: str | None = None) -> list[Job]:
     return jobs
 
 
-CAMPAIGNS = {"table1": campaign_jobs, "generalisation": generalisation_jobs}  # by name (``plan --jobs``)
+# A question asked after stage two was planned (docs/results/probes/phone_cost.md): on OxIOD a phone
+# alone costs stage two's ResNet recipe 1.43x its motion-capture ATE on walkers it never saw, most of
+# it the tilt VQF leaves, which a model trained on motion capture never sees. Does training with tilt
+# errors (``tilt``: TLIO's gravity perturbation, up to 5 deg) on top of that recipe (mirror) pay for
+# it? Stage one's folds, seeds and budget; compared with its ``ronin_resnet-mirror`` runs, phone only.
+TILT_QUESTION_SEEDS = (0, 1)
+
+
+def tilt_question_jobs(_variant: str | None = None) -> list[Job]:
+    """RoNIN ResNet + mirror + tilt on both walker folds, seeds 0 and 1 (``plan --jobs tilt --extend``
+    on the generalisation campaign's folder: its frozen code scores as stage one's did)."""
+    options = {**model_options("ronin_resnet", WALKING), "augment": {"mirror": None, "tilt": None}}
+    return [
+        Job(
+            f"walking-f{fold}/ronin_resnet-mirror-tilt-s{seed}",
+            "ronin_resnet",
+            WALKING,
+            seed,
+            None,
+            options,
+            fold,
+        )
+        for seed in TILT_QUESTION_SEEDS
+        for fold in FOLDS
+    ]
+
+
+CAMPAIGNS = {  # by name (``plan --jobs``)
+    "table1": campaign_jobs,
+    "generalisation": generalisation_jobs,
+    "tilt": tilt_question_jobs,
+}
 
 
 # --- the campaign's policy -------------------------------------------------------------------------

@@ -226,6 +226,24 @@ def test_the_generalisation_campaign_decides_on_walkers_it_never_trained_on():
     assert jobs[12].options["augment"] == {"pace": None}
 
 
+def test_the_tilt_question_differs_from_stage_ones_resnet_mirror_runs_by_tilt_alone():
+    """So that the paired comparison asks about the tilt errors and nothing else."""
+    mirror = {job.name: job for job in protocol.generalisation_jobs() if "ronin_resnet-mirror-" in job.name}
+    tilt = protocol.tilt_question_jobs()
+    assert len(tilt) == len(mirror) == 4
+    for job in tilt:
+        twin = mirror[job.name.replace("mirror-tilt", "mirror")]
+        assert (job.model, job.dataset, job.seed, job.fold) == (
+            twin.model,
+            twin.dataset,
+            twin.seed,
+            twin.fold,
+        )
+        assert job.options == {**twin.options, "augment": {"mirror": None, "tilt": None}}
+        assert protocol.arm_of(job.name) == "ronin_resnet-mirror-tilt"
+    assert "tilt" in protocol.CAMPAIGNS
+
+
 def _members(job, part):
     for dataset in protocol.COMBINED[job.dataset]:
         for path in job.paths(Path("/data"), part, dataset):

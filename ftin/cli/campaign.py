@@ -70,8 +70,8 @@ def plan_command(
         str,
         typer.Option(
             "--jobs",
-            help="A protocol campaign (table1, generalisation), stage-two (stage one's choices, read from "
-            "--choices), or a JSON file of job specs.",
+            help="A protocol campaign (table1, generalisation, tilt), stage-two (stage one's choices, "
+            "read from --choices), or a JSON file of job specs.",
         ),
     ] = "table1",
     choices: Annotated[

@@ -86,6 +86,11 @@ COMPARISONS: tuple[tuple[str, str, str], ...] = (
     ("ftin-ordered-mirror", "ronin_resnet-mirror", "FTIN vs RoNIN ResNet, both mirrored"),
     ("ftin-ordered-paper", "ftin-ordered-yaw", "the paper's optimiser recipe"),
     ("ronin_resnet-paper", "ronin_resnet-yaw", "the paper's optimiser recipe"),
+    (
+        "ronin_resnet-mirror-tilt",
+        "ronin_resnet-mirror",
+        "tilt errors on top of mirror (a phone's orientation)",
+    ),
 )
 
 
@@ -201,7 +206,9 @@ def arm_order(arms: Iterable[str]) -> list[str]:
     present = set(arms)
     known = [
         arm
-        for arm in dict.fromkeys(protocol.arm_of(j.name) for j in protocol.generalisation_jobs())
+        for arm in dict.fromkeys(
+            protocol.arm_of(j.name) for j in (*protocol.generalisation_jobs(), *protocol.tilt_question_jobs())
+        )
         if arm in present
     ]
     return known + sorted(present - set(known))
