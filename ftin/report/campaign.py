@@ -159,7 +159,11 @@ def render(results: Sequence[JobResult], manifest: dict[str, Any]) -> tuple[str,
     order = ["stand_still", *COMPARED, *[m for m in ABLATIONS if m != "ftin"], "ftin_other", *pedestrian]
     md = io.StringIO()
     rows_csv: list[list[Any]] = []
-    summary: dict[str, Any] = {"ftin_variant": manifest.get("ftin_variant"), "datasets": {}}
+    summary: dict[str, Any] = {
+        "ftin_variant": manifest.get("ftin_variant"),
+        "pedestrian": pedestrian,  # the checkpoints trained on several datasets together
+        "datasets": {},
+    }
     md.write("## Per dataset, part and orientation source\n\n")
     for dataset in TABLE_DATASETS:
         summary["datasets"][dataset] = {}
@@ -399,8 +403,7 @@ def ate_figure(summary: dict[str, Any]) -> Any:
     for i, dataset in enumerate(datasets):
         ax = fig.add_subplot(1, len(datasets), i + 1)
         cells = summary["datasets"][dataset]["test/ground_truth"]
-        pedestrian = sorted(m for m in cells if m.rsplit("-", 1)[-1] in COMBINED)
-        candidates = (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other", *pedestrian)
+        candidates = (*COMPARED, "resnet_fdl", "resnet_tdl", "ftin_other", *summary.get("pedestrian", ()))
         models = [m for m in candidates if m in cells and cells[m][ate]]
         means = [cells[m][ate]["mean"] for m in models]
         sds = [cells[m][ate]["sd"] or 0.0 for m in models]
