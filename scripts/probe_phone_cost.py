@@ -38,6 +38,7 @@ from ftin.data.preprocess import estimate_orientation
 from ftin.data.types import ImuSequence
 from ftin.evaluate import score
 from ftin.infer import predict_trajectory
+from ftin.report.crossval import carry_of
 
 ALIGN_S = 2.0  # as the campaign turns an estimate's world into the truth's
 WAYS = ("motion capture", "auto", "truth heading + auto tilt", "auto heading + truth tilt")
@@ -63,7 +64,8 @@ def mixed(heading_from: np.ndarray, tilt_from: np.ndarray) -> np.ndarray:
 
 
 def group(dataset: str, name: str) -> str:
-    return f"Inria {name.rsplit('_', 1)[-1]}" if dataset == protocol.INRIA else dataset
+    """Inria: ``Inria <carry mode>`` (``crossval.carry_of``); OxIOD and RIDI: the dataset."""
+    return f"Inria {carry_of(dataset, name)}" if dataset == protocol.INRIA else dataset
 
 
 def main() -> None:

@@ -35,6 +35,7 @@ from ftin.campaign.folder import Campaign
 from ftin.campaign.job import part_datasets, part_rows
 from ftin.checkpoint import load_model
 from ftin.metrics import Convention
+from ftin.report.crossval import carry_of
 from ftin.report.evaluation import evaluate_checkpoints
 from ftin.yaw_average import YAW_COPIES, _angles, mean_turned_back
 
@@ -75,8 +76,8 @@ MODES = {"vector mean": vector_mean, "speed mean": speed_mean}
 
 
 def carry(dataset: str, name: str) -> str:
-    """Inria: the carry mode from the walk's name; OxIOD and RIDI: the dataset."""
-    return name.rsplit("_", 1)[-1] if dataset == protocol.INRIA else dataset
+    """Inria: the walk's carry mode (``crossval.carry_of``); OxIOD and RIDI: the dataset."""
+    return carry_of(dataset, name) if dataset == protocol.INRIA else dataset
 
 
 def main() -> None:
