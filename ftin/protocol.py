@@ -578,8 +578,7 @@ def stage_two_choices(comparisons: Sequence[Mapping[str, Any]]) -> StageTwoChoic
         return rows[a, b]
 
     def said(a: str, b: str) -> str:
-        r = row(a, b)
-        return f"{a} vs {b}: mean d {r['mean_m']:+.3f} m over {r['pairs']} pairs, {r['walkers']} walkers"
+        return comparison_words(row(a, b))
 
     why: dict[str, str] = {}
     tdl = row("ftin-mixed-yaw", "ftin-ordered-yaw")
@@ -600,6 +599,14 @@ def stage_two_choices(comparisons: Sequence[Mapping[str, Any]]) -> StageTwoChoic
     recipe = "paper" if pooled < 0 else "ours"
     why["recipe"] = f"{recipe} (the paper's recipe against ours, both architectures: mean d {pooled:+.3f} m)"
     return StageTwoChoices(variant, recipe, augment, why)
+
+
+def comparison_words(row: Mapping[str, Any]) -> str:
+    """One paired comparison of crossval in words, with its figure."""
+    return (
+        f"{row['a']} vs {row['b']}: mean d {row['mean_m']:+.3f} m over {row['pairs']} pairs, "
+        f"{row['walkers']} walkers"
+    )
 
 
 _ARM_JOB_NAME = re.compile(r"[^/]+/(?P<arm>.+)-s(?P<seed>\d+)")
@@ -656,3 +663,46 @@ def stage_two_jobs(choices: StageTwoChoices) -> list[Job]:
         sim_options["augment"] = dict(choices.augment["ftin"])
     jobs.append(replace(sim, options=sim_options))
     return jobs
+
+
+# --- the tilt question's answer: stage two's walking checkpoints, retrained with tilt ---------------
+# Fixed before any tilt job finished (docs/results/protocol.md): where ``ronin_resnet-mirror-tilt`` has
+# the lower mean paired validation ATE than ``ronin_resnet-mirror`` over every walker of both folds,
+# phone only, the walking checkpoints of both architectures are retrained with tilt added and replace
+# stage two's; elsewhere nothing changes.
+TILT_ARMS = ("ronin_resnet-mirror-tilt", "ronin_resnet-mirror")
+_TILT_RETRAIN_NAME = re.compile(r"(?P<dataset>[^/]+)/(?P<arm>.+)-tilt-s(?P<seed>\d+)")
+
+
+def tilt_answer(comparisons: Sequence[Mapping[str, Any]]) -> tuple[bool, str]:
+    """Whether the tilt question says yes, and its figure in words, from crossval's paired comparisons.
+    ``ValueError`` while the question has no phone-only row over every dataset yet."""
+    a, b = TILT_ARMS
+    for row in comparisons:
+        if (row["a"], row["b"]) == TILT_ARMS and row["orientation"] == PHONE_ONLY and row["dataset"] == "all":
+            return row["lower_mean"] == "a", comparison_words(row)
+    raise ValueError(f"the tilt question is not answered yet (no phone-only row {a} vs {b} in crossval)")
+
+
+def with_tilt(job: Job) -> Job:
+    """A fixed-split job retrained with TLIO's gravity tilt added to its augmentations, named
+    ``<dataset>/<arm>-tilt-s<seed>`` (``replaced_job`` reads the name back)."""
+    stem, seed = job.name.rsplit("-s", 1)
+    augment = {**job.options.get("augment", {}), "tilt": None}
+    return replace(job, name=f"{stem}-tilt-s{seed}", options={**job.options, "augment": augment})
+
+
+def walking_tilt_jobs(jobs: Sequence[Job]) -> list[Job]:
+    """``with_tilt`` of a campaign's walking checkpoints (the default's candidates, fixed split)."""
+    candidates = [job for job in jobs if job.dataset == WALKING and job.fold is None]
+    return [with_tilt(job) for job in candidates if replaced_job(job) is None]
+
+
+def replaced_job(job: Job) -> str | None:
+    """The job a fixed-split tilt retrain replaces (``walking/ronin_resnet-tilt-s0`` ->
+    ``walking/ronin_resnet-s0``); None for any other job. ``collect`` records both and ships only the
+    retrain; Table 1 and the model cards read the retrain alone."""
+    match = _TILT_RETRAIN_NAME.fullmatch(job.name)
+    if job.fold is not None or match is None:
+        return None
+    return f"{match['dataset']}/{match['arm']}-s{match['seed']}"
