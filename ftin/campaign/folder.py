@@ -13,6 +13,7 @@ or ``failed.json``. ``.lock`` is held while a worker trains it.
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import hashlib
 import json
@@ -20,6 +21,7 @@ import os
 import shutil
 import subprocess
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +37,7 @@ FAILED_FILE = "failed.json"
 EVAL_FILE = "eval.json"
 CODE_FILE = "code.txt"
 LOCK_FILE = ".lock"
+DRIVER_LOCK_FILE = ".driver.lock"  # held by the one `campaign run` driving the folder
 LOG_FILE = "log.txt"
 
 
@@ -140,6 +143,28 @@ class Campaign:
 
     def save(self) -> None:
         write_json(self.runs / STATE_FILE, self.state)
+
+    @contextlib.contextmanager
+    def driver_lock(self) -> Iterator[None]:
+        """Held by the one ``campaign run`` that drives this folder: a second driver would start the
+        jobs the first is running (each job's own lock is taken only once its worker starts)."""
+        with open(self.runs / DRIVER_LOCK_FILE, "a+") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                handle.seek(0)
+                pid = handle.read().strip() or "?"
+                raise CampaignError(
+                    f"{self.runs}: another `ftin campaign run` drives this campaign (pid {pid}); "
+                    "stop it first (Ctrl-C), or let it run"
+                ) from None
+            handle.truncate(0)
+            handle.write(f"{os.getpid()}\n")
+            handle.flush()
+            try:
+                yield
+            finally:
+                fcntl.flock(handle, fcntl.LOCK_UN)
 
     def refresh_code(self) -> Path:
         """Freeze the running package again: jobs not yet started run on it from now on."""

@@ -189,14 +189,15 @@ def run_command(
             for name in campaign.retry_failed():
                 typer.echo(f"{name}: will run again")
         local_workers = workers or (None if address else 2)
-        outcomes = engine.run(
-            campaign,
-            workers=local_workers,
-            address=address,
-            gpus_per_job=gpus_per_job,
-            threads=threads,
-            on_event=lambda line: typer.echo(line),
-        )
+        with campaign.driver_lock():
+            outcomes = engine.run(
+                campaign,
+                workers=local_workers,
+                address=address,
+                gpus_per_job=gpus_per_job,
+                threads=threads,
+                on_event=lambda line: typer.echo(line),
+            )
     left = [j.name for j in campaign.pending()]
     failed = sorted(name for name, outcome in outcomes.items() if outcome.startswith("failed"))
     typer.echo(f"{len(outcomes)} job(s) ran; {len(left)} not done; failed: {', '.join(failed) or 'none'}")

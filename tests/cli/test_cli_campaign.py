@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 
+import pytest
+
+from ftin.campaign import CampaignError
 from ftin.campaign.folder import Campaign
 from ftin.cli import app
 from tests.utils.cli import fails_cleanly, runner
@@ -179,3 +183,14 @@ def test_plan_walking_tilt_puts_the_walking_retrains_first_only_where_the_tilt_q
         }
     again = runner.invoke(app, [*tilt, "--extend"])
     assert "added 0 job(s)" in again.output, again.output  # a retrain is never retrained again
+
+
+def test_a_second_driver_on_one_campaign_folder_is_refused_naming_the_first(tmp_path):
+    runs, _, driver = _planned(tmp_path)
+    with driver.driver_lock():
+        refused = rf"another `ftin campaign run` drives .* \(pid {os.getpid()}\)"
+        with pytest.raises(CampaignError, match=refused):
+            with Campaign(runs).driver_lock():
+                pass
+    with Campaign(runs).driver_lock():  # released when the first driver ends
+        pass
