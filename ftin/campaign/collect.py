@@ -6,8 +6,7 @@ A record is ``{"training": done.json, "history": history.json, "evaluation": eva
 the best validation MSE is the candidate; it ships if it passes ``protocol.validation_gate``, else
 an earlier checkpoint of that name is withdrawn (a model that has not learned to walk is not hosted).
 FTIN's candidates are the variant validation chose. Walker-fold jobs are recorded but never shipped
-(``ftin campaign crossval`` compares them); so is a job a finished tilt retrain replaces
-(``protocol.replaced_job``; the manifest's ``replaced`` names both). Among the shipped pedestrian
+(``ftin campaign crossval`` compares them). Among the shipped pedestrian
 checkpoints the manifest names the app's default (``protocol.choose_default``), which ``ship``
 writes to ``default.json``.
 """
@@ -47,8 +46,6 @@ def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> di
     results.mkdir(parents=True, exist_ok=True)
     variant = campaign.choose_variant()
     done = [job for job in campaign.jobs() if campaign.is_done(job)]
-    # A finished tilt retrain (the tilt question's yes) takes its stage-two job's place.
-    replaced = {old: job.name for job in done if (old := protocol.replaced_job(job)) is not None}
     best: dict[str, tuple[float, protocol.Job, dict[str, Any]]] = {}
     for job in done:
         if only and job.checkpoint_stem not in only:
@@ -57,8 +54,6 @@ def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> di
         write_json(results / record_name(job.name), record)
         if job.fold is not None:
             continue  # a walker fold trained without its validation walkers: compared, never shipped
-        if job.name in replaced:
-            continue  # recorded; its retrain is the candidate
         if job.model == "ftin" and variant is not None and job.variant != variant:
             continue
         val = record["training"]["best_val_mse"]
@@ -70,7 +65,6 @@ def collect(campaign: Campaign, results: Path, only: Collection[str] = ()) -> di
         "ftin_variant": variant,
         "shipped": {},
         "not_shipped": {},
-        **({"replaced": replaced} if replaced else {}),
     }
     candidates: dict[str, dict[str, Any]] = {}
     for stem, (val, job, record) in sorted(best.items()):
@@ -110,12 +104,10 @@ def ship(
         atomic_write_text(checkpoints / (stem + ".json"), json.dumps(card_json, indent=2) + "\n")
         written += [checkpoints / (stem + ".safetensors"), checkpoints / (stem + ".json")]
         record = read_json(results / record_name(entry["job"]))
-        replaced = manifest.get("replaced", {})
         seeds = [
             seed
             for p in sorted(results.glob("*__*.json"))
             if _same_model((seed := read_json(p))["training"], record["training"])
-            and seed["training"]["job"] not in replaced
         ]
         card = render_campaign_card(card_json, record, seeds, manifest.get("ftin_variant"))
         (checkpoints / (stem + ".md")).write_text(card)

@@ -45,7 +45,6 @@ DEFAULT_RESULTS = Path("docs/results/campaign")
 
 
 STAGE_TWO = "stage-two"
-WALKING_TILT = "walking-tilt"
 
 
 def _comparisons(crossval_json: Path) -> list[dict]:
@@ -68,22 +67,6 @@ def stage_two_choices_of(crossval_json: Path) -> protocol.StageTwoChoices:
         raise CampaignError(f"--choices {crossval_json}: {exc}") from None
 
 
-def walking_tilt_jobs_of(campaign: Campaign, crossval_json: Path) -> list[protocol.Job]:
-    """The campaign's walking checkpoints retrained with tilt, where the tilt question said yes."""
-    try:
-        yes, words = protocol.tilt_answer(_comparisons(crossval_json))
-    except (KeyError, TypeError) as exc:
-        raise CampaignError(f"--choices {crossval_json}: not a crossval.json ({exc})") from None
-    except ValueError as exc:
-        raise CampaignError(f"--choices {crossval_json}: {exc}") from None
-    if not yes:
-        raise CampaignError(f"the tilt question said no ({words}): stage two's walking checkpoints stay")
-    jobs = protocol.walking_tilt_jobs(campaign.jobs())
-    if not jobs:
-        raise CampaignError(f"{campaign.runs}: no walking checkpoint on the fixed split to retrain")
-    return jobs
-
-
 @campaign_app.command("plan")
 def plan_command(
     runs: RunsOption = DEFAULT_RUNS,
@@ -95,16 +78,14 @@ def plan_command(
         typer.Option(
             "--jobs",
             help="A protocol campaign (table1, generalisation, tilt), stage-two (stage one's choices, "
-            "read from --choices), walking-tilt (with --extend: the campaign's walking checkpoints "
-            "retrained with tilt, where the tilt question in --choices said yes), or a JSON file of "
-            "job specs.",
+            "read from --choices), or a JSON file of job specs.",
         ),
     ] = "table1",
     choices: Annotated[
         Path,
         typer.Option(
             "--choices",
-            help="--jobs stage-two or walking-tilt: stage one's crossval.json (its paired comparisons).",
+            help="--jobs stage-two: stage one's crossval.json (its paired comparisons).",
         ),
     ] = Path("docs/results/generalisation/crossval.json"),
     refresh_code: Annotated[
@@ -136,12 +117,8 @@ def plan_command(
             return
         chosen = stage_two_choices_of(choices) if jobs == STAGE_TWO else None
         job_list = protocol.stage_two_jobs(chosen) if chosen else jobs
-        if jobs == WALKING_TILT and not extend:
-            raise CampaignError("--jobs walking-tilt retrains a campaign's walking checkpoints: add --extend")
         if extend:
             campaign = Campaign(runs)
-            if jobs == WALKING_TILT:  # first in the list: the default's candidates
-                job_list = walking_tilt_jobs_of(campaign, choices)
             added = campaign.extend(job_list, skip_recorded)
             if chosen:  # a campaign begun with a subset of stage two takes its choices in words too
                 campaign.state["stage_one_choices"] = chosen.why

@@ -90,13 +90,10 @@ def load_results(folder: Path) -> tuple[list[JobResult], dict[str, Any]]:
         raise ValueError(f"{folder}: no manifest.json (run `ftin campaign collect` first)")
     manifest = json.loads(manifest_path.read_text())
     variant = manifest.get("ftin_variant")
-    replaced = manifest.get("replaced", {})  # a job its tilt retrain replaced: recorded, not reported
     results = []
     for path in sorted(folder.glob("*__*.json")):
         record = json.loads(path.read_text())
         training = record["training"]
-        if training["job"] in replaced:
-            continue
         model = training["model"]
         if training["dataset"] in COMBINED:  # e.g. ftin-pedestrian: a row of its own
             model = f"{model}-{training['dataset']}"

@@ -12,7 +12,6 @@ from ftin import protocol
 from ftin.campaign import CampaignError
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import DONE_FILE, EVAL_FILE, Campaign, write_json
-from ftin.report.campaign import load_results
 from ftin.train.state import HISTORY_FILE
 
 
@@ -138,31 +137,3 @@ def test_a_job_list_planned_after_the_variant_was_chosen_names_it_in_the_manifes
     both = [*jobs, {**ftin, "name": "oxiod/ftin-ordered-s0", "seed": 0, "variant": "ordered"}]
     (tmp_path / "both.json").write_text(json.dumps(both))
     assert Campaign.create(tmp_path / "runs2", tmp_path, tmp_path / "both.json").choose_variant() is None
-
-
-def test_a_finished_tilt_retrain_replaces_its_stage_two_job_in_the_manifest_table_and_card(tmp_path):
-    spec = {"model": "ronin_resnet", "dataset": "walking", "seed": 0}
-    jobs = [{**spec, "name": "walking/ronin_resnet-s0"}]
-    (tmp_path / "jobs.json").write_text(json.dumps(jobs))
-    campaign = Campaign.create(tmp_path / "runs", tmp_path, tmp_path / "jobs.json")
-    _finish(campaign, "walking/ronin_resnet-s0")
-    retrain = protocol.walking_tilt_jobs(campaign.jobs())
-    assert [job.name for job in retrain] == ["walking/ronin_resnet-tilt-s0"]
-    assert protocol.replaced_job(retrain[0]) == "walking/ronin_resnet-s0"
-    assert protocol.replaced_job(campaign.jobs()[0]) is None
-    campaign.extend(retrain)
-    # not finished yet: the stage-two job stays the candidate
-    assert collect(campaign, tmp_path / "records")["shipped"]["ronin_resnet-walking"]["job"] == (
-        "walking/ronin_resnet-s0"
-    )
-    worse = {"name": "w", "ate": 2.0, "path_length_ratio": 1.0, "stand_still": {"ate": 5.0}}
-    _finish(campaign, "walking/ronin_resnet-tilt-s0", {"ridi/val/ground_truth": [worse]})
-    done = json.loads((campaign.runs / "walking/ronin_resnet-tilt-s0" / DONE_FILE).read_text())
-    write_json(campaign.runs / "walking/ronin_resnet-tilt-s0" / DONE_FILE, {**done, "best_val_mse": 0.5})
-    manifest = collect(campaign, tmp_path / "records")
-    # replaced, not compared: its higher validation MSE does not bring the stage-two job back
-    assert manifest["shipped"]["ronin_resnet-walking"]["job"] == "walking/ronin_resnet-tilt-s0"
-    assert manifest["replaced"] == {"walking/ronin_resnet-s0": "walking/ronin_resnet-tilt-s0"}
-    assert (tmp_path / "records" / "walking__ronin_resnet-s0.json").exists()  # still recorded
-    results, _ = load_results(tmp_path / "records")
-    assert [r.job for r in results] == ["walking/ronin_resnet-tilt-s0"]

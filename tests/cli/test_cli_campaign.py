@@ -150,41 +150,6 @@ def test_extend_adds_the_jobs_a_campaign_lacks_in_their_order_and_a_running_driv
     fails_cleanly(nowhere, "holds no campaign")
 
 
-def test_plan_walking_tilt_puts_the_walking_retrains_first_only_where_the_tilt_question_said_yes(tmp_path):
-    crossval = tmp_path / "crossval.json"
-    crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(STAGE_ONE)}))
-    runs = str(tmp_path / "r")
-    args = ["campaign", "plan", "--runs", runs, "--data", str(tmp_path), "--choices", str(crossval)]
-    assert runner.invoke(app, [*args, "--jobs", "stage-two"]).exit_code == 0
-    tilt = [*args, "--jobs", "walking-tilt"]
-    fails_cleanly(runner.invoke(app, tilt), "add --extend")
-    fails_cleanly(runner.invoke(app, [*tilt, "--extend"]), "the tilt question is not answered yet")
-    said_no = {**STAGE_ONE, ("ronin_resnet-mirror-tilt", "ronin_resnet-mirror"): +0.05}
-    crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(said_no)}))
-    fails_cleanly(runner.invoke(app, [*tilt, "--extend"]), "the tilt question said no", "+0.050 m")
-    assert len(json.loads((tmp_path / "r" / "campaign.json").read_text())["jobs"]) == 49
-
-    said_yes = {**STAGE_ONE, ("ronin_resnet-mirror-tilt", "ronin_resnet-mirror"): -0.05}
-    crossval.write_text(json.dumps({"comparisons": stage_one_comparisons(said_yes)}))
-    result = runner.invoke(app, [*tilt, "--extend"])
-    assert "added 2 job(s)" in result.output, result.output
-    jobs = json.loads((tmp_path / "r" / "campaign.json").read_text())["jobs"]
-    assert [j["name"] for j in jobs[:4]] == [
-        "walking/ftin-mixed-tilt-s0",
-        "walking/ronin_resnet-tilt-s0",
-        "walking/ftin-mixed-s0",
-        "walking/ronin_resnet-s0",
-    ]
-    assert len(jobs) == 51
-    for retrain, original in zip(jobs[:2], jobs[2:4], strict=True):
-        assert retrain["options"]["augment"] == {**original["options"]["augment"], "tilt": None}
-        assert {k: v for k, v in retrain["options"].items() if k != "augment"} == {
-            k: v for k, v in original["options"].items() if k != "augment"
-        }
-    again = runner.invoke(app, [*tilt, "--extend"])
-    assert "added 0 job(s)" in again.output, again.output  # a retrain is never retrained again
-
-
 def test_a_second_driver_on_one_campaign_folder_is_refused_naming_the_first(tmp_path):
     runs, _, driver = _planned(tmp_path)
     with driver.driver_lock():
