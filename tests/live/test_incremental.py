@@ -32,7 +32,7 @@ def _stream(predictor: IncrementalPredictor, seq, seed: int) -> None:
         i = j
 
 
-@pytest.mark.parametrize("name", ["ftin-pedestrian", "rnin-oxiod", "ronin_tcn-oxiod", "ftin-ridi"])
+@pytest.mark.parametrize("name", ["ftin-pedestrian", "rnin-oxiod", "ronin_lstm-ridi", "ftin-ridi"])
 def test_incremental_equals_offline(name: str, walk) -> None:
     loaded = load_model(CHECKPOINTS / name)
     offline = predict_trajectory(loaded, walk)
