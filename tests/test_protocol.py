@@ -134,6 +134,36 @@ def test_the_walking_dataset_joins_every_walking_dataset(tmp_path):
         protocol.fold_parts(protocol.RIDI, 2)
 
 
+@pytest.mark.parametrize(
+    ("model", "dataset", "expected"),
+    [
+        ("ftin", "ridi", {"imu_rate_hz": 200.0, "window": 200, "stride": 40}),
+        ("ronin_resnet", "oxiod", {"imu_rate_hz": 100.0, "window": 100, "stride": 20}),
+        (
+            "rnin",
+            "oxiod",
+            {"imu_rate_hz": 100.0, "window": 1000, "stride": 200, "batch_size": 32, "loss": "mse",
+             "model_kwargs": {"sub_window": 100}},
+        ),
+        (
+            "rnin",
+            "ridi",
+            {"imu_rate_hz": 200.0, "window": 2000, "stride": 400, "batch_size": 32, "loss": "mse",
+             "model_kwargs": {"sub_window": 200}},
+        ),
+        ("ronin_lstm", "ridi", {"imu_rate_hz": 200.0, "window": 400, "stride": 80, "batch_size": 72}),
+        ("ronin_tcn", "walking", {"imu_rate_hz": 100.0, "window": 400, "stride": 80, "batch_size": 72}),
+        ("tlio", "oxiod", {"imu_rate_hz": 100.0, "window": 100, "stride": 20, "nll_warmup_epochs": 5}),
+    ],
+)  # fmt: skip
+def test_model_options_are_the_protocols_defaults_under_the_models_own_recipe(model, dataset, expected):
+    """1 s windows, five passes per epoch, unless the registry entry's ``train_options`` say otherwise
+    (RNIN's ten sub-windows, RoNIN LSTM/TCN's 400-frame chunks, TLIO's NLL warm-up)."""
+    options = protocol.model_options(model, dataset)
+    assert options == expected
+    assert list(options)[:3] == ["imu_rate_hz", "window", "stride"]  # job files keep their key order
+
+
 def test_a_job_is_data_and_a_variant_only_changes_its_options(tmp_path):
     job = protocol.Job.from_json(
         {"name": "f0/ridi/ftin-paper-s0", "model": "ftin", "dataset": "ridi", "seed": 0, "fold": 0,

@@ -161,7 +161,7 @@ class FTINConfig:
 FTIN_CFG = ModelCfg(FTINConfig, window=100, rate_hz=100.0)
 
 
-@register_model("ftin", FTIN_CFG)
+@register_model("ftin", FTIN_CFG, label="FTIN")
 class FTIN(VelocityModel):
     """FTIN: ResNet-1D -> FDL -> sLSTM -> MLP head; subclasses switch ``use_fdl`` / ``use_tdl`` off."""
 
@@ -253,21 +253,21 @@ class FTIN(VelocityModel):
         return VelocityOutput(self.head(seq), None)  # head flattens (B, ...) -> (B, D)
 
 
-@register_model("resnet_fdl", FTIN_CFG)
+@register_model("resnet_fdl", FTIN_CFG, label="ResNet + FDL")
 class ResNetFDL(FTIN):
     """Ablation +FDL: ResNet-1D encoder -> FDL -> MLP head."""
 
     use_tdl = False
 
 
-@register_model("resnet_tdl", FTIN_CFG)
+@register_model("resnet_tdl", FTIN_CFG, label="ResNet + TDL")
 class ResNetTDL(FTIN):
     """Ablation +TDL: ResNet-1D encoder -> sLSTM over its L_res steps -> MLP head."""
 
     use_fdl = False
 
 
-@register_model("resnet1d", FTIN_CFG)
+@register_model("resnet1d", FTIN_CFG, label="ResNet-1D")
 class ResNet1D(FTIN):
     """Ablation baseline: ResNet-1D encoder -> MLP head (RoNIN ResNet's structure)."""
 

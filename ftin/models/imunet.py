@@ -149,6 +149,8 @@ class IMUNet(VelocityModel):
         return VelocityOutput(self.fc(mixed))
 
 
-@register_model("imunet", ModelCfg(IMUNetConfig, window=200, rate_hz=200.0, min_window=MIN_WINDOW))
+@register_model(
+    "imunet", ModelCfg(IMUNetConfig, window=200, rate_hz=200.0, min_window=MIN_WINDOW), label="IMUNet"
+)
 def imunet(**cfg) -> IMUNet:
     return IMUNet(make_config(IMUNetConfig, "imunet", cfg))

@@ -18,6 +18,12 @@ model does not take is dropped silently, so that generic callers (training, prof
 benchmark) can pass the same options to every model; the model's ``config`` (what checkpoints store)
 never holds a dropped key. Any other key a model does not know is still an error, raised by the
 model's config (``ValueError``/``TypeError`` naming the valid keys), so misspellings are caught.
+
+Beside its contract, each registration carries what belongs to the model and not to any one caller:
+its display name (``label``, ``model_label``: one spelling for the app, the reports and the figures)
+and its reference training recipe (``train_options``, ``model_train_options``: ``TrainConfig``
+option overrides at a given IMU rate, e.g. RNIN's ten 1 s sub-windows and batch 32; none for a model
+that trains with the protocol's defaults).
 """
 
 from __future__ import annotations
@@ -103,27 +109,40 @@ class ModelCfg:
         return None
 
 
-_MODELS: dict[str, Callable[..., nn.Module]] = {}
-_CONTRACTS: dict[str, ModelCfg] = {}
-
-F = TypeVar("F", bound=Callable[..., nn.Module])
+# The IMU rate (whole Hz) -> ``TrainConfig`` options the model's reference trains with.
+TrainOptions = Callable[[int], dict[str, Any]]
 
 
-def register_model(name: str, cfg: ModelCfg) -> Callable[[F], F]:
-    """Decorator: make a model factory (or class) and its contract available under ``name``."""
+@dataclass(frozen=True)
+class _Entry:
+    factory: Callable[..., nn.Module]
+    cfg: ModelCfg
+    label: str
+    train_options: TrainOptions | None
 
-    def decorate(factory: F) -> F:
-        if name in _MODELS:
+
+_ENTRIES: dict[str, _Entry] = {}
+
+ModelFactory = TypeVar("ModelFactory", bound=Callable[..., nn.Module])
+
+
+def register_model(
+    name: str, cfg: ModelCfg, *, label: str, train_options: TrainOptions | None = None
+) -> Callable[[ModelFactory], ModelFactory]:
+    """Decorator: make a model factory (or class), its contract, its display name and its training
+    recipe (module docstring) available under ``name``."""
+
+    def decorate(factory: ModelFactory) -> ModelFactory:
+        if name in _ENTRIES:
             raise ValueError(f"model {name!r} registered twice")
-        _MODELS[name] = factory
-        _CONTRACTS[name] = cfg
+        _ENTRIES[name] = _Entry(factory, cfg, label, train_options)
         return factory
 
     return decorate
 
 
 def list_models() -> list[str]:
-    return sorted(_MODELS)
+    return sorted(_ENTRIES)
 
 
 class UnknownModelError(KeyError):
@@ -134,14 +153,28 @@ class UnknownModelError(KeyError):
 def check_known_models(names: list[str] | tuple[str, ...]) -> None:
     """Raise ``UnknownModelError`` (with the valid names) for the first unregistered name."""
     for name in names:
-        if name not in _MODELS:
+        if name not in _ENTRIES:
             raise UnknownModelError(f"unknown model {name!r}; valid models: {', '.join(list_models())}")
 
 
 def model_contract(name: str) -> ModelCfg:
     """The input contract of a registered model, without building it."""
     check_known_models([name])
-    return _CONTRACTS[name]
+    return _ENTRIES[name].cfg
+
+
+def model_label(name: str) -> str:
+    """How people know a registered model: ``"RoNIN ResNet"``, ``"ResNet + TDL"``."""
+    check_known_models([name])
+    return _ENTRIES[name].label
+
+
+def model_train_options(name: str, rate_hz: int) -> dict[str, Any]:
+    """The ``TrainConfig`` options a registered model's reference trains with at ``rate_hz`` ({} when
+    the protocol's defaults serve it)."""
+    check_known_models([name])
+    train_options = _ENTRIES[name].train_options
+    return train_options(rate_hz) if train_options is not None else {}
 
 
 def create_model(name: str, **options: Any) -> nn.Module:
@@ -156,4 +189,4 @@ def create_model(name: str, **options: Any) -> nn.Module:
         if problem:
             raise ValueError(f"{name}: {problem}")
     dropped = {key for key in CONTRACT_OPTIONS if key in options and not contract.takes(key)}
-    return _MODELS[name](**{k: v for k, v in options.items() if k not in dropped})
+    return _ENTRIES[name].factory(**{k: v for k, v in options.items() if k not in dropped})

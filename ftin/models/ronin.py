@@ -39,7 +39,7 @@ ResNet, ``per_frame_velocity`` (B, L, D) for the LSTM and the TCN.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
@@ -51,7 +51,7 @@ from ftin.models.layers.checks import check_input, make_config, require, require
 from ftin.models.layers.conv_head import ConvFlattenHead
 from ftin.models.layers.resnet1d import ResNet1DBackbone, init_resnet_weights
 from ftin.models.layers.tcn import TemporalConvNet
-from ftin.models.registry import ModelCfg, Parts, Windows, register_model
+from ftin.models.registry import ModelCfg, ModelFactory, Parts, Windows, register_model
 
 IN_CHANNELS = 6  # gyro xyz, acc xyz
 
@@ -126,16 +126,24 @@ class RoninResNet(FixedWindowResNet):
         return VelocityOutput(self.head(self._encode(x, features)))  # (B, D)
 
 
-@register_model("ronin_resnet", ModelCfg(RoninResNetConfig, window=200, rate_hz=200.0))
+@register_model("ronin_resnet", ModelCfg(RoninResNetConfig, window=200, rate_hz=200.0), label="RoNIN ResNet")
 def ronin_resnet(**cfg) -> RoninResNet:
     return RoninResNet(make_config(RoninResNetConfig, "ronin_resnet", cfg))
 
 
 # ------------------------------------------------------------------------------------ bilinear LSTM
-def sequence_contract(config: type, train_loss: str) -> ModelCfg:
-    """RoNIN's sequence-to-sequence models: any length, one velocity per frame, streaming; by default
-    the reference's 400-frame training chunks (``--window 400 --stride 100``) of 200 Hz data."""
-    return ModelCfg(
+def sequence_train_options(rate_hz: int) -> dict[str, Any]:
+    """RoNIN's LSTM and TCN reference recipe, at any rate: 400-frame chunks, 72 a batch."""
+    return {"window": 400, "batch_size": 72}
+
+
+def register_sequence_model(
+    name: str, config: type, train_loss: str, label: str
+) -> Callable[[ModelFactory], ModelFactory]:
+    """Register one of RoNIN's sequence-to-sequence models: any length, one velocity per frame,
+    streaming; by default the reference's 400-frame training chunks (``--window 400 --stride 100``)
+    of 200 Hz data; trained with ``sequence_train_options``."""
+    contract = ModelCfg(
         config,
         window=400,
         rate_hz=200.0,
@@ -144,6 +152,7 @@ def sequence_contract(config: type, train_loss: str) -> ModelCfg:
         streams=True,
         train_loss=train_loss,
     )
+    return register_model(name, contract, label=label, train_options=sequence_train_options)
 
 
 @dataclass(frozen=True)
@@ -214,7 +223,7 @@ class RoninLSTM(PerFrameModel):
         return self._per_frame(x, state)
 
 
-@register_model("ronin_lstm", sequence_contract(RoninLSTMConfig, "ronin_position_full"))
+@register_sequence_model("ronin_lstm", RoninLSTMConfig, "ronin_position_full", label="RoNIN LSTM")
 def ronin_lstm(**cfg) -> RoninLSTM:
     return RoninLSTM(make_config(RoninLSTMConfig, "ronin_lstm", cfg))
 
@@ -274,6 +283,6 @@ class RoninTCN(PerFrameModel):
         return per_frame, history
 
 
-@register_model("ronin_tcn", sequence_contract(RoninTCNConfig, "ronin_position_part"))
+@register_sequence_model("ronin_tcn", RoninTCNConfig, "ronin_position_part", label="RoNIN TCN")
 def ronin_tcn(**cfg) -> RoninTCN:
     return RoninTCN(make_config(RoninTCNConfig, "ronin_tcn", cfg))

@@ -21,6 +21,7 @@ Feature tap (detached, only when a ``features`` dict is passed): ``backbone`` (B
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -60,6 +61,17 @@ class TLIONet(FixedWindowResNet):
         return VelocityOutput(self.mean_head(h), self.log_std_head(h))  # (B, D), (B, D)
 
 
-@register_model("tlio", ModelCfg(TLIOConfig, window=200, rate_hz=200.0, uncertainty=True))
+def tlio_train_options(rate_hz: int) -> dict[str, Any]:
+    """TLIO's reference trains MSE first, then its Gaussian NLL: here after 5 epochs (< the earliest
+    early stop), at any rate."""
+    return {"nll_warmup_epochs": 5}
+
+
+@register_model(
+    "tlio",
+    ModelCfg(TLIOConfig, window=200, rate_hz=200.0, uncertainty=True),
+    label="TLIO",
+    train_options=tlio_train_options,
+)
 def tlio(**cfg) -> TLIONet:
     return TLIONet(make_config(TLIOConfig, "tlio", cfg))

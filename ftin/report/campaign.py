@@ -33,26 +33,33 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftin.metrics import HEADLINE, HEADLINE_METRIC, Better, get_metric, list_metrics
-from ftin.protocol import ABLATIONS, COMBINED, COMPARED, DATASET_LABELS, INRIA, OXIOD, PHONE_ONLY, RIDI
+from ftin.models import model_label
+from ftin.protocol import (
+    ABLATIONS,
+    COMBINED,
+    COMPARED,
+    DATASET_LABELS,
+    INRIA,
+    OXIOD,
+    PEDESTRIAN,
+    PHONE_ONLY,
+    RIDI,
+    WALKING,
+)
 from ftin.report.render import best_flags, improvement_percent
 from ftin.report.results import MISSING, PAPER_COLUMNS, Column, ColumnGroup
 
+# Row labels: models by their registry label, a checkpoint trained on a combined dataset by what it holds.
+_COMBINED_WORDS = {PEDESTRIAN: "both datasets", WALKING: "every walking dataset"}
 LABELS = {
     "stand_still": "Stand still (never moves)",
-    "ronin_resnet": "RoNIN ResNet",
-    "ronin_lstm": "RoNIN LSTM",
-    "ronin_tcn": "RoNIN TCN",
-    "rnin": "RNIN",
-    "imunet": "IMUNet",
-    "tlio": "TLIO",
-    "ftin": "FTIN",
-    "resnet_fdl": "+FDL",
-    "resnet_tdl": "+TDL",
-    "ftin_other": "FTIN, other TDL variant (seed 0)",
-    "ftin-pedestrian": "FTIN-pedestrian (both datasets)",
-    "ftin-walking": "FTIN-walking (every walking dataset)",
-    "ronin_resnet-pedestrian": "RoNIN ResNet-pedestrian (both datasets)",
-    "ronin_resnet-walking": "RoNIN ResNet-walking (every walking dataset)",
+    **{model: model_label(model) for model in (*COMPARED, *ABLATIONS)},
+    "ftin_other": f"{model_label('ftin')}, other TDL variant (seed 0)",
+    **{
+        f"{model}-{dataset}": f"{model_label(model)}-{dataset} ({words})"
+        for model in ("ftin", "ronin_resnet")
+        for dataset, words in _COMBINED_WORDS.items()
+    },
 }
 # The registered table metrics (ftin.metrics): a record written before a metric existed shows "—".
 METRICS = tuple(m.name for m in list_metrics(in_tables=True))

@@ -23,6 +23,8 @@ from typing import Any
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.evaluate import EvaluationReport
 from ftin.metrics import Convention, TrajectoryMetrics, describe
+from ftin.models import model_label
+from ftin.protocol import COMPARED
 
 MISSING = "—"
 FTIN_MODEL = "ftin"
@@ -50,29 +52,20 @@ class Column:
     group: ColumnGroup
 
 
-IMPROVEMENT_LABEL = "FTIN vs RoNIN ResNet"
+IMPROVEMENT_LABEL = f"{model_label(FTIN_MODEL)} vs {model_label(RESNET_MODEL)}"
 STAND_STILL_LABEL = "Stand still"
+# The compared models are headed by their registry label; the ablations by what they add to ResNet-1D,
+# as the paper's columns are named.
 PAPER_COLUMNS: tuple[Column, ...] = (
     Column(STAND_STILL_LABEL, None, ColumnGroup.BASELINE),
-    Column("RoNIN ResNet", "ronin_resnet", ColumnGroup.COMPARED),
-    Column("RoNIN LSTM", "ronin_lstm", ColumnGroup.COMPARED),
-    Column("RoNIN TCN", "ronin_tcn", ColumnGroup.COMPARED),
-    Column("RNIN", "rnin", ColumnGroup.COMPARED),
-    Column("IMUNet", "imunet", ColumnGroup.COMPARED),
-    Column("TLIO", "tlio", ColumnGroup.COMPARED),
-    Column("FTIN", FTIN_MODEL, ColumnGroup.COMPARED),
+    *(Column(model_label(model), model, ColumnGroup.COMPARED) for model in COMPARED),
     Column(IMPROVEMENT_LABEL, None, ColumnGroup.IMPROVEMENT),
     Column("+FDL", "resnet_fdl", ColumnGroup.ABLATION),
     Column("+TDL", "resnet_tdl", ColumnGroup.ABLATION),
     Column("+FDL&TDL", FTIN_MODEL, ColumnGroup.ABLATION),
 )
 TABLE_MODELS = tuple(dict.fromkeys(c.model_name for c in PAPER_COLUMNS if c.model_name is not None))
-# Names for figures: the compared models by their column, the ablations by what they add to ResNet.
-MODEL_LABELS = {
-    **{c.model_name: c.label for c in PAPER_COLUMNS if c.group is ColumnGroup.COMPARED},
-    "resnet_fdl": "ResNet+FDL",
-    "resnet_tdl": "ResNet+TDL",
-}
+MODEL_LABELS = {model: model_label(model) for model in TABLE_MODELS}  # names for figures
 CONVENTION_LABELS = {
     Convention.RONIN: "RoNIN",
     Convention.EUCLIDEAN: "Euclidean",

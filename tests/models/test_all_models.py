@@ -18,6 +18,7 @@ from ftin.models import (
     create_model,
     list_models,
     model_contract,
+    model_label,
 )
 
 MODEL_NAMES = list_models()
@@ -54,6 +55,12 @@ def imu_batch(window: int, batch: int = BATCH, seed: int = 0) -> torch.Tensor:
 
 def test_registry_has_every_baseline():
     assert set(BASELINES) <= set(MODEL_NAMES)
+
+
+def test_every_model_has_one_label_of_its_own():
+    labels = [model_label(name) for name in MODEL_NAMES]
+    assert all(labels) and len(set(labels)) == len(labels)
+    assert model_label("ronin_resnet") == "RoNIN ResNet" and model_label("resnet_tdl") == "ResNet + TDL"
 
 
 def test_unknown_model_is_rejected_with_the_valid_names():
