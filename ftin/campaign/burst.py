@@ -9,7 +9,8 @@ trains in an hour, but it reaches no shared filesystem and only tens of MiB trav
   the job specs. Re-read there, a prepared sequence carries its orientation choice, its uniform grid
   and an identity attitude, so ``prepare`` returns it unchanged and ``world_imu`` gives the same input.
 - ``train`` (there): the jobs, several processes sharing the device, each job until it finishes or the
-  deadline; each finished job's run folder (best checkpoint, history, config, the result) as one
+  deadline (``ftin.campaign.job.train_job``, the body a Ray worker runs too); each finished job's run
+  folder (best checkpoint, history, config, its record ``done.json``) as one
   ``.tar.gz`` (``archive``: as many as one call brings back; the next call fetches the rest). A job the
   deadline stops keeps its resume state there, too big to bring back: a next call while the machine is
   warm continues it (``train(resume=True)``: the jobs an earlier call finished are neither trained nor
@@ -17,9 +18,11 @@ trains in an hour, but it reaches no shared filesystem and only tens of MiB trav
 - ``finish`` (here): each finished job unpacked into the campaign folder, under the job's lock, and
   scored as ``ftin campaign run`` scores it: by the campaign's frozen code, in an interpreter of its own
   (``evaluate_on_code``; this checkout's inference or metrics may have moved on since the campaign was
-  planned), into ``eval.json`` and ``done.json``, so ``collect`` and ``crossval`` read it like any other
-  job. A job the campaign has
-  already started or finished here is left alone.
+  planned), into ``eval.json``, then the record trained there into ``done.json``
+  (``ftin.campaign.job.record_scores``), so ``collect`` and ``crossval`` read it like any other job. A
+  job the campaign has already started or finished here is left alone.
+
+``ftin campaign burst pack|train|fetch|finish`` (``ftin.cli.campaign_burst``) drives the three steps.
 """
 
 from __future__ import annotations
@@ -36,24 +39,39 @@ import sys
 import tarfile
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from queue import Empty
 from typing import Any
 
 import numpy as np
+import torch
 
 from ftin import protocol
-from ftin.campaign import job as job_module
-from ftin.campaign.job import SIM_DATA, log, make_sim_data
+from ftin.campaign.folder import CODE_FILE, DONE_FILE, JOB_FILE, LOCK_FILE, Campaign, write_json
+from ftin.campaign.job import (
+    SIM_DATA,
+    best_checkpoint,
+    locked,
+    log,
+    make_sim_data,
+    record_scores,
+    recordings_root,
+    train_job,
+)
+from ftin.data.loading import load_sequences
+from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.files import to_json_safe
+from ftin.train.state import RESUME_FILE
 
 DATA_FILE = "sequences.npz"
 JOBS_FILE = "jobs.json"
-RESULT_FILE = "result.json"  # in a job folder: the TrainResult of a finished burst job
 KEPT = (".json", ".safetensors", ".txt")  # a finished job's files that travel back (not resume state)
 ARCHIVED_FILE = "archived"  # in a job folder there: an earlier call of this warm machine sent it back
+RUNS_THERE = Path("/tmp/burst-runs")  # the run folders on the lent machine (kept while it is warm)
+FILES_BACK = 7  # one checkpoint (8.5 MiB) a file: 7 fit the 8 files and 64 MiB a call brings back
 
 
 # --- pack (here) ------------------------------------------------------------------------------------
@@ -61,11 +79,6 @@ ARCHIVED_FILE = "archived"  # in a job folder there: an earlier call of this war
 
 def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     """Write ``out/sequences.npz`` and ``out/jobs.json`` for the campaign jobs ``names``."""
-    from ftin.campaign.folder import Campaign
-    from ftin.data.loading import load_sequences
-    from ftin.data.prepare import prepare
-    from ftin.files import to_json_safe
-
     campaign = Campaign(runs)
     by_name = {job.name: job for job in campaign.jobs()}
     unknown = [n for n in names if n not in by_name]
@@ -77,7 +90,7 @@ def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     for job in jobs:
         if job.dataset == protocol.SIM:  # the simulator's walks live in the campaign folder
             make_sim_data(campaign.runs / SIM_DATA)
-        config = configs[job.name] = job.config(data_root(campaign, job))
+        config = configs[job.name] = job.config(recordings_root(campaign.runs, campaign.data_root, job))
         for path in (*config["data"], *config["val"]):
             wanted[(path, config.get("orientation"), float(config["imu_rate_hz"]))] = None
     arrays: dict[str, np.ndarray] = {}
@@ -116,9 +129,15 @@ def pack(runs: Path, names: Sequence[str], out: Path) -> dict[str, Any]:
     return {"jobs": len(jobs), "sequences": len(index), "bytes": (out / DATA_FILE).stat().st_size}
 
 
-def data_root(campaign: Any, job: protocol.Job) -> Path:
-    """Where a job's recordings lie, as ``ftin.campaign.job.run_job`` reads them."""
-    return campaign.runs if job.dataset == protocol.SIM else campaign.data_root
+def packable(campaign: Campaign, skip: Collection[str] = (), count: int | None = None) -> list[str]:
+    """The pending jobs a burst may take (the first ``count``): none a driver here has taken (it has
+    its code marker) and none of ``skip`` (left to the campaign here)."""
+    names = [
+        job.name
+        for job in campaign.pending()
+        if not (campaign.job_dir(job) / CODE_FILE).exists() and job.name not in skip
+    ]
+    return names[:count] if count else names
 
 
 # --- train (there) ----------------------------------------------------------------------------------
@@ -163,7 +182,7 @@ def train(
     done: list[dict[str, Any]] = []
     todo = []
     for job in spec["jobs"]:
-        if (burst.out_runs / job["name"] / RESULT_FILE).exists():
+        if (burst.out_runs / job["name"] / DONE_FILE).exists():
             done.append({"job": job["name"], "status": "finished by an earlier call"})
             print(json.dumps(done[-1]), flush=True)
         else:
@@ -190,8 +209,6 @@ def train(
 
 
 def _worker(burst: Burst, spec: dict[str, Any], queue: Any, reports: Any) -> None:
-    import torch
-
     torch.set_num_threads(1)
     sequences = unpacked_sequences(burst.pack_dir)
     while (job_spec := queue.get()) is not None:
@@ -205,39 +222,31 @@ def _worker(burst: Burst, spec: dict[str, Any], queue: Any, reports: Any) -> Non
 def _train_one(
     burst: Burst, spec: dict[str, Any], job_spec: dict[str, Any], sequences: Any, minutes: float
 ) -> dict[str, Any]:
-    from ftin.campaign.folder import JOB_FILE
-    from ftin.train.config import TrainConfig
-    from ftin.train.loop import train
-    from ftin.train.state import RESUME_FILE
-
     job = protocol.Job.from_json(job_spec)
     out = burst.out_runs / job.name
-    resume = (out / RESUME_FILE).exists()  # stopped by an earlier call's deadline: continue it
-    if not resume:
+    if not (out / RESUME_FILE).exists():  # not stopped by an earlier call's deadline: start afresh
         shutil.rmtree(out, ignore_errors=True)
-        out.mkdir(parents=True)
-        (out / JOB_FILE).write_text(json.dumps(job.to_json(), indent=1))
+        write_json(out / JOB_FILE, job.to_json())
     options = {**spec["configs"][job.name], "device": burst.device}
     options["max_minutes"] = minutes if math.isfinite(minutes) else None
     if burst.smoke:
         options["max_epochs"] = 1
-    rate = float(options["imu_rate_hz"])
+    key = (options.get("orientation"), float(options["imu_rate_hz"]))
 
     def read(paths: Sequence[str]) -> list[ImuSequence]:
-        return [s for p in paths for s in sequences[(p, options.get("orientation"), rate)]]
+        return [s for p in paths for s in sequences[(p, *key)]]
 
     started = time.time()
-    host = f"{socket.gethostname()} pid {os.getpid()} ({burst.device})"
-    log(out, f"{'resuming' if resume else 'starting'} on {host}, burst of code {spec['code']}")
     try:
-        config = TrainConfig(out_dir=str(out), **options)
-        result = train(config, read(config.data), read(config.val), resume=resume, progress=False)
+        result, record = train_job(out, job, options, code=spec["code"], where="in a burst", read=read)
     except Exception as exc:  # one job's failure must not end the burst
         log(out, f"failed: {exc!r}")
         return {"job": job.name, "status": f"failed: {exc!r}"}
     wall = time.time() - started
-    log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
-    report = {
+    if record is not None:
+        (out / RESUME_FILE).unlink(missing_ok=True)  # too big to travel
+        write_json(out / DONE_FILE, record)  # scored where the burst is finished (``finish``)
+    return {  # a stopped job keeps its folder and resume state for a next call (``resume``)
         "job": job.name,
         "status": "finished" if result.finished else f"stopped: {result.stop_reason}",
         "epochs": result.epochs_done,
@@ -245,20 +254,6 @@ def _train_one(
         "wall_s": round(wall, 1),
         "steps_per_s": round(result.steps / wall, 2) if wall > 0 else None,
     }
-    if result.finished:
-        (out / RESUME_FILE).unlink(missing_ok=True)  # too big to travel
-        record = {
-            "stop_reason": result.stop_reason,
-            "epochs_done": result.epochs_done,
-            "steps": result.steps,
-            "best_val_loss": result.best_val_loss,
-            "checkpoint": result.checkpoint.name if result.checkpoint else None,
-            "history": result.history,
-            "device": burst.device,
-            "host": host,
-        }
-        (out / RESULT_FILE).write_text(json.dumps(record, indent=1))
-    return report  # a stopped job keeps its folder and resume state for a next call (``resume``)
 
 
 def archive(
@@ -268,7 +263,7 @@ def archive(
     each as one ``.tar.gz`` in ``target``: a lent machine returns few files of a bounded size, and a
     warm one keeps ``out_runs``, so the rest come back with the next call; the jobs' names.
     ``new_only``: leave out the jobs an earlier call already archived (each archived one is marked)."""
-    names = sorted(str(p.parent.relative_to(out_runs)) for p in out_runs.rglob(RESULT_FILE))
+    names = sorted(str(p.parent.relative_to(out_runs)) for p in out_runs.rglob(DONE_FILE))
     if new_only:
         names = [n for n in names if not (out_runs / n / ARCHIVED_FILE).exists()]
     names = names[skip:][:limit]
@@ -288,21 +283,46 @@ def archive(
 def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> dict[str, str]:
     """Unpack the burst's finished jobs (``archive``'s files) into the campaign folder ``runs`` and
     score them; each job's outcome (``done``, or why it was left alone)."""
-    from ftin.campaign.folder import (
-        CODE_FILE,
-        DONE_FILE,
-        EVAL_FILE,
-        JOB_FILE,
-        LOCK_FILE,
-        Campaign,
-        write_json,
-    )
-    from ftin.train.state import RESUME_FILE
-
     campaign = Campaign(runs)
     runs = campaign.runs
     by_name = {job.name: job for job in campaign.jobs()}
     outcomes: dict[str, str] = {}
+    finished: list[tuple[protocol.Job, dict[str, Any]]] = []
+    with contextlib.ExitStack() as locks:  # a driver here waits for, then skips, the jobs scored now
+        for name, files in sorted(_unpacked(archives).items()):
+            job = by_name.get(name)
+            folder = runs / name
+            if job is None:
+                outcomes[name] = "left alone: not a job of this campaign"
+                continue
+            locks.enter_context(locked(folder / LOCK_FILE))
+            if DONE_FILE not in files:
+                outcomes[name] = f"left alone: not a finished job's archive (no {DONE_FILE})"
+            elif protocol.Job.from_json(json.loads(files[JOB_FILE])) != job:
+                outcomes[name] = "left alone: trained with another spec"
+            elif (folder / DONE_FILE).exists() or (folder / RESUME_FILE).exists():
+                outcomes[name] = "left alone: the campaign already started or finished it here"
+            else:
+                record = json.loads(files.pop(DONE_FILE))  # written once the job is scored
+                for file, data in files.items():
+                    (folder / file).write_bytes(data)
+                (folder / CODE_FILE).write_text(campaign.state["code"] + "\n")
+                finished.append((job, record))
+        on_event(f"scoring {len(finished)} job(s) here")
+        scoring = [
+            (job, recordings_root(runs, campaign.data_root, job), best_checkpoint(runs / job.name, job))
+            for job, _ in finished
+        ]
+        evaluations = evaluate_on_code(runs / campaign.state["code"], scoring) if scoring else []
+        for (job, record), evaluation in zip(finished, evaluations, strict=True):
+            record_scores(runs, job, evaluation, record)
+            log(runs / job.name, f"scored on {socket.gethostname()} (trained on {record['trained_on']})")
+            outcomes[job.name] = "done"
+    return outcomes
+
+
+def _unpacked(archives: Sequence[Path]) -> dict[str, dict[str, bytes]]:
+    """Each job's files in ``archives``, by job name; an archive reaching outside a job folder is refused."""
     members: dict[str, dict[str, bytes]] = {}
     for results in archives:
         with tarfile.open(results, "r:gz") as tar:
@@ -312,37 +332,7 @@ def finish(runs: Path, archives: Sequence[Path], *, on_event: Any = print) -> di
                     raise ValueError(f"{results}: unexpected member {member.name!r}")
                 handle = tar.extractfile(member)
                 members.setdefault(name, {})[file] = handle.read() if handle else b""
-    finished: list[tuple[protocol.Job, Path, dict[str, Any]]] = []
-    with contextlib.ExitStack() as locks:  # a driver here waits for, then skips, the jobs scored now
-        for name, files in sorted(members.items()):
-            job = by_name.get(name)
-            folder = runs / name
-            if job is None:
-                outcomes[name] = "left alone: not a job of this campaign"
-                continue
-            locks.enter_context(job_module.locked(folder / LOCK_FILE))
-            if protocol.Job.from_json(json.loads(files[JOB_FILE])) != job:
-                outcomes[name] = "left alone: trained with another spec"
-            elif (folder / DONE_FILE).exists() or (folder / RESUME_FILE).exists():
-                outcomes[name] = "left alone: the campaign already started or finished it here"
-            else:
-                for file, data in files.items():
-                    (folder / file).write_bytes(data)
-                (folder / CODE_FILE).write_text(campaign.state["code"] + "\n")
-                result = json.loads(files[RESULT_FILE])
-                finished.append((job, folder / result["checkpoint"], result))
-        on_event(f"scoring {len(finished)} job(s) here")
-        scoring = [(j, data_root(campaign, j), checkpoint) for j, checkpoint, _ in finished]
-        evaluations = evaluate_on_code(runs / campaign.state["code"], scoring) if scoring else []
-        for (job, checkpoint, result), evaluation in zip(finished, evaluations, strict=True):
-            folder = runs / job.name
-            evaluation["checkpoint"] = str(checkpoint.relative_to(runs))
-            write_json(folder / EVAL_FILE, evaluation)
-            trained = TrainedElsewhere(**{k: result[k] for k in TrainedElsewhere.__annotations__})
-            write_json(folder / DONE_FILE, {**job_module.summary(job, trained), "trained_on": result["host"]})
-            log(folder, f"scored on {socket.gethostname()} (trained on {result['host']})")
-            outcomes[job.name] = "done"
-    return outcomes
+    return members
 
 
 # Run by the campaign's frozen code (``evaluate_on_code``): whatever that code's ftin offers, it has
@@ -378,14 +368,3 @@ def evaluate_on_code(code: Path, jobs: Sequence[tuple[protocol.Job, Path, Path]]
         command = [sys.executable, "-c", _SCORE_ON_CODE, str(code), str(request), str(answer)]
         subprocess.run(command, env={**os.environ, "PYTHONPATH": path}, cwd=tmp, check=True)
         return json.loads(answer.read_text())
-
-
-@dataclass
-class TrainedElsewhere:
-    """What ``ftin.campaign.job.summary`` reads of a ``TrainResult``, from a burst's ``result.json``."""
-
-    stop_reason: str
-    epochs_done: int
-    steps: int
-    best_val_loss: float | None
-    history: list[dict[str, Any]]

@@ -37,8 +37,9 @@ THREAD_ENV = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
 def import_ray() -> Any:
+    """Ray, or the hint that names the extra to install."""
     try:
-        import ray
+        import ray  # here: an optional extra ("[cluster]"); the CLI imports this module without it
     except ImportError:
         raise CampaignError(INSTALL_HINT) from None
     return ray
@@ -75,7 +76,7 @@ def train_job(code: str, runs: str, spec: dict[str, Any], data_root: str, device
     ``code`` first itself and only then imports ftin. It names nothing of ftin (its module's imports
     of ftin would be unpickled on the worker before ``code`` is on the path): Ray is imported here,
     where it is always installed, not through ``import_ray``."""
-    import ray
+    import ray  # optional extra; ``import_ray`` would pull ftin into this by-value task
 
     sys.path.insert(0, code)
     loaded = sys.modules.get("ftin")

@@ -1,11 +1,18 @@
-"""One job on one worker: train it (or resume it where it stopped), then score its best checkpoint.
+"""One campaign job, wherever it trains: train it (or resume it where it stopped), then score its best
+checkpoint and record it.
+
+``train_job`` is the one body of a job: the Ray engine's task (``run_job``) and a burst on a lent
+machine (``ftin.campaign.burst``) both call it, and both leave the same record of a finished run
+(``training_record``, ``done.json``). The engine scores the job at once (``evaluate_job``); a burst's
+job is scored where the burst is finished, by the campaign's frozen code; either way ``record_scores``
+writes ``eval.json`` and then ``done.json``.
 
 This module runs on the job's frozen code (``ftin.campaign.folder``): a worker imports it only after
 putting that copy first on its path (``ftin.campaign.engine.train_job``), so every ``ftin`` module
-it imports is the copy's. Stopping is the training
-loop's: SIGINT/SIGTERM (a cancelled Ray task) end the run at the next step with its resume state
-written; a killed worker loses at most the steps since the last save (every epoch, and every
-``save_every_min`` inside one), and the retried task continues from there (``ftin.train.state``).
+it imports is the copy's; ``run_job``'s signature is what the engine calls on any frozen copy. Stopping
+is the training loop's: SIGINT/SIGTERM (a cancelled Ray task) end the run at the next step with its
+resume state written; a killed worker loses at most the steps since the last save (every epoch, and
+every ``save_every_min`` inside one), and the retried task continues from there (``ftin.train.state``).
 """
 
 from __future__ import annotations
@@ -15,7 +22,7 @@ import json
 import os
 import socket
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -35,12 +42,13 @@ from ftin.campaign.folder import (
 )
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only, load_sequences
+from ftin.data.types import ImuSequence
 from ftin.metrics import Convention, evaluate_trajectory, list_metrics, stand_still
 from ftin.report.evaluation import evaluate_checkpoints
 from ftin.report.results import DatasetSpec, LoadedDataset
 from ftin.sim.samples import write_walks
 from ftin.train.config import TrainConfig
-from ftin.train.loop import run_training
+from ftin.train.loop import TrainResult, run_training, train
 from ftin.train.state import RESUME_FILE
 
 SIM_DATA = "sim-data"
@@ -50,8 +58,8 @@ LOCK_WAIT_S = 120.0  # a job cancelled a moment ago may still be writing its res
 def run_job(
     runs: str, spec: dict[str, Any], data_root: str, *, device: str = "cpu", threads: int = 1, where: str = ""
 ) -> str:
-    """Train and evaluate the job ``spec`` in ``<runs>/<name>``; its stop reason, or ``done``.
-    ``where`` (the Ray node) goes into the job's log beside the host and process."""
+    """The engine's task: train and score the job ``spec`` in ``<runs>/<name>``; its stop reason, or
+    ``done``. ``where`` (the Ray node) goes into the job's log beside the host and process."""
     torch.set_num_threads(threads)
     out = Path(runs) / spec["name"]
     out.mkdir(parents=True, exist_ok=True)
@@ -61,32 +69,54 @@ def run_job(
         if not (out / JOB_FILE).exists():  # the spec is fixed at the first start
             write_json(out / JOB_FILE, spec)
         job = protocol.Job.from_json(read_json(out / JOB_FILE))
-        root = Path(runs) if job.dataset == protocol.SIM else Path(data_root)
-        resume = (out / RESUME_FILE).exists()
-        host = f"{socket.gethostname()} pid {os.getpid()} {where}".strip()
+        root = recordings_root(Path(runs), Path(data_root), job)
         code = Path(__file__).resolve().parents[2]  # the frozen copy this job runs on
-        log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
         try:
             if job.dataset == protocol.SIM:
                 make_sim_data(Path(runs) / SIM_DATA)
-            config = TrainConfig(out_dir=str(out), **{**job.config(root), "device": device})
-            result = run_training(config, resume=resume, progress=False)
-            log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
-            if not result.finished:
+            options = {**job.config(root), "device": device}
+            result, record = train_job(out, job, options, code=str(code), where=where)
+            if record is None:
                 return result.stop_reason  # stopped: the next `ftin campaign run` resumes it
             evaluation = evaluate_job(job, root, result.checkpoint)
         except Exception as exc:  # recorded, so the campaign goes on with the other jobs
             write_json(out / FAILED_FILE, {"error": repr(exc)})
             log(out, f"failed: {exc!r}")
             raise
-        evaluation["checkpoint"] = str(result.checkpoint.relative_to(Path(runs)))
-        write_json(out / EVAL_FILE, evaluation)
-        write_json(out / DONE_FILE, summary(job, result))
+        record_scores(Path(runs), job, evaluation, record)
         return "done"
 
 
-def summary(job: protocol.Job, result: Any) -> dict[str, Any]:
-    """``done.json``: what the report and the model card read of a finished run."""
+def train_job(
+    out: Path,
+    job: protocol.Job,
+    options: dict[str, Any],
+    *,
+    code: str,
+    where: str = "",
+    read: Callable[[Sequence[str]], list[ImuSequence]] | None = None,
+) -> tuple[TrainResult, dict[str, Any] | None]:
+    """Train ``job`` in ``out`` with the ``TrainConfig`` ``options`` (from its resume state when it left
+    one), logging where and on which ``code``; the training's result and, once it finished, the job's
+    record (``training_record``). ``read``: the recordings of a list of paths, already prepared (a
+    burst's packed ones); by default training reads the paths itself."""
+    device = options.get("device", "cpu")
+    resume = (out / RESUME_FILE).exists()
+    host = f"{socket.gethostname()} pid {os.getpid()} {where}".strip()
+    log(out, f"{'resuming' if resume else 'starting'} on {host} ({device}), code {code}")
+    config = TrainConfig(out_dir=str(out), **options)
+    if read is None:
+        result = run_training(config, resume=resume, progress=False)
+    else:
+        result = train(config, read(config.data), read(config.val), resume=resume, progress=False)
+    log(out, f"{result.stop_reason} after {result.epochs_done} epochs")
+    if not result.finished:
+        return result, None
+    return result, training_record(job, result, trained_on=f"{socket.gethostname()} ({device})")
+
+
+def training_record(job: protocol.Job, result: TrainResult, trained_on: str) -> dict[str, Any]:
+    """``done.json``: what the report and the model card read of a finished run, and where it trained."""
     history = result.history
     return {
         "job": job.name,
@@ -103,7 +133,28 @@ def summary(job: protocol.Job, result: Any) -> dict[str, Any]:
         "lr_decays": sum(1 for a, b in zip(history, history[1:], strict=False) if b["lr"] < a["lr"]),
         "wall_time_s": history[-1]["elapsed_s"] if history else None,
         "finished": time.strftime("%Y-%m-%d %H:%M:%S"),
+        "trained_on": trained_on,
     }
+
+
+def record_scores(runs: Path, job: protocol.Job, evaluation: dict[str, Any], record: dict[str, Any]) -> None:
+    """A finished job's scores (``eval.json``, naming its checkpoint within the campaign folder ``runs``),
+    then its record (``done.json``, last: a job is done once both are there)."""
+    out = runs / job.name
+    checkpoint = best_checkpoint(out, job).relative_to(runs)
+    write_json(out / EVAL_FILE, {**evaluation, "checkpoint": str(checkpoint)})
+    write_json(out / DONE_FILE, record)
+
+
+def best_checkpoint(out: Path, job: protocol.Job) -> Path:
+    """The weights of the job's best checkpoint in its run folder ``out`` (``job.config``'s ``name``)."""
+    return out / f"{job.checkpoint_stem}.safetensors"
+
+
+def recordings_root(runs: Path, data_root: Path, job: protocol.Job) -> Path:
+    """Where the job's recordings lie: the simulator's walks in the campaign folder, the rest under the
+    data root."""
+    return runs if job.dataset == protocol.SIM else data_root
 
 
 def evaluate_job(job: protocol.Job, root: Path, checkpoint: Path) -> dict[str, Any]:

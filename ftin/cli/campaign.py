@@ -3,9 +3,11 @@
 plan (create the campaign folder, freeze the code) -> run (the jobs on a local Ray or a cluster;
 again after any interruption) -> status -> collect (records + manifest) -> ship (checkpoints and
 model cards) -> table (Table 1 from the records); crossval reads the generalisation campaign's
-records instead (walker-held-out validation per arm and walker, paired comparisons). Expected
-failures print one ``error:`` line and exit with status 2; so does ``run`` without Ray installed,
-naming the extra to install.
+records instead (walker-held-out validation per arm and walker, paired comparisons); burst trains
+pending jobs on a lent GPU machine instead of Ray (``ftin.cli.campaign_burst``); hidden-walks is the
+acceptance check of a shipped checkpoint on the test walks, phone only (``ftin.report.hidden_walks``).
+Expected failures print one ``error:`` line and exit with status 2; so does ``run`` without Ray
+installed, naming the extra to install.
 """
 
 from __future__ import annotations
@@ -18,22 +20,32 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from app.services.checkpoint_store import read_default_choice
+from app.services.errors import StartupError
+from app.settings import DEFAULT_CHECKPOINT_DIR, DEFAULT_MODEL
 from ftin import protocol
 from ftin.campaign import CampaignError, engine
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
+from ftin.checkpoint import load_model
+from ftin.cli.campaign_burst import burst_app
 from ftin.cli.common import REPORT_ERRORS, AddressOption, app, out_console, user_errors
+from ftin.files import DEFAULT_DATA_ROOT
 from ftin.report.crossval_render import crossval_report
+from ftin.report.hidden_walks import hidden_walks, write_files
 
 campaign_app = typer.Typer(
     help="The training campaign of the protocol (docs/results/protocol.md) on Ray: plan, run, status, "
-    'collect, ship, table, crossval. Needs the extra: pip install -e ".\\[cluster]".',
+    "collect, ship, table, crossval; burst (jobs on a lent GPU machine), hidden-walks (the acceptance "
+    'check). run needs the extra: pip install -e ".\\[cluster]".',
     no_args_is_help=True,
 )
 app.add_typer(campaign_app, name="campaign")
+campaign_app.add_typer(burst_app, name="burst")
 
 CAMPAIGN_ERRORS = (CampaignError, *REPORT_ERRORS)
+DataOption = Annotated[Path, typer.Option("--data", help="Data root holding oxiod/, ridi/, inria_attitude/.")]
 RunsOption = Annotated[
     Path, typer.Option("--runs", help="Campaign folder (state, frozen code, one run folder per job).")
 ]
@@ -67,12 +79,17 @@ def stage_two_choices_of(crossval_json: Path) -> protocol.StageTwoChoices:
         raise CampaignError(f"--choices {crossval_json}: {exc}") from None
 
 
+def show_written(written: list[Path]) -> None:
+    """Print the first file written (a Markdown report) and the path of every one."""
+    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    for path in written:
+        typer.echo(f"wrote {path}")
+
+
 @campaign_app.command("plan")
 def plan_command(
     runs: RunsOption = DEFAULT_RUNS,
-    data: Annotated[
-        Path, typer.Option("--data", help="Data root holding oxiod/, ridi/, inria_attitude/.")
-    ] = Path("../shared/data"),
+    data: DataOption = DEFAULT_DATA_ROOT,
     jobs: Annotated[
         str,
         typer.Option(
@@ -268,15 +285,11 @@ def table_command(
     ),
 ) -> None:
     """Table 1 from the collected records (as ``ftin table --campaign``)."""
-    # Here, not at the top: importing a command module registers its command, in `ftin --help`'s
-    # order (``ftin.cli``).
-    from ftin.cli.table import campaign_table
+    from ftin.cli.table import campaign_table  # here: importing it registers `ftin table` (help order)
 
     with user_errors(*CAMPAIGN_ERRORS):
         written = campaign_table(results, out)
-    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
-    for path in written:
-        typer.echo(f"wrote {path}")
+    show_written(written)
 
 
 @campaign_app.command("crossval")
@@ -293,6 +306,34 @@ def crossval_command(
     Validation per arm and per walker, and paired comparisons with a walker-clustered bootstrap."""
     with user_errors(*CAMPAIGN_ERRORS):
         written = crossval_report(results, out)
-    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
-    for path in written:
-        typer.echo(f"wrote {path}")
+    show_written(written)
+
+
+@campaign_app.command("hidden-walks")
+def hidden_walks_command(
+    checkpoint: Annotated[
+        Path | None,
+        typer.Option(
+            "--checkpoint",
+            help="A .safetensors, its .json, or the stem (default: the app's default model, the one "
+            f"checkpoints/default.json names, else {DEFAULT_MODEL}).",
+        ),
+    ] = None,
+    data: DataOption = DEFAULT_DATA_ROOT,
+    out: Annotated[Path, typer.Option("--out", help="Folder for <checkpoint name>.md and .json.")] = Path(
+        "docs/results/hidden_walks"
+    ),
+) -> None:
+    """The acceptance check: a checkpoint on the protocol's test walks, oriented from the phone alone.
+
+    Per dataset the mean ATE against standing still's; per walk, the distance ratio against its bounds."""
+    with user_errors(*CAMPAIGN_ERRORS, StartupError):
+        if checkpoint is None:  # as the app picks a model for a request that names none
+            choice = read_default_choice(DEFAULT_CHECKPOINT_DIR)
+            checkpoint = DEFAULT_CHECKPOINT_DIR / (choice[0] if choice else DEFAULT_MODEL)
+            typer.echo(f"the app's default: {checkpoint.name}")
+        results = hidden_walks(load_model(checkpoint), data)
+        written = write_files(
+            checkpoint.name.removesuffix(".safetensors").removesuffix(".json"), results, out
+        )
+    show_written(written)

@@ -19,7 +19,7 @@ from ftin.campaign.job import evaluate_job, evaluate_jobs
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
 from ftin.data.windows import WindowDataset
-from ftin.train.state import RESUME_FILE
+from ftin.train.state import HISTORY_FILE, RESUME_FILE
 from tests.utils.tiny_campaign import TINY_OPTIONS, tiny_jobs_file
 
 OPTIONS = {**TINY_OPTIONS, "max_epochs": 2}
@@ -126,11 +126,16 @@ def test_a_job_the_deadline_stopped_continues_on_the_next_call(packed, tmp_path)
 
     unstopped = burst.Burst(packed, tmp_path / "unstopped", deadline=float("inf"), device="cpu")
     burst.train(unstopped, workers=1, first=1)
-    resumed = json.loads((there / first / burst.RESULT_FILE).read_text())
-    straight = json.loads((tmp_path / "unstopped" / first / burst.RESULT_FILE).read_text())
-    assert resumed["steps"] == straight["steps"] and resumed["epochs_done"] == straight["epochs_done"] == 2
-    assert [h["val_mse"] for h in resumed["history"]] == pytest.approx(
-        [h["val_mse"] for h in straight["history"]], rel=1e-6
+    resumed, straight = (
+        json.loads((runs / first / DONE_FILE).read_text()) for runs in (there, tmp_path / "unstopped")
+    )
+    assert resumed["steps"] == straight["steps"] and resumed["epochs"] == straight["epochs"] == 2
+    assert resumed["best_val_mse"] == pytest.approx(straight["best_val_mse"], rel=1e-6)
+    histories = [
+        json.loads((runs / first / HISTORY_FILE).read_text()) for runs in (there, tmp_path / "unstopped")
+    ]
+    assert [h["val_mse"] for h in histories[0]] == pytest.approx(
+        [h["val_mse"] for h in histories[1]], rel=1e-6
     )
 
 

@@ -97,6 +97,7 @@ def test_a_stopped_campaign_resumes_to_the_records_of_an_uninterrupted_one(ray_l
     assert got == expected
     training = expected["walks__ronin_tcn-s0.json"]["training"]
     assert training["epochs"] == EPOCHS and training["stop_reason"] == "max_epochs"
+    assert training["trained_on"].endswith("(cpu)")  # the record a burst's job has too
     rows = expected["walks__ronin_tcn-s0.json"]["evaluation"]["parts"]["walks/test/ground_truth"]
     assert len(rows) == 1 and rows[0]["stand_still"]["ate"] > 0 and rows[0]["path_length_ratio"] is not None
 

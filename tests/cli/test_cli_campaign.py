@@ -1,4 +1,5 @@
-"""``ftin campaign`` without an engine run: plan, status, refusals, and the install hint without Ray."""
+"""``ftin campaign`` without an engine run: plan, status, refusals, the install hint without Ray, a burst
+through its four commands, and the hidden-walks check's report."""
 
 from __future__ import annotations
 
@@ -8,11 +9,15 @@ import sys
 
 import pytest
 
-from ftin.campaign import CampaignError
+from app.settings import DEFAULT_CHECKPOINT_DIR
+from ftin.campaign import CampaignError, burst
 from ftin.campaign.folder import Campaign
 from ftin.cli import app
+from ftin.cli import campaign as campaign_cli
+from ftin.report import hidden_walks
 from tests.utils.cli import fails_cleanly, runner
 from tests.utils.stage_one import STAGE_ONE, stage_one_comparisons
+from tests.utils.tiny_campaign import TINY_OPTIONS, tiny_jobs_file
 
 
 def _jobs_file(tmp_path):
@@ -159,3 +164,61 @@ def test_a_second_driver_on_one_campaign_folder_is_refused_naming_the_first(tmp_
                 pass
     with Campaign(runs).driver_lock():  # released when the first driver ends
         pass
+
+
+def test_a_burst_packs_trains_and_finishes_a_job_through_the_cli(tmp_path, monkeypatch):
+    """``ftin campaign burst``: pack here, train there (a smoke run on the CPU), finish here."""
+    root = tmp_path / "data"
+    jobs = tiny_jobs_file(root, TINY_OPTIONS, seeds=(0, 1), train_walks=1, train_s=30.0)
+    runs = tmp_path / "runs"
+    assert (
+        runner.invoke(
+            app, ["campaign", "plan", "--runs", str(runs), "--data", str(root), "--jobs", str(jobs)]
+        ).exit_code
+        == 0
+    )
+    monkeypatch.setattr(burst, "RUNS_THERE", tmp_path / "there")  # not the lent machine's /tmp folder
+    pack = ["campaign", "burst", "pack", "--runs", str(runs), "--out", str(tmp_path / "pack")]
+    packed = runner.invoke(app, [*pack, "--skip", "walks/ronin_tcn-s0"])
+    assert packed.exit_code == 0, packed.output
+    assert packed.stdout.splitlines()[1:] == ["walks/ronin_tcn-s1"]  # the other one left to the campaign
+    back = tmp_path / "back"
+    train = ["campaign", "burst", "train", "--pack", str(tmp_path / "pack"), "--out", str(back)]
+    trained = runner.invoke(app, [*train, "--minutes", "5", "--workers", "1", "--device", "cpu", "--smoke"])
+    assert trained.exit_code == 0, trained.output
+    assert json.loads(trained.stdout.splitlines()[-1])["archived"] == ["walks/ronin_tcn-s1"]
+    fetched = runner.invoke(app, ["campaign", "burst", "fetch", "--out", str(tmp_path / "again")])
+    assert json.loads(fetched.stdout)["archived"] == []  # nothing left that no call brought back
+    finished = runner.invoke(
+        app, ["campaign", "burst", "finish", "--runs", str(runs), *map(str, back.iterdir())]
+    )
+    assert finished.exit_code == 0, finished.output
+    assert "walks/ronin_tcn-s1: done" in finished.stdout
+    assert [job.name for job in Campaign(runs).pending()] == ["walks/ronin_tcn-s0"]
+    fails_cleanly(
+        runner.invoke(app, ["campaign", "burst", "pack", "--runs", str(tmp_path), "--out", str(tmp_path)]),
+        "holds no campaign",
+    )
+
+
+def test_hidden_walks_scores_the_apps_default_and_writes_its_report(tmp_path, monkeypatch):
+    """The command resolves the app's default and writes what the library scored (the scoring itself
+    reads every test walk of three datasets: not a unit test's work)."""
+    row = {"name": "w1", "walker": "a", "carry": "handheld", "orientation": "vqf", "ate_m": 1.0,
+           "stand_still_ate_m": 4.0, "distance_ratio": 1.05, "path_ratio": 1.0, "ratio_ok": True,
+           "true_speed_m_s": 1.2}  # fmt: skip
+    scored = {d: {"summary": hidden_walks.summary(d, [row]), "rows": [row]} for d in hidden_walks.DATASETS}
+    loaded = []
+    monkeypatch.setattr(campaign_cli, "load_model", lambda path: loaded.append(path) or "model")
+    monkeypatch.setattr(campaign_cli, "hidden_walks", lambda model, data: scored)
+    result = runner.invoke(app, ["campaign", "hidden-walks", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert (
+        loaded[0].parent == DEFAULT_CHECKPOINT_DIR and f"the app's default: {loaded[0].name}" in result.stdout
+    )
+    report = (tmp_path / f"{loaded[0].name}.md").read_text()
+    assert "| OxIOD | 1 | 1.00 | 4.00 | 0.25 (≤ 0.5) ✔ | 1 of 1 |" in report
+    assert json.loads((tmp_path / f"{loaded[0].name}.json").read_text()) == json.loads(json.dumps(scored))
+    monkeypatch.undo()
+    missing = ["campaign", "hidden-walks", "--checkpoint", str(tmp_path / "none"), "--out", str(tmp_path)]
+    fails_cleanly(runner.invoke(app, missing), str(tmp_path / "none"))
