@@ -1,9 +1,12 @@
-"""Live phone sessions: Sensor Logger's HTTP Push messages in, runs that grow as the person walks.
+"""Live phone sessions: push messages in (any format of ``ftin.live.formats``), runs that grow as
+the person walks.
 
-``LiveService.check_access`` and ``accept`` run for each ``POST /live/sensorlogger`` (in the
-request's thread: checks and parsing only); one worker thread does the rest (``ftin.live``: order,
-clock, orientation, model) and hands every live run's trajectory so far to the run store
-(``RunStore.update``), so ``GET /runs/{run_id}/trajectory.*`` and the 3D scene see it grow.
+``LiveService.check_access`` and ``accept`` run for each ``POST /live/{format}`` (in the request's
+thread: checks and parsing only); one worker thread does the rest (``ftin.live``: order, clock,
+orientation, model) and hands every live run's trajectory so far to the run store
+(``RunStore.update``: ``GET /runs/{run_id}/trajectory.*`` sees it grow) and, for the followed
+session, to the listeners (``subscribe``: the 3D scene) with its figures (``LiveUpdate``). The data
+flows one way: route -> service -> session -> run store and listeners, which never call back.
 
 Decisions:
 - One session per (``sessionId``, ``deviceId``); it is a run from its first window on. A session
@@ -12,29 +15,32 @@ Decisions:
   idle-ended session starts a new part (a phone that lost the network for a while).
 - Safety: a push from another machine than this one is refused (403) unless ``FTIN_LIVE_TOKEN`` is
   set, and with a token every push must carry it (``?token=`` in the push URL, or a bearer header).
-  Bodies (``FTIN_LIVE_MAX_BODY_KB``), sessions (``FTIN_LIVE_MAX_SESSIONS``) and the queue
-  (``FTIN_LIVE_QUEUE_MESSAGES``) are bounded: beyond them a push gets 413 or 429 at once, and the
-  message is lost as on a bad network (which a session tolerates). The route parses in at most
-  ``PARSERS`` worker threads at a time, so a flood cannot take the threads uploads run in, and
-  ``/health`` stays on the event loop.
+  Bodies (``FTIN_LIVE_MAX_BODY_KB``, checked at the door: ``app.api.routes.live``), sessions
+  (``FTIN_LIVE_MAX_SESSIONS``) and the queue (``FTIN_LIVE_QUEUE_MESSAGES``) are bounded: beyond them
+  a push gets 413 or 429 at once, and the message is lost as on a bad network (which a session
+  tolerates). The route parses in at most ``PARSERS`` worker threads at a time, so a flood cannot
+  take the threads uploads run in, and ``/health`` stays on the event loop.
 - The worker uses every message queued before it publishes, so a backlog costs one publication, not
   one per message; a publication costs O(1) (views of the growing arrays).
 - Live inference does not take an inference slot (``InferenceSlots``): a long upload would stall
   the walk for its whole duration; both share the CPU instead.
-- Latency: from a message's arrival to the publication (to the scene's drawing when a scene shows
-  it: ``drawn``) of a trajectory that covers its last sample.
+- Followed session: the first live session, until it ends; then the next one that grows. Several
+  phones would otherwise replace each other's recording in the scene many times a second; the others
+  are runs as ever (``GET /live/sessions``, the upload page, "Open in 3D").
+- Latency: from a message's arrival to the publication of a trajectory that covers its last sample
+  (what the service itself knows; a viewer draws it on its own time).
 """
 
 from __future__ import annotations
 
 import hmac
 import ipaddress
-import json
 import logging
 import queue
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,15 +50,16 @@ from app.services.errors import (
     ForbiddenError,
     InvalidInputError,
     NotFoundError,
-    PayloadTooLargeError,
     StartupError,
     UnauthorizedError,
 )
 from app.services.features import ModelInput
+from app.services.listeners import Listeners
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin.data.errors import DataFormatError
-from ftin.live.messages import MessageError, PushMessage, parse_push
+from ftin.live.formats import PushFormat
+from ftin.live.messages import MessageError, PushMessage
 from ftin.live.session import LiveSession
 
 log = logging.getLogger(__name__)
@@ -70,6 +77,7 @@ Key = tuple[str, str]
 class _Item:
     message: PushMessage
     arrival_s: float
+    push_format: PushFormat
     model: str | None
     platform: str | None
 
@@ -83,6 +91,17 @@ class _Live:
     model_name: str = ""
     state: str = "live"  # "live", "ended", "failed"
     ended_because: str | None = None
+
+
+@dataclass(frozen=True)
+class LiveUpdate:
+    """The followed session grew (or ended): its run so far and its figures (``sessions()``' entry)."""
+
+    run: Run
+    session: dict[str, Any]
+
+
+LiveListener = Callable[[LiveUpdate], None]
 
 
 def is_local(host: str | None) -> bool:
@@ -112,8 +131,9 @@ class LiveService:
         self._lock = threading.Lock()  # sessions and their figures
         self._stop = threading.Event()
         self._worker: threading.Thread | None = None
-        self.scene_reports_drawing = False  # the 3D scene calls drawn(): latency to the drawing
-        self.followed_run_id: str | None = None  # the run the scene follows (set by the scene)
+        self._listeners: Listeners[LiveListener] = Listeners("live")
+        self._telling = threading.Lock()  # listeners hear updates one at a time, in order
+        self._followed: str | None = None  # the run of the session the listeners hear about
         self.test_pushes = 0
         self.refused = 0
 
@@ -126,7 +146,7 @@ class LiveService:
                 raise ForbiddenError(
                     f"live pushes from other machines ({client_host}) are refused until a token is set: "
                     "start the app with FTIN_LIVE_TOKEN=<a secret of 8+ characters> and put "
-                    "?token=<it> at the end of Sensor Logger's push URL"
+                    "?token=<it> at the end of the phone app's push URL"
                 )
             return
         if token is None or not hmac.compare_digest(token.encode(), expected.encode()):
@@ -142,23 +162,19 @@ class LiveService:
         return int(self.settings.live_max_body_kb * 1024)
 
     def accept(
-        self, body: bytes, arrival_s: float, model: str | None = None, platform: str | None = None
+        self,
+        body: bytes,
+        arrival_s: float,
+        push_format: PushFormat,
+        model: str | None = None,
+        platform: str | None = None,
     ) -> dict[str, Any]:
-        """Check and queue one push body; the answer for the phone (raises 4xx service errors)."""
-        if len(body) > self.max_body_bytes:
-            raise PayloadTooLargeError(
-                f"push message of {len(body) / 1024:.0f} KiB; the limit is "
-                f"{self.settings.live_max_body_kb:g} KiB (FTIN_LIVE_MAX_BODY_KB): shorten Sensor Logger's "
-                "batch period or tick fewer sensors"
-            )
+        """Check and queue one push body (its size was checked at the door); the answer for the
+        phone (raises 4xx service errors)."""
         if platform is not None and platform.lower() not in PLATFORMS:
             raise InvalidInputError(f"platform must be one of {', '.join(PLATFORMS)}; got {platform!r}")
         try:
-            decoded = json.loads(body)
-        except (ValueError, RecursionError) as exc:
-            raise InvalidInputError(f"the body is not JSON ({exc}); Sensor Logger pushes JSON") from None
-        try:
-            message = parse_push(decoded)
+            message = push_format.parse(body)
         except MessageError as exc:
             raise InvalidInputError(str(exc)) from None
         if message.is_test:
@@ -184,7 +200,9 @@ class LiveService:
             live = self._sessions.get(key)
             run_id = live.run_id if live is not None else None
         try:
-            self._queue.put_nowait(_Item(message, arrival_s, model, platform and platform.lower()))
+            self._queue.put_nowait(
+                _Item(message, arrival_s, push_format, model, platform and platform.lower())
+            )
         except queue.Full:
             self.refused += 1
             raise BusyError(
@@ -201,13 +219,6 @@ class LiveService:
         with self._lock:
             lives = [*self._sessions.values(), *reversed(self._closed)]
             return [self._summary(live) for live in lives]
-
-    def session_for_run(self, run_id: str) -> dict[str, Any] | None:
-        with self._lock:
-            for live in [*self._sessions.values(), *self._closed]:
-                if live.run_id == run_id:
-                    return self._summary(live)
-        return None
 
     def _summary(self, live: _Live) -> dict[str, Any]:
         s = live.session
@@ -236,17 +247,28 @@ class LiveService:
             "warnings": s.warnings(),
         }
 
-    def is_running(self, run_id: str) -> bool:
-        with self._lock:
-            return any(live.run_id == run_id for live in self._sessions.values())
+    # --- listeners -------------------------------------------------------------------------------
 
-    def drawn(self, run_id: str, covered_s: float | None) -> None:
-        """The scene has drawn ``run_id`` up to ``covered_s`` (seconds of its data)."""
-        now = time.monotonic()
-        with self._lock:
-            for live in self._sessions.values():
-                if live.run_id == run_id:
-                    live.session.mark_effect(covered_s, now)
+    def subscribe(self, listener: LiveListener) -> None:
+        """Call ``listener`` (from the worker thread) whenever the followed session grows or ends."""
+        self._listeners.add(listener)
+
+    def unsubscribe(self, listener: LiveListener) -> None:
+        self._listeners.remove(listener)
+
+    def _tell_if_followed(self, live: _Live, run: Run, final: bool = False) -> None:
+        """Hand ``run`` to the listeners when its session is the followed one (it becomes the followed
+        one when none is, or the followed one has ended); after the ``final`` one, nothing."""
+        with self._telling:
+            with self._lock:
+                running = {other.run_id for other in self._sessions.values()}
+                if not final and live.run_id not in running:
+                    return  # ended meanwhile: its final run went out already, this one is older
+                if self._followed not in (None, live.run_id) and self._followed in running:
+                    return
+                self._followed = live.run_id
+                update = LiveUpdate(run, self._summary(live))
+            self._listeners.tell(lambda listener: listener(update))
 
     # --- the worker --------------------------------------------------------------------------------
 
@@ -318,7 +340,12 @@ class LiveService:
                 entry = self.models.get(item.model or self.settings.live_model)
                 part = 1 + sum(1 for c in self._closed if (c.session.session_id, c.session.device_id) == key)
                 session = LiveSession(
-                    key[0], key[1], entry.loaded, platform=item.platform, now_s=item.arrival_s
+                    key[0],
+                    key[1],
+                    entry.loaded,
+                    item.push_format,
+                    platform=item.platform,
+                    now_s=item.arrival_s,
                 )
                 live = _Live(session, part, model_name=entry.name)
                 live.name = _session_name(key[1], part)
@@ -353,33 +380,27 @@ class LiveService:
                 self._too_long.append(key)
                 self._end(key, "reached FTIN_LIVE_MAX_SESSION_S / FTIN_MAX_SAMPLES")
 
-    def _run(self, live: _Live) -> Run:
-        s = live.session
-        p = s.predictor
-        model_input = ModelInput(p.imu_world(), p.window_starts(), p.window) if not p.streams else None
-        return Run(
-            live.run_id or "",
-            live.model_name,
-            s.sequence(live.name),
-            s.prediction(),
-            "live",
-            None,
-            model_input,
-        )
+    def _run_so_far(self, live: _Live) -> Run:
+        """The session's run as far as it has grown (started in the store at its first window)."""
+        if live.run_id is None:
+            live.run_id = self.runs.new_id()
+            self.runs.start(live.run_id, live.model_name, live.name)
+        with self._lock:
+            s, p = live.session, live.session.predictor
+            model_input = ModelInput(p.imu_world(), p.window_starts(), p.window) if not p.streams else None
+            return Run(
+                live.run_id, live.model_name, s.sequence(live.name), s.prediction(), "live", None, model_input
+            )
 
     def _publish(self, live: _Live) -> None:
         s = live.session
         if not s.has_trajectory:
             return
-        if live.run_id is None:
-            live.run_id = self.runs.new_id()
-            self.runs.start(live.run_id, live.model_name, live.name)
-        with self._lock:
-            run = self._run(live)
+        run = self._run_so_far(live)
         self.runs.update(run)
-        if not self.scene_reports_drawing or live.run_id != self.followed_run_id:
-            with self._lock:
-                s.mark_effect(s.predictor.covered_until_s, time.monotonic())
+        with self._lock:
+            s.mark_effect(s.predictor.covered_until_s, time.monotonic())
+        self._tell_if_followed(live, run)
 
     def _end(self, key: Key, reason: str) -> None:
         with self._lock:
@@ -395,12 +416,9 @@ class LiveService:
             live.ended_because = reason
             self._closed.append(live)
         if live.session.has_trajectory:
-            if live.run_id is None:
-                live.run_id = self.runs.new_id()
-                self.runs.start(live.run_id, live.model_name, live.name)
-            with self._lock:
-                run = self._run(live)
-            self.runs.update(run)  # viewers draw the last of it as they drew the rest
+            run = self._run_so_far(live)
+            self.runs.update(run)
+            self._tell_if_followed(live, run, final=True)  # drawn as the rest of it was
             self.runs.finish(run)
         log.info("live session %s ended: %s", live.name, reason)
 

@@ -1,12 +1,13 @@
 """Runs: one model applied to one sequence. The store keeps the latest finished runs in memory,
-tracks progress of running ones (``GET /runs/{id}``), and tells listeners (the 3D scene) about
-every change, whichever door the run came in through (REST, upload page, viser GUI).
+tracks progress of running ones (``GET /runs/{id}``), and tells listeners (the 3D scene) when a run
+starts, progresses, finishes, fails or is asked to be shown, whichever door the run came in through
+(REST, upload page, viser GUI, a live phone). A live run's growth in between (``update``) is served
+but not announced: the live service tells its own listeners about the walk they follow.
 """
 
 from __future__ import annotations
 
 import enum
-import logging
 import re
 import threading
 import time
@@ -18,11 +19,10 @@ from typing import Any
 
 from app.services.errors import ConflictError, InvalidInputError, NotFoundError, RunExpiredError
 from app.services.features import ModelInput
+from app.services.listeners import Listeners
 from app.services.verdict import judge
 from ftin.data import ImuSequence
 from ftin.metrics.plausibility import Plausibility, assess
-
-log = logging.getLogger(__name__)
 
 RUN_ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{6,64}$")
 EXPIRED_KEPT = 10_000  # ids of dropped runs remembered (a few MB at most), for the "expired" message
@@ -93,9 +93,6 @@ class RunListener:
 
     def run_finished(self, run: Run) -> None: ...
 
-    def run_updated(self, run: Run) -> None:
-        """A live run grew (``RunStore.update``); ``run_finished`` follows when it ends."""
-
     def run_failed(self, status: RunStatus) -> None: ...
 
     def run_focused(self, run: Run) -> None: ...
@@ -113,17 +110,14 @@ class RunStore:
         self._status: OrderedDict[str, RunStatus] = OrderedDict()
         # Ids of runs dropped from memory (-> "model on sequence"), to say "expired", not "unknown".
         self._expired: OrderedDict[str, str] = OrderedDict()
-        self._listeners: list[RunListener] = []
+        self._listeners: Listeners[RunListener] = Listeners("run")
         self._lock = threading.Lock()
 
     def subscribe(self, listener: RunListener) -> None:
-        with self._lock:
-            self._listeners.append(listener)
+        self._listeners.add(listener)
 
     def unsubscribe(self, listener: RunListener) -> None:
-        with self._lock:
-            if listener in self._listeners:
-                self._listeners.remove(listener)
+        self._listeners.remove(listener)
 
     def new_id(self, requested: str | None = None) -> str:
         """A fresh run id, or the client's own (so that it can poll progress while it waits)."""
@@ -157,13 +151,12 @@ class RunStore:
         self._notify("run_progress", status)
 
     def update(self, run: Run) -> None:
-        """A running run's result so far (a live session's trajectory): served and shown as it grows."""
+        """A running run's result so far (a live session's trajectory): served as it grows."""
         with self._lock:
             self._live[run.run_id] = run
             status = self._status.get(run.run_id)
             if status is not None:
                 status.done = status.total = run.n_samples
-        self._notify("run_updated", run)
 
     def finish(self, run: Run) -> None:
         with self._lock:
@@ -231,10 +224,4 @@ class RunStore:
             self._status.popitem(last=False)
 
     def _notify(self, method: str, arg: Any) -> None:
-        with self._lock:
-            listeners = list(self._listeners)
-        for listener in listeners:
-            try:
-                getattr(listener, method)(arg)
-            except Exception:  # a broken viewer must never fail the prediction itself
-                log.exception("run listener %r failed in %s", listener, method)
+        self._listeners.tell(lambda listener: getattr(listener, method)(arg))

@@ -1,13 +1,15 @@
-"""The scene's control panel: GUI folders "Data", "Models", "Run", "Timeline", "Runs" on the left,
-the "Spectra" / "Error" tabs docked on the right, their callbacks, and the actions they start
-(run the ticked models on the selected or uploaded recording; clear the scene).
+"""The control panel's folders "Data", "Models" and "Run": their menus, their callbacks, and the
+actions they start (run the ticked models on the selected or uploaded recording).
 
 Decisions:
 - Uploaded recordings are a dataset of their own in the Dataset menu ("Uploaded recordings"): every
   upload whose runs the server still keeps (``RunStore``: FTIN_MAX_RUNS, FTIN_MAX_KEPT_SAMPLES; no
-  copy is held here), named "<name> (uploaded)", with the time of the upload where names repeat.
+  copy is held here), named "<name> (uploaded)", with the time of the upload where names repeat; a
+  phone streaming now is listed there too, "<name> (live)".
 - Models are ticked and shown under the names people know ("RNIN · OxIOD"); the hint gives the API
-  name. The menus are set by the scene to what produced the run on screen (``SceneOverlay``).
+  name.
+- No stale state: the scene sets the menus to what produced the run on screen (``show_recording``,
+  ``tick_shown``), so Run repeats it, without the side effects of a user's pick.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import viser
 
@@ -26,42 +28,35 @@ from app.services.errors import ServiceError
 from app.services.prediction import RunOptions
 from app.services.runs import Run
 from app.viz.choices import ORIENTATION_CHOICES
-from app.viz.overlay import LIVE, UPLOADED, UPLOADS, sequence_key
-from app.viz.panels import ErrorPanel, SpectraPanel
+from app.viz.run_scene_data import RunView, sequence_key
 
 log = logging.getLogger(__name__)
 
 NO_DATA = "(none)"
-PLAY_SPEEDS = ("1×", "2×", "5×", "10×", "30×")
+UPLOADED = " (uploaded)"
+LIVE = " (live)"  # a phone streaming now (``app.viz.live``), listed with the uploads
+UPLOADS = "Uploaded recordings"  # the Dataset menu's entry for uploads
 ALIGN_CHOICES = ("default", "none", "start", "se2", "se3")  # ftin.metrics.Alignment, plus the default
 
 
-class SceneControls:
-    """Mixin of ``DashboardScene``: the GUI (handles ``gui_*`` live on the scene)."""
+class Controls:
+    """The "Data", "Models" and "Run" folders (handles ``gui_*``), the recording they name, and the
+    runs they start (through ``services.predictor``: the scene hears of them as of any run)."""
 
-    server: viser.ViserServer
-    services: Services
-    _lock: threading.RLock
-    _uploaded: Run | None
-    _sequence_ids: dict[str, str]
-    _batch_label: str
-    _syncing: bool
+    def __init__(self, gui: viser.GuiApi, services: Services) -> None:
+        self.services = services
+        self._sequence_ids: dict[str, str] = {}  # Sequence menu label -> catalog id
+        self._uploaded: Run | None = None  # the first run of the uploaded recording on screen
+        self._syncing = False  # the scene itself sets the Data menus (no side effects then)
+        self.batch_label = ""  # "(2/3)" while the Run button works through the ticked models
+        self._build(gui)
 
-    if TYPE_CHECKING:  # provided by the other mixins of DashboardScene
-
-        def _clear(self) -> None: ...
-
-        def request_time_update(self) -> None: ...
-
-        def toggle_play(self) -> None: ...
-
-    def _build_controls(self) -> None:
-        gui = self.server.gui
+    def _build(self, gui: viser.GuiApi) -> None:
         catalog, models = self.services.catalog, self.services.models
         with gui.add_folder("Data"):
-            datasets = self._dataset_options()
+            datasets = self.dataset_options()
             self.gui_dataset = gui.add_dropdown("Dataset", datasets, initial_value=datasets[0])
-            self.gui_sequence = gui.add_dropdown("Sequence", self._sequence_options(datasets[0]))
+            self.gui_sequence = gui.add_dropdown("Sequence", self.sequence_options(datasets[0]))
         first = next(iter(catalog.entries.values()), None)
         suggested = models.for_kind(first.kind if first is not None else None)
         with gui.add_folder("Models"):
@@ -100,21 +95,11 @@ class SceneControls:
             )
             self.gui_progress = gui.add_progress_bar(0.0, visible=False)
             self.gui_status = gui.add_markdown("Pick a sequence and models, then **Run** (or upload a CSV).")
-        with gui.add_folder("Timeline"):
-            self.gui_play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, disabled=True)
-            self.gui_speed = gui.add_button_group("Speed", PLAY_SPEEDS)
-            self.gui_speed.value = "5×"
-            self.gui_time = gui.add_slider("Time (s)", 0.0, 1.0, 0.05, 0.0, disabled=True)
-        with gui.add_folder("Runs"):
-            self.gui_legend = gui.add_html("")
-            self.gui_metrics = gui.add_markdown("")
-            self.gui_plausibility = gui.add_markdown("")
-            self.gui_clear = gui.add_button("Clear scene", icon=viser.Icon.TRASH)
 
         @self.gui_dataset.on_update
         def _(_: viser.GuiEvent) -> None:
-            self.gui_sequence.options = self._sequence_options(self.gui_dataset.value)
-            entry = self._selected_entry()
+            self.gui_sequence.options = self.sequence_options(self.gui_dataset.value)
+            entry = self.selected_entry()
             if entry is not None and not self._syncing:  # tick the model trained on this kind of data
                 suggested = self.services.models.for_kind(entry.kind)
                 if suggested in self.gui_models:
@@ -122,51 +107,27 @@ class SceneControls:
 
         @self.gui_run.on_click
         def _(event: viser.GuiEvent) -> None:
-            self._run_selected(event.client)
+            self.run_selected(event.client)
 
         @self.gui_upload.on_upload
         def _(event: viser.GuiEvent) -> None:
             upload = self.gui_upload.value
-            self._run_upload(upload.name, upload.content, event.client)
-
-        @self.gui_clear.on_click
-        def _(_: viser.GuiEvent) -> None:
-            self.gui_clear_scene()
-
-        @self.gui_time.on_update
-        def _(_: viser.GuiEvent) -> None:
-            self.request_time_update()
-
-        @self.gui_play.on_click
-        def _(_: viser.GuiEvent) -> None:
-            self.toggle_play()
+            self.run_upload(upload.name, upload.content, event.client)
 
     def _model_hint(self, name: str) -> str:
         entry = self.services.models.entries[name]
         trained = f", trained on {entry.trained_on}" if entry.trained_on else ""
         return f"{entry.architecture}{trained}; API name {name}"
 
-    def _build_plots(self) -> None:
-        gui = self.server.gui
-        panel = gui.add_panel()
-        with panel.add_tab("Spectra", viser.Icon.WAVE_SINE):
-            self.spectra = SpectraPanel(gui)
-        with panel.add_tab("Error", viser.Icon.CHART_LINE):
-            self.errors = ErrorPanel(gui)
-        panel.dock_right()
-        panel.set_width(440)
+    # --- the menus -------------------------------------------------------------------------------
 
-        @self.spectra.gui_run.on_update
-        def _(_: viser.GuiEvent) -> None:
-            self.request_time_update()
-
-    def _dataset_options(self) -> list[str]:
+    def dataset_options(self) -> list[str]:
         labels = self.services.catalog.dataset_labels()
-        if self._uploads():
+        if self.uploads():
             labels = [*labels, UPLOADS]
         return labels or [NO_DATA]
 
-    def _uploads(self) -> dict[str, Run]:
+    def uploads(self) -> dict[str, Run]:
         """Menu label -> the first run of a recording, for every upload the server keeps a run of
         (oldest first), and the one on screen."""
         first: dict[tuple[Any, ...], Run] = {}
@@ -190,11 +151,11 @@ class SceneControls:
     def upload_label(self, run: Run) -> str | None:
         """The Sequence menu's label of an uploaded ``run``'s recording."""
         key = sequence_key(run)
-        return next((label for label, first in self._uploads().items() if sequence_key(first) == key), None)
+        return next((label for label, first in self.uploads().items() if sequence_key(first) == key), None)
 
-    def _sequence_options(self, dataset_label: str) -> list[str]:
+    def sequence_options(self, dataset_label: str) -> list[str]:
         if dataset_label == UPLOADS:
-            return list(self._uploads()) or [NO_DATA]
+            return list(self.uploads()) or [NO_DATA]
         entries = [e for e in self.services.catalog.list() if (e.dataset_label or e.dataset) == dataset_label]
         names = [e.name for e in entries]
         options = []
@@ -204,46 +165,89 @@ class SceneControls:
             options.append(label)
         return options or [NO_DATA]
 
-    def _selected_entry(self) -> Any:
+    def selected_entry(self) -> Any:
         if self.gui_dataset.value == UPLOADS:
             return None
         seq_id = self._sequence_ids.get(self.gui_sequence.value)
         return None if seq_id is None else self.services.catalog.entries.get(seq_id)
 
-    def _selected_sequence_id(self) -> str | None:
-        entry = self._selected_entry()
-        return None if entry is None else entry.id
-
-    def _checked_models(self) -> list[str]:
+    def checked_models(self) -> list[str]:
         return [name for name, box in self.gui_models.items() if box.value]
+
+    def show_recording(self, run: Run) -> None:
+        """Make the Data menus show the recording now on screen (an upload: "Uploaded recordings")."""
+        entry = self.services.catalog.entries.get(run.sequence_id or "")
+        if entry is None and (self._uploaded is None or sequence_key(self._uploaded) != sequence_key(run)):
+            self._uploaded = run
+        elif entry is not None:
+            self._uploaded = None
+        self.gui_dataset.options = self.dataset_options()
+        label = UPLOADS if entry is None else entry.dataset_label or entry.dataset
+        self._set_dataset(label)
+        if entry is None:
+            name = self.upload_label(run)
+        else:
+            name = next((k for k, v in self._sequence_ids.items() if v == entry.id), None)
+        if name is not None and name in self.gui_sequence.options:
+            self.gui_sequence.value = name
+
+    def keep_upload(self, run: Run) -> None:
+        """A live recording on screen grew: Run works on all of it."""
+        self._uploaded = run
+
+    def tick_shown(self, views: list[RunView], latest: RunView) -> None:
+        """Tick exactly the models on screen; the Alignment menu shows how ``latest`` was scored."""
+        shown = {v.model_name for v in views}
+        for name, box in self.gui_models.items():
+            if box.value != (name in shown):
+                box.value = name in shown
+        if latest.alignment_mode is not None and latest.alignment_mode in self.gui_align.options:
+            self.gui_align.value = latest.alignment_mode
+
+    def reset(self) -> None:
+        """Nothing on screen: back to the first dataset (uploads stay listed)."""
+        self._uploaded = None
+        options = self.dataset_options()
+        self.gui_dataset.options = options
+        self._set_dataset(options[0])
+
+    def _set_dataset(self, label: str) -> None:
+        """Show ``label`` in the Dataset menu and its recordings in the Sequence menu, without the
+        side effects of a user's pick (ticking the model suggested for it)."""
+        self._syncing = True
+        try:
+            if self.gui_dataset.value != label:
+                self.gui_dataset.value = label  # refreshes the Sequence options
+            else:
+                self.gui_sequence.options = self.sequence_options(label)
+        finally:
+            self._syncing = False
 
     # --- actions (run on viser's thread pool) ----------------------------------------------------
 
-    def _run_selected(self, client: viser.ClientHandle | None) -> None:
-        models = self._checked_models()
-        upload = self._uploads().get(self.gui_sequence.value) if self.gui_dataset.value == UPLOADS else None
+    def run_selected(self, client: viser.ClientHandle | None) -> None:
+        models = self.checked_models()
+        upload = self.uploads().get(self.gui_sequence.value) if self.gui_dataset.value == UPLOADS else None
+        predictor = self.services.predictor
+        options = self._run_options()
         if upload is not None and models:
             seq = upload.sequence
-            predictor = self.services.predictor
-            options = self._run_options()
             self._run_batch(
                 models, lambda m: predictor.predict_imu(seq, replace(options, model=m), "viser"), client
             )
             return
-        sequence_id = self._selected_sequence_id()
-        if sequence_id is None or not models:
-            self._report_error(client, "Pick a sequence and at least one model first.")
+        entry = self.selected_entry()
+        if entry is None or not models:
+            self.report_error(client, "Pick a sequence and at least one model first.")
             return
-        predictor = self.services.predictor
-        options = self._run_options()
         self._run_batch(
-            models, lambda m: predictor.predict_sequence(sequence_id, replace(options, model=m)), client
+            models, lambda m: predictor.predict_sequence(entry.id, replace(options, model=m)), client
         )
 
-    def _run_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None) -> None:
-        models = self._checked_models()
+    def run_upload(self, filename: str, content: bytes, client: viser.ClientHandle | None) -> None:
+        models = self.checked_models()
         if not models:
-            self._report_error(client, "Tick at least one model before uploading.")
+            self.report_error(client, "Tick at least one model before uploading.")
             return
         predictor = self.services.predictor
         options = self._run_options()
@@ -252,6 +256,39 @@ class SceneControls:
             lambda m: predictor.predict_csv(content, filename, replace(options, model=m), "viser"),
             client,
         )
+
+    def run_first_sequence(self) -> threading.Thread | None:
+        """In the background, run the ticked models on the first sequence of the selected dataset
+        that can be read, one with ground truth first (start-up: the first view shows a model on
+        its ground truth)."""
+        models = self.checked_models()
+        label = self.gui_dataset.value
+        catalog = self.services.catalog
+        candidates = [e.id for e in catalog.list() if (e.dataset_label or e.dataset) == label]
+        if not candidates or not models:
+            return None
+
+        def has_truth(sequence_id: str) -> bool:
+            summary = catalog.summary(sequence_id)
+            return not isinstance(summary, str) and summary.has_ground_truth
+
+        def work() -> None:
+            predictor = self.services.predictor
+            # Ground truth first: the first view should show the model against it.
+            for sequence_id in sorted(candidates, key=lambda i: not has_truth(i)):
+                try:
+                    for model in models:
+                        predictor.predict_sequence(sequence_id, RunOptions(model))
+                    return
+                except ServiceError as exc:  # unreadable: try the next one
+                    log.info("start-up run skipped %s: %s", sequence_id, exc)
+                except Exception:
+                    log.exception("start-up run on %s failed", sequence_id)
+                    return
+
+        thread = threading.Thread(target=work, name="ftin-scene-first-run", daemon=True)
+        thread.start()
+        return thread
 
     def _run_options(self) -> RunOptions:
         """The Alignment and Orientation dropdowns as a run's options (Alignment's first entry: the
@@ -267,26 +304,19 @@ class SceneControls:
         self.gui_run.disabled = self.gui_upload.disabled = True
         try:
             for i, model in enumerate(models):
-                self._batch_label = f" ({i + 1}/{len(models)})" if len(models) > 1 else ""
+                self.batch_label = f" ({i + 1}/{len(models)})" if len(models) > 1 else ""
                 run_one(model)
         except ServiceError as exc:
-            self._report_error(client, str(exc))
+            self.report_error(client, str(exc))
         except Exception as exc:  # keep the GUI alive; the traceback goes to the log
             log.exception("run failed")
-            self._report_error(client, f"internal error: {exc}")
+            self.report_error(client, f"internal error: {exc}")
         finally:
-            self._batch_label = ""
+            self.batch_label = ""
             self.gui_run.disabled = self.gui_upload.disabled = False
             self.gui_progress.visible = False
 
-    def gui_clear_scene(self) -> None:
-        """What the "Clear scene" button does: remove every run, the ground truth, the grid, and
-        empty the plots and the timeline."""
-        with self._lock, self.server.atomic():
-            self._clear()
-        self.gui_status.content = "Scene cleared. Pick a sequence and models, then **Run**."
-
-    def _report_error(self, client: viser.ClientHandle | None, message: str) -> None:
+    def report_error(self, client: viser.ClientHandle | None, message: str) -> None:
         self.gui_status.content = f"**Error:** {message}"
         if client is not None:
             client.add_notification("FTIN Studio", message, color="red", auto_close_seconds=10.0)

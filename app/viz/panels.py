@@ -254,3 +254,47 @@ class ErrorPanel:
             if selected.velocity_error_m_s is not None
             else ""
         )
+
+
+def run_label(view: RunView) -> str:
+    """How the plots' run menu names a shown run."""
+    return f"{view.shown_name} on {view.sequence.name}"
+
+
+class Plots:
+    """The panel docked on the right: the Spectra and Error tabs, and the shown run they follow."""
+
+    def __init__(self, gui: viser.GuiApi) -> None:
+        panel = gui.add_panel()
+        with panel.add_tab("Spectra", viser.Icon.WAVE_SINE):
+            self.spectra = SpectraPanel(gui)
+        with panel.add_tab("Error", viser.Icon.CHART_LINE):
+            self.errors = ErrorPanel(gui)
+        panel.dock_right()
+        panel.set_width(440)
+        self.clear()
+
+    def clear(self) -> None:
+        self.spectra.clear()
+        self.errors.clear()
+
+    def list_runs(self, views: list[RunView], select: RunView | None) -> None:
+        """Offer ``views`` in the run menu; follow ``select`` (a new run) unless the run followed now
+        has FDL spectra and ``select`` has none (a later run of another model keeps it)."""
+        self.spectra.gui_run.options = [run_label(v) for v in views] or [NO_RUN]
+        if select is not None:
+            current = self.plotted(views)
+            if current is None or (select.has_spectra and not current.has_spectra):
+                self.spectra.gui_run.value = run_label(select)
+
+    def plotted(self, views: list[RunView]) -> RunView | None:
+        """The shown run the run menu names."""
+        label = self.spectra.gui_run.value
+        return next((v for v in views if run_label(v) == label), None)
+
+    def show(self, views: list[RunView], t_s: float, t_rel_s: float) -> None:
+        """The plotted run's window at ``t_s`` (the sequence's clock; ``t_rel_s`` from its start)."""
+        plotted = self.plotted(views)
+        index = plotted.window_at(t_s) if plotted is not None else 0
+        self.spectra.show(plotted, index)
+        self.errors.show(views, plotted, t_rel_s, index)

@@ -1,5 +1,5 @@
 """What the "Runs" folder says about the shown runs: the legend (HTML), the metrics table and the
-plausibility figures (markdown), as pure functions of the run views.
+plausibility figures (markdown), as pure functions of the run views; ``RunsSummary`` is the folder.
 
 Decisions:
 - Every ⚠ is said in words beside it ("worse than standing still", "path") and once more under the
@@ -9,6 +9,8 @@ Decisions:
 """
 
 from __future__ import annotations
+
+import viser
 
 from app.viz.palette import GPS_COLOR, START_COLOR, TRUTH_COLOR, WINDOW_COLOR, hex_color
 from app.viz.run_scene_data import RunView
@@ -165,3 +167,20 @@ def plausibility_markdown(views: list[RunView], names: dict[str, str] | None = N
     if warnings:
         text += "\n\n" + "\n".join(f"- ⚠ {w}" for w in warnings)
     return text
+
+
+class RunsSummary:
+    """The "Runs" folder: legend, metrics table, plausibility figures and the "Clear scene" button."""
+
+    def __init__(self, gui: viser.GuiApi, names: dict[str, str]) -> None:
+        self._names = names  # API name -> the name people know
+        with gui.add_folder("Runs"):
+            self.gui_legend = gui.add_html("")
+            self.gui_metrics = gui.add_markdown("")
+            self.gui_plausibility = gui.add_markdown("")
+            self.gui_clear = gui.add_button("Clear scene", icon=viser.Icon.TRASH)
+
+    def show(self, views: list[RunView], truth_shown: bool, grid_caption: str | None) -> None:
+        self.gui_legend.content = legend_html(views, truth_shown, grid_caption, self._names)
+        self.gui_metrics.content = metrics_markdown(views, self._names)
+        self.gui_plausibility.content = plausibility_markdown(views, self._names)

@@ -1,63 +1,125 @@
 """The "Timeline" folder's behaviour: the time slider moves every marker and window highlight and
-refreshes the plots, on the drawing thread (slider moves coalesce); Play advances the slider at
-the chosen speed on its own thread."""
+refreshes the plots, on the drawing thread (slider moves coalesce: a dragged slider never queues
+seconds of stale redraws); Play advances the slider at the chosen speed on its own thread."""
 
 from __future__ import annotations
 
-import queue
 import threading
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING
 
-import numpy as np
 import viser
 
-from app.viz.drawing import PathNodes, set_window
-from app.viz.panels import ErrorPanel, SpectraPanel
-from app.viz.run_scene_data import RunView
+from app.viz.draw_queue import DrawQueue
+from app.viz.overlay import Overlay
+from app.viz.panels import Plots
+from ftin.data import ImuSequence
 
 PLAY_TICK_S = 0.1
+PLAY_SPEEDS = ("1×", "2×", "5×", "10×", "30×")
+
+TimelineHandles = tuple[viser.GuiButtonHandle, viser.GuiButtonGroupHandle, viser.GuiSliderHandle]
 
 
-class SceneTimeline:
-    """Mixin of ``DashboardScene``: the timeline (state lives on the scene)."""
+def add_timeline_folder(gui: viser.GuiApi) -> TimelineHandles:
+    """The "Timeline" folder: Play, the speed and the time slider (disabled until a run is shown)."""
+    with gui.add_folder("Timeline"):
+        play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, disabled=True)
+        speed = gui.add_button_group("Speed", PLAY_SPEEDS)
+        speed.value = "5×"
+        time_slider = gui.add_slider("Time (s)", 0.0, 1.0, 0.05, 0.0, disabled=True)
+    return play, speed, time_slider
 
-    server: viser.ViserServer
-    _lock: threading.RLock
-    _views: dict[str, RunView]
-    _nodes: dict[str, PathNodes]
-    _truth: PathNodes | None
-    _time_pending: bool
-    _playing: bool
-    _jobs: queue.Queue[Callable[[], None] | None]
-    gui_play: viser.GuiButtonHandle
-    gui_speed: viser.GuiButtonGroupHandle
-    gui_time: viser.GuiSliderHandle
-    spectra: SpectraPanel
-    errors: ErrorPanel
 
-    if TYPE_CHECKING:  # provided by the other mixins of DashboardScene
+class Timeline:
+    """Drives the "Timeline" folder's handles (``add_timeline_folder``: ``gui_play``, ``gui_speed``,
+    ``gui_time``) over what ``overlay`` draws and ``plots`` show."""
 
-        def _plotted_view(self) -> RunView | None: ...
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        lock: threading.RLock,
+        drawing: DrawQueue,
+        overlay: Overlay,
+        plots: Plots,
+        handles: TimelineHandles,
+    ) -> None:
+        self.server = server
+        self._lock = lock
+        self._drawing = drawing
+        self._overlay = overlay
+        self._plots = plots
+        self.gui_play, self.gui_speed, self.gui_time = handles
+        self._pending = False  # a redraw is queued: later slider moves join it
+        self._playing = False
 
-    def request_time_update(self) -> None:
+        @self.gui_time.on_update
+        def _(_: viser.GuiEvent) -> None:
+            self.request_update()
+
+        @plots.spectra.gui_run.on_update
+        def _(_: viser.GuiEvent) -> None:
+            self.request_update()
+
+        @self.gui_play.on_click
+        def _(_: viser.GuiEvent) -> None:
+            self.toggle_play()
+
+    def request_update(self) -> None:
         """Redraw for the slider's time on the drawing thread; moves made meanwhile coalesce."""
         with self._lock:
-            if self._time_pending:
+            if self._pending:
                 return
-            self._time_pending = True
+            self._pending = True
 
         def job() -> None:
             with self._lock:
-                self._time_pending = False
-            self._update_time()
+                self._pending = False
+            self.update()
 
-        self._jobs.put(job)
+        self._drawing.put(job)
+
+    def update(self) -> None:
+        """Move every marker and window highlight to the slider's time; refresh the plots."""
+        with self._lock:
+            views = list(self._overlay.views.values())
+            if not views:
+                return
+            t_rel = float(self.gui_time.value)
+            t = views[0].t0_s + t_rel
+            with self.server.atomic():
+                self._overlay.move_to(t)
+                self._plots.show(views, t, t_rel)
+
+    def set_range(self, sequence: ImuSequence) -> None:
+        """A new recording: the slider spans it, from its start."""
+        duration = max(float(sequence.t_s[-1] - sequence.t_s[0]), 0.05)
+        self.gui_time.max = round(duration, 2)
+        self.gui_time.step = 0.05 if duration < 600 else 0.5
+        self.gui_time.value = 0.0
+        self.gui_time.disabled = False
+        self.gui_play.disabled = False
+
+    def follow_end(self, sequence: ImuSequence) -> None:
+        """A live recording grew: the slider spans it and stands at its end."""
+        duration = round(max(float(sequence.t_s[-1] - sequence.t_s[0]), 0.05), 2)
+        self.gui_time.max = duration
+        self.gui_time.value = duration
+        self.gui_time.disabled = False
+
+    def reset(self) -> None:
+        """Nothing shown: no range left over from the last recording."""
+        self._playing = False
+        self.gui_time.value = 0.0
+        self.gui_time.max = 1.0
+        self.gui_time.disabled = True
+        self.gui_play.disabled = True
+
+    def stop(self) -> None:
+        self._playing = False
 
     def toggle_play(self) -> None:
         with self._lock:
-            if not self._views:
+            if not self._overlay.views:
                 return
             self._playing = not self._playing
             playing = self._playing
@@ -85,30 +147,3 @@ class SceneTimeline:
         self._playing = False
         self.gui_play.label = "Play"
         self.gui_play.icon = viser.Icon.PLAYER_PLAY
-
-    def _update_time(self) -> None:
-        """Move every marker and window highlight to the slider's time; refresh the plots."""
-        with self._lock:
-            if not self._views:
-                return
-            first = next(iter(self._views.values()))
-            t_rel = float(self.gui_time.value)
-            t = first.t0_s + t_rel
-            with self.server.atomic():
-                for run_id, view in self._views.items():
-                    nodes = self._nodes[run_id]
-                    nodes.marker.position = view.position_at(t)
-                    index = view.window_at(t)
-                    set_window(self.server.scene, nodes, view.window_points(index))
-                if self._truth is not None and first.truth is not None:
-                    gt = first.truth
-                    self._truth.marker.position = np.array(
-                        [np.interp(t, gt.t_s, gt.p_world_m[:, k]) for k in range(3)]
-                    )
-                    set_window(
-                        self.server.scene, self._truth, first.window_points(first.window_at(t), truth=True)
-                    )
-                plotted = self._plotted_view()
-                index = plotted.window_at(t) if plotted is not None else 0
-                self.spectra.show(plotted, index)
-                self.errors.show(list(self._views.values()), plotted, t_rel, index)

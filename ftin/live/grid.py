@@ -1,5 +1,6 @@
 """A live phone's sensors, each on its own clock and rate, merged onto the model's uniform clock as
-they arrive, in the units and signs of the Sensor Logger reader.
+they arrive, in the units and signs of the Sensor Logger reader (whose sensor names every push format
+uses, ``ftin.live.messages``).
 
 ``SensorStreams.add(message)`` keeps a short history per sensor; ``take()`` returns the clock
 samples that every required sensor now covers (a ``GridChunk``), each exactly once.
@@ -12,6 +13,8 @@ Decisions:
   ``sensorlogger.acceleration_keys`` choice, ``acceleration_scale``, ``gravity_sign``,
   ``gyro_scale_from_gravity``), decided once on the first ``CALIBRATION_S`` seconds and kept: a
   causal stream cannot look at the whole recording as the reader does.
+- The push format (``ftin.live.formats``) names the app in the advice of errors and states the
+  gyroscope's unit, which the gravity-turn fit checks.
 - Push messages carry no platform: the phone's orientation decides the acceleration sign (as in the
   reader); without orientation a ``platform`` given with the push URL does, else Android's
   convention is assumed with a warning.
@@ -34,7 +37,8 @@ import ftin.data.io.sensor_clock as sensor_clock
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io.sensor_clock import SensorSeries
-from ftin.data.readers.sensorlogger import GYRO_UNIT_DOCUMENTED, acceleration_keys
+from ftin.data.readers.sensorlogger import acceleration_keys
+from ftin.live.formats.base import PushFormat
 from ftin.live.messages import PushMessage
 
 CALIBRATION_S = 2.0  # data seen before units and signs are settled (and the first window can run)
@@ -76,8 +80,15 @@ class _Calibration:
 
 
 class SensorStreams:
-    def __init__(self, rate_hz: float, platform: str | None = None, source: str = "live stream") -> None:
+    def __init__(
+        self,
+        rate_hz: float,
+        push_format: PushFormat,
+        platform: str | None = None,
+        source: str = "live stream",
+    ) -> None:
         self.rate_hz = float(rate_hz)
+        self.push_format = push_format
         self.platform = platform
         self.source = source
         self.origin_ns: int | None = None
@@ -153,7 +164,8 @@ class SensorStreams:
         if newest - ends[stalled] > STALL_MAX_S:
             raise DataFormatError(
                 f"{self.source}: {stalled} stopped arriving {newest - ends[stalled]:.1f} s ago while other "
-                "sensors go on; the trajectory cannot continue without it (tick it in Sensor Logger again)"
+                "sensors go on; the trajectory cannot continue without it "
+                f"(tick it in {self.push_format.app} again)"
             )
         covered = min(ends.values()) - step
         end = int(np.floor((covered - cal.grid_start_s) * self.rate_hz + 1e-9)) + 1
@@ -186,7 +198,7 @@ class SensorStreams:
                 raise DataFormatError(
                     f"{self.source}: {longest:.0f} s of data ({', '.join(sorted(self._t))}) and no "
                     f"{missing.split()[-1]}: tick {missing} (and gravity or total acceleration) in "
-                    "Sensor Logger's sensor list"
+                    f"{self.push_format.app}'s sensor list"
                 )
             return None
         spans = [self._t[k][-1] - self._t[k][0] for k in (gyro_key, *acc_present)]
@@ -219,9 +231,9 @@ class SensorStreams:
         invert = q is not None and q_raw is not None and not np.allclose(q, q_raw)
         acc = sign * total
         up = sign * gravity if gravity is not None else sensor_clock.low_pass(acc, grid)
-        # The export's rule: the app documents rad/s, the gravity-turn fit only checks it (and the sign).
+        # The export's rule: the app states its unit, the gravity-turn fit only checks it (and the sign).
         gyro_factor = sensor_clock.gyro_scale_from_gravity(
-            grid, on[gyro_key], up, self.source, warnings, stated_unit=GYRO_UNIT_DOCUMENTED
+            grid, on[gyro_key], up, self.source, warnings, stated_unit=self.push_format.gyro_unit
         )
         return _Calibration(gyro_key, acc_keys, q is not None, invert, scale * sign, gyro_factor, start)
 

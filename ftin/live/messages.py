@@ -1,45 +1,26 @@
-"""Sensor Logger's push messages (HTTP Push, and MQTT with the same JSON), parsed and checked.
+"""A live push message as every format hands it on: one phone's samples per sensor, checked.
 
-One message::
-
-    {"messageId": 0, "sessionId": "...", "deviceId": "...",
-     "payload": [{"name": "accelerometer", "time": 1698501144401773000,
-                  "values": {"x": .., "y": .., "z": ..}}, ...]}
-
-``time`` is UTC epoch nanoseconds, entry names are the export's file names in lower case, values its
-columns. The app's "Tap to Test Pushing" button sends a message whose first entry is named ``test``.
+A push format (``ftin.live.formats``) turns one request body into a ``PushMessage``; everything
+after it (ordering, the clock, the model) reads only this. Sensors are named as the Sensor Logger
+export names its files ("Gyroscope", "TotalAcceleration", "Orientation", ...): the offline reader's
+rules for choosing and scaling them (``ftin.data.readers.sensorlogger``) serve the stream too, so a
+format maps its own sensor names onto these.
 
 Decisions:
-- Every problem is a ``MessageError`` whose text names the field and what was expected (the
-  endpoint answers it with a 4xx); nothing in a body can raise anything else.
-- Sensors the odometry does not use (location, battery, microphone, ...) are skipped and counted,
-  not refused: users tick many sensors in the app.
-- Entries are grouped per sensor and sorted by time here; duplicates across messages are the
-  session's business (``ftin.live.ordering``).
+- Every problem with a body is a ``MessageError`` whose text names the field and what was expected
+  (the endpoint answers it with a 4xx); a format's parser raises nothing else.
+- Session and device ids are checked here, for every format (``checked_id``): they become run
+  names and keys, so they may hold no paths and no markup.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from ftin.data.readers.sensorlogger import AXIS_SENSORS
-
-# Lower-case push names -> the export's file stems (``ftin.data.readers.sensorlogger``'s names).
-AXIS_COLUMNS = ("x", "y", "z")
-ORIENTATION_COLUMNS = ("qw", "qx", "qy", "qz")
-SENSOR_COLUMNS: dict[str, tuple[str, tuple[str, ...]]] = {
-    **{name.lower(): (name, AXIS_COLUMNS) for name in AXIS_SENSORS},
-    "orientation": ("Orientation", ORIENTATION_COLUMNS),
-}
-TEST_ENTRY = "test"
 ID_PATTERN = re.compile(r"^[\w.:@+-]{1,128}$")  # session and device ids: UUIDs, names, no paths
-# Epoch ns between 2001 and 2100: anything else is not Sensor Logger's clock.
-MIN_TIME_NS, MAX_TIME_NS = 10**18, 4 * 10**18
 
 
 class MessageError(ValueError):
@@ -51,7 +32,7 @@ class SensorBatch:
     """One sensor's samples in one message, sorted by time."""
 
     t_ns: np.ndarray  # (N,) int64 epoch ns
-    values: np.ndarray  # (N, C) float64, columns as in SENSOR_COLUMNS
+    values: np.ndarray  # (N, C) float64: x, y, z (an orientation: qw, qx, qy, qz)
 
 
 @dataclass(frozen=True)
@@ -61,7 +42,7 @@ class PushMessage:
     message_id: int | None  # None: the sender does not number its messages
     sensors: dict[str, SensorBatch] = field(default_factory=dict)  # "Gyroscope" -> batch
     skipped: dict[str, int] = field(default_factory=dict)  # unused sensor names -> entries
-    is_test: bool = False
+    is_test: bool = False  # the app's "test the connection" message: answered, never used
 
     @property
     def n_samples(self) -> int:
@@ -73,85 +54,13 @@ class PushMessage:
         return max(ends) if ends else None
 
 
-def _identifier(body: dict[str, Any], key: str) -> str:
-    value = body.get(key)
+def checked_id(value: object, key: str, app: str) -> str:
+    """A session or device id as text, or a ``MessageError`` naming ``key`` (``app`` sends it)."""
     if value is None:
-        raise MessageError(f"{key} is missing: Sensor Logger sends it with every message")
+        raise MessageError(f"{key} is missing: {app} sends it with every message")
     if isinstance(value, bool) or not isinstance(value, (str, int)):
         raise MessageError(f"{key} must be a string, got {type(value).__name__}")
     text = str(value)
     if not ID_PATTERN.match(text):
         raise MessageError(f"{key} must be 1-128 letters, digits or . : @ + - _ (got {text[:40]!r})")
     return text
-
-
-def _message_id(body: dict[str, Any]) -> int | None:
-    value = body.get("messageId")
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**53:
-        raise MessageError(f"messageId must be a non-negative integer, got {value!r:.40}")
-    return value
-
-
-def _time_ns(entry: dict[str, Any], where: str) -> int:
-    value = entry.get("time")
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise MessageError(f"{where}: time must be a number (UTC epoch nanoseconds), got {value!r:.40}")
-    if not MIN_TIME_NS <= value <= MAX_TIME_NS:
-        raise MessageError(f"{where}: time {value!r:.40} is not UTC epoch nanoseconds (2001-2100)")
-    return int(value)
-
-
-def _values(entry: dict[str, Any], columns: tuple[str, ...], where: str) -> list[float]:
-    values = entry.get("values")
-    if not isinstance(values, dict):
-        raise MessageError(f"{where}: values must be an object with {', '.join(columns)}")
-    row = []
-    for column in columns:
-        value = values.get(column)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise MessageError(f"{where}: values.{column} must be a finite number, got {value!r:.40}")
-        row.append(float(value))
-    return row
-
-
-def parse_push(body: Any) -> PushMessage:
-    """A decoded JSON body as a ``PushMessage``, or a ``MessageError`` naming the problem."""
-    if not isinstance(body, dict):
-        raise MessageError(
-            f"the body must be a JSON object (Sensor Logger's push message), got {type(body).__name__}"
-        )
-    session_id = _identifier(body, "sessionId")
-    device_id = _identifier(body, "deviceId")
-    message_id = _message_id(body)
-    payload = body.get("payload")
-    if not isinstance(payload, list):
-        raise MessageError("payload must be a list of {name, time, values} entries")
-    if payload and isinstance(payload[0], dict) and payload[0].get("name") == TEST_ENTRY:
-        return PushMessage(session_id, device_id, message_id, is_test=True)
-    times: dict[str, list[int]] = {}
-    rows: dict[str, list[list[float]]] = {}
-    skipped: dict[str, int] = {}
-    for index, entry in enumerate(payload):
-        where = f"payload[{index}]"
-        if not isinstance(entry, dict):
-            raise MessageError(f"{where} must be an object with name, time and values")
-        name = entry.get("name")
-        if not isinstance(name, str) or not name:
-            raise MessageError(f"{where}: name must be a sensor name such as 'gyroscope'")
-        known = SENSOR_COLUMNS.get(name.lower())
-        if known is None:
-            key = name[:40]
-            skipped[key] = skipped.get(key, 0) + 1
-            continue
-        sensor, columns = known
-        where = f"{where} ({name})"
-        times.setdefault(sensor, []).append(_time_ns(entry, where))
-        rows.setdefault(sensor, []).append(_values(entry, columns, where))
-    sensors = {}
-    for sensor, t in times.items():
-        t_ns = np.asarray(t, dtype=np.int64)
-        order = np.argsort(t_ns, kind="stable")
-        sensors[sensor] = SensorBatch(t_ns[order], np.asarray(rows[sensor], dtype=np.float64)[order])
-    return PushMessage(session_id, device_id, message_id, sensors, skipped)

@@ -29,7 +29,7 @@ import pandas as pd
 import ftin.data.io.phone_exports as exports
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
-from ftin.live.messages import SENSOR_COLUMNS
+from ftin.live.formats.sensorlogger import SENSOR_COLUMNS
 
 GIVE_UP_AFTER = 3  # failed posts before the first success that end a replay
 

@@ -7,8 +7,8 @@ window has run.
 
 Latency (``latencies_s``, per sample): from the arrival of the message that carried a sample to the
 moment the trajectory covers it, i.e. a window (or, for streaming models, a frame) ending at or after
-it was integrated and the result was handed on (``mark_effect``, called by whoever shows it). Samples
-are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
+it was integrated and the result was handed on (``mark_effect``, called by whoever publishes it).
+Samples are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import numpy as np
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.infer import FRAME_DEVICE_WORLD, Prediction
+from ftin.live.formats.base import PushFormat
 from ftin.live.grid import SensorStreams
 from ftin.live.incremental import IncrementalPredictor
 from ftin.live.messages import PushMessage
@@ -30,7 +31,6 @@ from ftin.live.orientation import ONLINE_FILTER, CausalOrientation
 from ftin.live.steps import StepCounter
 
 LATENCIES_KEPT = 2048
-DATASET = "sensorlogger-live"
 
 
 class LiveSession:
@@ -39,6 +39,7 @@ class LiveSession:
         session_id: str,
         device_id: str,
         loaded: LoadedModel,
+        push_format: PushFormat,
         *,
         platform: str | None = None,
         hold_s: float = 0.5,
@@ -47,9 +48,10 @@ class LiveSession:
         now_s = time.monotonic() if now_s is None else now_s
         self.session_id, self.device_id = session_id, device_id
         self.model_name = loaded.name
+        self.push_format = push_format
         self.source = f"live stream {device_id}/{session_id}"
         self.order = MessageOrder(hold_s)
-        self.streams = SensorStreams(loaded.imu_rate_hz, platform, self.source)
+        self.streams = SensorStreams(loaded.imu_rate_hz, push_format, platform, self.source)
         self.orientation = CausalOrientation(loaded.imu_rate_hz)
         self.predictor = IncrementalPredictor(loaded)
         self.step_counter = StepCounter()
@@ -162,7 +164,7 @@ class LiveSession:
         if self.orientation.source == "estimated":
             notes.append(
                 f"{self.source}: no orientation streamed; estimated causally with VQF online (6-D), so the "
-                "heading drifts: tick Orientation in Sensor Logger for the phone's own"
+                f"heading drifts: tick Orientation in {self.push_format.app} for the phone's own"
             )
         if self.dropped_messages:
             notes.append(
@@ -177,7 +179,7 @@ class LiveSession:
         gyro, acc, q = self.predictor.imu()
         rate = float(self.predictor.loaded.imu_rate_hz)
         meta: dict[str, Any] = {
-            "dataset": DATASET,
+            "dataset": f"{self.push_format.name}-live",
             "source": self.source,
             "rate_hz": rate,
             "carry": "unknown",

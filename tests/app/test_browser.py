@@ -207,8 +207,8 @@ def test_the_3d_scene_renders_the_run(live_server, page, csv_with_gt: bytes) -> 
     live_server.scene.flush()
     page.goto(live_server.scene.url)
     page.wait_for_selector("canvas", timeout=30_000)
-    live_server.scene.gui_time.value = 12.0  # move the timeline: markers and spectra follow
-    live_server.scene._update_time()
+    live_server.scene.timeline.gui_time.value = 12.0  # move the timeline: markers and spectra follow
+    live_server.scene.timeline.update()
     page.wait_for_function("() => document.body.innerText.includes('Spectra')", timeout=30_000)
     page.wait_for_function("() => document.body.innerText.includes('ATE [m]')", timeout=30_000)
     body = page.inner_text("body")
@@ -310,7 +310,7 @@ def test_item2_and_3_the_scene_shows_one_row_per_model_and_clears_everything(
     page.wait_for_function("() => document.body.innerText.includes('Scene cleared')", timeout=30_000)
     assert "Nothing shown yet" in page.inner_text("body")
     page.wait_for_function(f"() => !({inputs})().includes('walk (uploaded)')", timeout=10_000)
-    assert live_server.scene.shown_run_ids() == [] and live_server.scene.gui_time.disabled
+    assert live_server.scene.shown_run_ids() == [] and live_server.scene.timeline.gui_time.disabled
 
 
 def test_item4_an_expired_run_says_so_on_the_page(
@@ -346,8 +346,8 @@ def test_item10_the_scene_opens_on_a_run_of_the_model_trained_for_the_data(
     live = server_control.start(make_settings(viser_enabled=True, scene_first_run=True))
     try:
         scene = live.scene
-        suggested = scene._checked_models()
-        assert suggested == [scene.services.models.for_kind(scene._selected_entry().kind)]
+        suggested = scene.controls.checked_models()
+        assert suggested == [scene.services.models.for_kind(scene.controls.selected_entry().kind)]
         page.goto(scene.url)
         page.wait_for_function(
             "() => document.body.innerText.includes('Showing')", timeout=60_000

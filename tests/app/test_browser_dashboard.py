@@ -129,7 +129,7 @@ def test_three_uploads_are_kept_and_listed_in_the_scene_with_the_right_menus(
     page.wait_for_function(f"() => ({values})().includes('garden (uploaded)')", timeout=30_000)
     inputs = page.evaluate(values)
     assert "Uploaded recordings" in inputs and "se2" in inputs  # the Dataset and Alignment menus
-    assert scene._checked_models() == [DEFAULT_MODEL]
+    assert scene.controls.checked_models() == [DEFAULT_MODEL]
     page.click("input[value='garden (uploaded)']")  # open the Sequence menu: all three are there
     page.wait_for_function("() => document.body.innerText.includes('hall (uploaded)')", timeout=10_000)
     listed = page.inner_text("body")

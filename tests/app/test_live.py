@@ -20,6 +20,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.main import create_app
+from app.services.live import LiveUpdate
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 from ftin.data.readers.generic_csv import read
 from ftin.live.replay import Push, export_messages, perturb, send, sequence_messages
@@ -75,6 +76,17 @@ def test_bad_bodies_get_a_4xx_that_says_why(
     response = app_client.post(PUSH, content=content, headers={"Content-Type": "application/json"})
     assert response.status_code == status
     assert words in response.json()["detail"]
+
+
+def test_a_streamed_body_is_refused_once_it_passes_the_limit(app_client: TestClient) -> None:
+    """No declared length (chunked): the door counts the bytes as they come and stops at the limit."""
+
+    def chunks() -> Iterator[bytes]:
+        for _ in range(70):
+            yield b"x" * 1024
+
+    response = app_client.post(PUSH, content=chunks(), headers={"Content-Type": "application/json"})
+    assert response.status_code == 413 and "FTIN_LIVE_MAX_BODY_KB" in response.json()["detail"]
 
 
 def test_bad_options_get_a_4xx(app_client: TestClient) -> None:
@@ -157,6 +169,26 @@ def test_a_stream_grows_as_a_run_and_ends_as_one(make_settings: Callable[..., Se
         assert session["samples"] >= 1900 and session["dropped_messages"] == 0
         assert session["latency_s"] is not None and session["rate_hz"] == pytest.approx(100, rel=0.05)
         assert client.get(f"/runs/{run_id}").json()["state"] == "done"
+
+
+def test_listeners_hear_the_followed_session_only(make_settings: Callable[..., Settings], wait_for) -> None:
+    """Two phones: listeners (the 3D scene) hear the first session until it ends, with its figures;
+    the second only once it is the one left (its last run as it ends)."""
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 1000).with_(gt=None)
+    heard: list[LiveUpdate] = []
+    with TestClient(create_app(make_settings())) as client:
+        live = client.app.state.services.live
+        live.subscribe(heard.append)
+        for session in ("first", "second"):
+            send(sequence_messages(seq, 0.5, session_id=session), PUSH, math.inf, _post_with(client))
+        live.wait_idle()
+        wait_for(lambda: all(s["run_id"] for s in live.sessions()), what="both runs")
+        live.end_all()
+    names = [update.session["session_id"] for update in heard]
+    first = names.count("first")
+    assert first >= 1 and names == ["first"] * first + ["second"], names
+    assert heard[first - 1].session["state"] == "ended" and heard[-1].session["state"] == "ended"
+    assert heard[-1].run.run_id == heard[-1].session["run_id"]
 
 
 @pytest.fixture(scope="module")

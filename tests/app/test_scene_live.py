@@ -1,6 +1,6 @@
 """The 3D scene follows a live session: the walk appears in the Sequence menu as "(live)", its drawn
 trajectory grows with the data, the status line names the phone, rate, distance and steps, and the
-latency the service reports ends when the scene has drawn."""
+scene only listens (the service reports the latency to publication)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
-from app.viz.overlay import LIVE
+from app.viz.controls import LIVE
 from app.viz.scene import DashboardScene
 from ftin.data.readers.generic_csv import read
+from ftin.live.formats import FORMATS
 from ftin.live.replay import sequence_messages
 from tests.utils.scenes import running_scene
 
@@ -26,7 +27,7 @@ def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
 
 def _push(scene: DashboardScene, bodies: list[dict]) -> None:
     for body in bodies:
-        scene.services.live.accept(json.dumps(body).encode(), time.monotonic())
+        scene.services.live.accept(json.dumps(body).encode(), time.monotonic(), FORMATS["sensorlogger"])
     scene.services.live.wait_idle()
     time.sleep(0.3)  # the worker publishes after using its batch
     scene.flush()
@@ -42,17 +43,23 @@ def test_the_scene_follows_a_live_walk(scene: DashboardScene, wait_for) -> None:
     run_id = live.sessions()[0]["run_id"]
     assert run_id in scene.shown_run_ids()
     assert f"/runs/{run_id}/pred" in scene.node_names()
-    assert scene.gui_sequence.value.endswith(LIVE) and scene.gui_sequence.value in scene.gui_sequence.options
-    first_len = len(scene._views[run_id].trajectory)
-    first_max = scene.gui_time.max
+    assert (
+        scene.controls.gui_sequence.value.endswith(LIVE)
+        and scene.controls.gui_sequence.value in scene.controls.gui_sequence.options
+    )
+    first_len = len(scene.overlay.views[run_id].trajectory)
+    first_max = scene.timeline.gui_time.max
     _push(scene, bodies[16:])
-    wait_for(lambda: len(scene._views[run_id].trajectory) > first_len + 1000, what="the walk to grow")
-    assert scene.gui_time.max > first_max and scene.gui_time.value == scene.gui_time.max  # follows the end
-    status = scene.gui_live.content
+    wait_for(lambda: len(scene.overlay.views[run_id].trajectory) > first_len + 1000, what="the walk to grow")
+    assert (
+        scene.timeline.gui_time.max > first_max
+        and scene.timeline.gui_time.value == scene.timeline.gui_time.max
+    )  # follows the end
+    status = scene.live.gui_live.content
     assert "pixel-7" in status and "Hz" in status and " m** walked" in status and "steps" in status
     info = live.sessions()[0]
     assert info["latency_s"] is not None and info["latency_s"] < 5.0
     live.end_all()
     scene.flush()
     assert scene.services.runs.status(run_id).state.value == "done"
-    assert "(ended)" in scene.gui_live.content
+    assert "(ended)" in scene.live.gui_live.content

@@ -12,7 +12,7 @@ import pytest
 
 from app.services.prediction import RunOptions
 from app.settings import Settings
-from app.viz.overlay import UPLOADS
+from app.viz.controls import UPLOADS
 from app.viz.palette import START_COLOR
 from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
@@ -43,26 +43,38 @@ def test_three_uploads_are_listed_and_the_menus_show_the_one_on_screen(
     predictor.predict_csv(csv_with_gt, "stairs.csv", RunOptions(OTHER_MODEL, align="start"))
     last = predictor.predict_csv(csv_with_gt, "garden.csv", RunOptions(OTHER_MODEL, align="se2"))
     scene.flush()
-    assert UPLOADS in scene.gui_dataset.options and scene.gui_dataset.value == UPLOADS
-    assert {"hall (uploaded)", "stairs (uploaded)", "garden (uploaded)"} <= set(scene.gui_sequence.options)
-    assert scene.gui_sequence.value == "garden (uploaded)"
+    assert UPLOADS in scene.controls.gui_dataset.options and scene.controls.gui_dataset.value == UPLOADS
+    assert {"hall (uploaded)", "stairs (uploaded)", "garden (uploaded)"} <= set(
+        scene.controls.gui_sequence.options
+    )
+    assert scene.controls.gui_sequence.value == "garden (uploaded)"
     # What produced the run on screen: its model alone ticked, its alignment (not "default").
-    assert scene._checked_models() == [OTHER_MODEL] and scene.gui_align.value == "se2"
+    assert scene.controls.checked_models() == [OTHER_MODEL] and scene.controls.gui_align.value == "se2"
     assert last.metrics.alignment == "se2"
 
     # Run on another upload picked in the menu runs there, with the ticked model: no switch of data.
-    scene.gui_sequence.value = "hall (uploaded)"
-    scene._run_selected(None)
+    scene.controls.gui_sequence.value = "hall (uploaded)"
+    scene.controls.run_selected(None)
     scene.flush()
     (run_id,) = scene.shown_run_ids()
-    assert scene._views[run_id].sequence.name == "hall" and scene._views[run_id].model_name == OTHER_MODEL
-    assert scene.gui_dataset.value == UPLOADS and scene.gui_sequence.value == "hall (uploaded)"
+    assert (
+        scene.overlay.views[run_id].sequence.name == "hall"
+        and scene.overlay.views[run_id].model_name == OTHER_MODEL
+    )
+    assert (
+        scene.controls.gui_dataset.value == UPLOADS and scene.controls.gui_sequence.value == "hall (uploaded)"
+    )
 
     # A bundled sequence next: the Dataset menu follows it, the uploads stay listed.
     predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
-    assert scene.gui_dataset.value == "CSV recordings in walks" and scene.gui_sequence.value == "walk_gt"
-    assert scene._checked_models() == [DEFAULT_MODEL] and UPLOADS in scene.gui_dataset.options
+    assert (
+        scene.controls.gui_dataset.value == "CSV recordings in walks"
+        and scene.controls.gui_sequence.value == "walk_gt"
+    )
+    assert (
+        scene.controls.checked_models() == [DEFAULT_MODEL] and UPLOADS in scene.controls.gui_dataset.options
+    )
 
 
 def test_uploads_of_the_same_name_are_told_apart_and_dropped_with_their_runs(
@@ -73,20 +85,24 @@ def test_uploads_of_the_same_name_are_told_apart_and_dropped_with_their_runs(
     predictor.predict_csv(csv_with_gt, "walk.csv", RunOptions(DEFAULT_MODEL))
     predictor.predict_csv(shorter, "walk.csv", RunOptions(DEFAULT_MODEL))
     scene.flush()
-    walks = [label for label in scene.gui_sequence.options if label.startswith("walk (uploaded")]
+    walks = [label for label in scene.controls.gui_sequence.options if label.startswith("walk (uploaded")]
     assert len(walks) == 2 and len(set(walks)) == 2  # two recordings, two labels (the upload time)
     for _ in range(6):  # max_runs=5: the server forgets the first uploads, and so does the menu
         predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
-    assert UPLOADS not in scene.gui_dataset.options
+    assert UPLOADS not in scene.controls.gui_dataset.options
 
 
 def test_clear_resets_the_timeline_range(scene: DashboardScene) -> None:
     scene.services.predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
-    assert scene.gui_time.max == pytest.approx(19.99)
+    assert scene.timeline.gui_time.max == pytest.approx(19.99)
     scene.gui_clear_scene()
-    assert scene.gui_time.max == 1.0 and scene.gui_time.value == 0.0 and scene.gui_time.disabled
+    assert (
+        scene.timeline.gui_time.max == 1.0
+        and scene.timeline.gui_time.value == 0.0
+        and scene.timeline.gui_time.disabled
+    )
 
 
 def test_one_green_start_when_the_prediction_is_aligned_away_from_the_truth(scene: DashboardScene) -> None:
@@ -94,8 +110,8 @@ def test_one_green_start_when_the_prediction_is_aligned_away_from_the_truth(scen
     scene.flush()
     handles = scene.server.scene._handle_from_node_name
     assert tuple(handles["/truth/start"].color) == START_COLOR
-    assert tuple(handles[f"/runs/{run.run_id}/start"].color) == scene._views[run.run_id].color
-    assert "green sphere (the ground truth's)" in scene.gui_legend.content
+    assert tuple(handles[f"/runs/{run.run_id}/start"].color) == scene.overlay.views[run.run_id].color
+    assert "green sphere (the ground truth's)" in scene.summary.gui_legend.content
 
 
 def test_worse_than_standing_still_is_flagged_in_words(scene: DashboardScene) -> None:
@@ -107,10 +123,10 @@ def test_worse_than_standing_still_is_flagged_in_words(scene: DashboardScene) ->
     assert frozen.verdict.still.worse_than_standing_still
     scene.flush()
     scene.show_run(frozen)
-    table = scene.gui_metrics.content
+    table = scene.summary.gui_metrics.content
     assert "⚠ worse than standing still" in table and "| *standing still* |" in table
     assert "**⚠ worse than standing still:**" in table and "never moves" in table  # the ⚠ explained
-    assert "worse than standing still" in scene.gui_legend.content
+    assert "worse than standing still" in scene.summary.gui_legend.content
     assert "too short" in table  # the scope note of a 20 s recording
 
 
@@ -121,10 +137,10 @@ def test_a_phone_walk_shows_its_plausibility_and_gps(scene: DashboardScene) -> N
     scene.flush()
     assert run.plausibility.gps is not None
     assert {"/gps", "/gps/track", "/gps/fixes"} <= set(scene.node_names())
-    assert "GPS fixes (aligned at the start, median accuracy ±5 m)" in scene.gui_legend.content
-    text = scene.gui_plausibility.content
+    assert "GPS fixes (aligned at the start, median accuracy ±5 m)" in scene.summary.gui_legend.content
+    text = scene.summary.gui_plausibility.content
     assert "**Plausibility**" in text and "| step count |" in text and "| GPS fixes |" in text
     assert "20 fixes" in text and " m |" in text  # figures with their units
-    assert "No ground truth" in scene.gui_metrics.content
+    assert "No ground truth" in scene.summary.gui_metrics.content
     scene.gui_clear_scene()
-    assert "/gps" not in scene.node_names() and scene.gui_plausibility.content == ""
+    assert "/gps" not in scene.node_names() and scene.summary.gui_plausibility.content == ""

@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 from ftin.data.errors import DataFormatError
+from ftin.live.formats import FORMATS
 from ftin.live.grid import SensorStreams
 from ftin.live.messages import PushMessage, SensorBatch
+
+SENSOR_LOGGER = FORMATS["sensorlogger"]
 
 T0 = 1_700_000_000 * 10**9
 
@@ -39,7 +42,7 @@ def _message(
 
 @pytest.mark.parametrize("ios", [False, True])
 def test_sensors_meet_on_the_model_clock_in_si_units_with_gravity_up(ios: bool) -> None:
-    streams = SensorStreams(100.0)
+    streams = SensorStreams(100.0, SENSOR_LOGGER)
     chunks = []
     for k in range(8):
         streams.add(_message(0.5 * k, 0.5 * (k + 1), ios=ios))
@@ -56,7 +59,7 @@ def test_sensors_meet_on_the_model_clock_in_si_units_with_gravity_up(ios: bool) 
 
 
 def test_a_sensor_that_stops_ends_the_stream_with_its_name() -> None:
-    streams = SensorStreams(100.0)
+    streams = SensorStreams(100.0, SENSOR_LOGGER)
     for k in range(6):
         streams.add(_message(0.5 * k, 0.5 * (k + 1)))
         streams.take()
@@ -69,7 +72,7 @@ def test_a_sensor_that_stops_ends_the_stream_with_its_name() -> None:
 
 
 def test_no_gyroscope_is_an_error_after_a_while() -> None:
-    streams = SensorStreams(100.0)
+    streams = SensorStreams(100.0, SENSOR_LOGGER)
     message = _message(0.0, 12.0)
     del message.sensors["Gyroscope"]
     streams.add(message)

@@ -4,12 +4,15 @@ duplicates and overtaking."""
 from __future__ import annotations
 
 import copy
+import json
 from typing import Any
 
 import numpy as np
 import pytest
 
-from ftin.live.messages import MessageError, parse_push
+from ftin.live.formats import FORMATS
+from ftin.live.formats.sensorlogger import message_from_json
+from ftin.live.messages import MessageError
 from ftin.live.ordering import MessageOrder
 
 T0 = 1_698_501_144_401_773_000
@@ -31,7 +34,7 @@ def message(message_id: int = 0, n: int = 3, session: str = "s1") -> dict[str, A
 def test_a_message_parses_per_sensor_in_time_order() -> None:
     body = message(n=3)
     body["payload"].reverse()  # entries may come in any order
-    parsed = parse_push(body)
+    parsed = message_from_json(body)
     assert (parsed.session_id, parsed.device_id, parsed.message_id) == ("s1", "phone-1", 0)
     assert set(parsed.sensors) == {"Gyroscope", "Accelerometer", "Orientation"}
     gyro = parsed.sensors["Gyroscope"]
@@ -42,8 +45,19 @@ def test_a_message_parses_per_sensor_in_time_order() -> None:
 
 
 def test_the_test_push_is_recognised() -> None:
-    parsed = parse_push({"messageId": 0, "sessionId": "a", "deviceId": "b", "payload": [{"name": "test"}]})
+    parsed = message_from_json(
+        {"messageId": 0, "sessionId": "a", "deviceId": "b", "payload": [{"name": "test"}]}
+    )
     assert parsed.is_test and not parsed.sensors
+
+
+def test_a_format_parses_request_bodies_by_name() -> None:
+    """The endpoint's view: the registry's format turns raw bytes into a message, or says why not."""
+    sensor_logger = FORMATS["sensorlogger"]
+    parsed = sensor_logger.parse(json.dumps(message(n=2)).encode())
+    assert parsed.session_id == "s1" and parsed.sensors["Gyroscope"].values.shape == (2, 3)
+    with pytest.raises(MessageError, match="not JSON"):
+        sensor_logger.parse(b"{not json")
 
 
 def _broken(path: list[Any], value: Any) -> dict[str, Any]:
@@ -78,7 +92,7 @@ def _broken(path: list[Any], value: Any) -> dict[str, Any]:
 )
 def test_malformed_messages_say_what_is_wrong(body: Any, words: str) -> None:
     with pytest.raises(MessageError, match=None) as caught:
-        parse_push(body)
+        message_from_json(body)
     assert words in str(caught.value)
 
 
@@ -88,7 +102,7 @@ def _ids(messages: list[Any]) -> list[int]:
 
 def test_order_drops_duplicates_and_waits_for_an_overtaken_message() -> None:
     order = MessageOrder(hold_s=0.5)
-    m = [parse_push(message(i)) for i in range(4)]
+    m = [message_from_json(message(i)) for i in range(4)]
     assert _ids(order.push(m[0], 0.0)) == [0]
     assert order.push(m[0], 0.1) == [] and order.duplicates == 1
     assert order.push(m[2], 0.2) == []  # 1 is missing: wait
@@ -99,7 +113,7 @@ def test_order_drops_duplicates_and_waits_for_an_overtaken_message() -> None:
 
 def test_order_gives_up_on_a_lost_message_after_the_hold_time() -> None:
     order = MessageOrder(hold_s=0.5)
-    m = [parse_push(message(i)) for i in range(4)]
+    m = [message_from_json(message(i)) for i in range(4)]
     order.push(m[0], 0.0)
     assert order.push(m[2], 1.0) == [] and order.due(1.2) == []
     assert _ids(order.due(1.6)) == [2]

@@ -1,11 +1,16 @@
-"""Live phone streams: POST /live/sensorlogger (Sensor Logger's HTTP Push), GET /live/sessions, and
-GET /live/info (the push URL to type into the app). The decisions are in ``app.services.live``."""
+"""Live phone streams: POST /live/{format} for every push format of ``ftin.live.formats``
+(/live/sensorlogger: Sensor Logger's HTTP Push), GET /live/sessions, and GET /live/info (the push URL
+to type into the app). The decisions are in ``app.services.live``.
+
+A push body's size is checked here, at the door, once (``FTIN_LIVE_MAX_BODY_KB``: 413): from its
+declared length, else while it streams in, so an oversized body is never read whole."""
 
 from __future__ import annotations
 
 import asyncio
 import socket
 import time
+from collections.abc import Awaitable, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Request
@@ -16,11 +21,12 @@ from app.api.deps import ModelQuery, ServicesDep
 from app.schemas import ErrorResponse
 from app.services.errors import BusyError, PayloadTooLargeError
 from app.services.live import PARSERS, is_local
+from ftin.live.formats import DEFAULT_FORMAT, FORMATS, PushFormat
 
 router = APIRouter(tags=["live"])
 
 MAX_WAITING = 32  # pushes waiting for a parser before the next one gets 429
-PUSH_PATH = "/live/sensorlogger"
+PUSH_PATH = f"/live/{DEFAULT_FORMAT.name}"  # the push URL the upload page shows
 
 TokenQuery = Annotated[
     str | None, Query(description="The live token (FTIN_LIVE_TOKEN), when set.", max_length=200)
@@ -36,7 +42,7 @@ PlatformQuery = Annotated[
 
 class LivePushResponse(BaseModel):
     status: str = "ok"
-    test: bool = Field(description="True for Sensor Logger's 'Tap to Test Pushing' message.")
+    test: bool = Field(description="True for the app's test message (Sensor Logger's 'Tap to Test Pushing').")
     detail: str | None = None
     run_id: str | None = Field(None, description="The session's run, once its first window has run.")
     queued: int | None = Field(None, description="Messages waiting to be used.")
@@ -82,21 +88,23 @@ class LiveInfoResponse(BaseModel):
     sessions: list[LiveSessionInfo]
 
 
-async def _body(request: Request, limit: int) -> bytes:
+async def _body(request: Request, limit: int, app: str) -> bytes:
+    """The request body, or 413 as soon as it is known to be over ``limit`` bytes."""
     declared = request.headers.get("content-length", "")
-    if declared.isdigit() and int(declared) > limit:
+    size = int(declared) if declared.isdigit() else 0
+    chunks: list[bytes] = []
+    if size <= limit:
+        size = 0
+        async for chunk in request.stream():
+            size += len(chunk)
+            if size > limit:
+                break
+            chunks.append(chunk)
+    if size > limit:
         raise PayloadTooLargeError(
-            f"push message of {int(declared) / 1024:.0f} KiB; the limit is {limit / 1024:.0f} KiB "
-            "(FTIN_LIVE_MAX_BODY_KB)"
+            f"push message of {size / 1024:.0f} KiB or more; the limit is {limit / 1024:.0f} KiB "
+            f"(FTIN_LIVE_MAX_BODY_KB): shorten {app}'s batch period or send fewer sensors"
         )
-    chunks, size = [], 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > limit:
-            raise PayloadTooLargeError(
-                f"push message larger than {limit / 1024:.0f} KiB (FTIN_LIVE_MAX_BODY_KB)"
-            )
-        chunks.append(chunk)
     return b"".join(chunks)
 
 
@@ -115,40 +123,50 @@ def _gate(request: Request) -> _Gate:
     return gate
 
 
-@router.post(
-    PUSH_PATH,
-    response_model=LivePushResponse,
-    responses={code: {"model": ErrorResponse} for code in (401, 403, 404, 409, 413, 422, 429)},
-)
-async def push(
-    request: Request,
-    services: ServicesDep,
-    token: TokenQuery = None,
-    model: ModelQuery = None,
-    platform: PlatformQuery = None,
-) -> LivePushResponse:
-    """One Sensor Logger push message (JSON: messageId, sessionId, deviceId, payload). Set the app's
-    HTTP Push URL to this address (GET /live/info has it, with the token)."""
-    arrival_s = time.monotonic()
-    auth = request.headers.get("authorization", "")
-    if token is None and auth.lower().startswith("bearer "):
-        token = auth[7:].strip()
-    live = services.live
-    live.check_access(request.client.host if request.client else None, token)
-    body = await _body(request, live.max_body_bytes)
-    gate = _gate(request)
-    if gate.waiting >= MAX_WAITING:
-        raise BusyError("too many push messages at once; this one was dropped")
-    gate.waiting += 1
-    try:
-        await gate.semaphore.acquire()
-    finally:
-        gate.waiting -= 1
-    try:
-        answer = await run_in_threadpool(live.accept, body, arrival_s, model, platform)
-    finally:
-        gate.semaphore.release()
-    return LivePushResponse(**answer)
+def _push_endpoint(push_format: PushFormat) -> Callable[..., Awaitable[LivePushResponse]]:
+    """The endpoint of one push format: access, size, a parser thread, then the live service."""
+
+    async def push(
+        request: Request,
+        services: ServicesDep,
+        token: TokenQuery = None,
+        model: ModelQuery = None,
+        platform: PlatformQuery = None,
+    ) -> LivePushResponse:
+        arrival_s = time.monotonic()
+        auth = request.headers.get("authorization", "")
+        if token is None and auth.lower().startswith("bearer "):
+            token = auth[7:].strip()
+        live = services.live
+        live.check_access(request.client.host if request.client else None, token)
+        body = await _body(request, live.max_body_bytes, push_format.app)
+        gate = _gate(request)
+        if gate.waiting >= MAX_WAITING:
+            raise BusyError("too many push messages at once; this one was dropped")
+        gate.waiting += 1
+        try:
+            await gate.semaphore.acquire()
+        finally:
+            gate.waiting -= 1
+        try:
+            answer = await run_in_threadpool(live.accept, body, arrival_s, push_format, model, platform)
+        finally:
+            gate.semaphore.release()
+        return LivePushResponse(**answer)
+
+    push.__doc__ = push_format.description
+    return push
+
+
+for _format in FORMATS.values():
+    router.add_api_route(
+        f"/live/{_format.name}",
+        _push_endpoint(_format),
+        methods=["POST"],
+        name="push",
+        response_model=LivePushResponse,
+        responses={code: {"model": ErrorResponse} for code in (401, 403, 404, 409, 413, 422, 429)},
+    )
 
 
 @router.get("/live/sessions", response_model=list[LiveSessionInfo])
