@@ -23,22 +23,21 @@ without the slow predictions.
 recording (t, gyroscope, accelerometer, magnetometer): only ``vqf``, ``vqf6d`` and ``auto`` exist
 then; ``--compare`` takes the full study's ``--json`` for the ``device`` ATE the criterion names.
 
-    PYTHONPATH=. .venv/bin/python scripts/orientation_quality.py ../shared/data \
+    .venv/bin/python -m experiments.orientation_quality ../shared/data \
         --checkpoint checkpoints/ftin-pedestrian --json runs/orientation_study.json --out docs/orientation.md
-    PYTHONPATH=. .venv/bin/python scripts/orientation_quality.py ../shared/data --phone-only \
+    .venv/bin/python -m experiments.orientation_quality ../shared/data --phone-only \
         --checkpoint checkpoints/ftin-pedestrian --json runs/orientation_phone.json \
         --compare runs/orientation_study.json --out docs/orientation.md
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
-import torch
 
+from experiments.common import argument_parser, parse
 from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data import frames
@@ -243,7 +242,7 @@ def replace_between(path: Path, marker: str, table: str) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("data_root", type=Path)
     parser.add_argument("--out", type=Path, default=None, help="markdown file with table markers")
     parser.add_argument("--json", type=Path, default=None, help="every row, with its evidence")
@@ -258,8 +257,7 @@ def main() -> None:
     parser.add_argument(
         "--compare", type=Path, default=None, help="with --phone-only: the full study's --json (device ATE)"
     )
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     if args.rows is not None:
         rows = json.loads(args.rows.read_text())
         if args.refresh_evidence:  # a new signal: measure it again, keep the (slow) ATE
@@ -294,7 +292,6 @@ def main() -> None:
         replace_between(args.out, f"{prefix}sources", errors)
         if ates is not None:
             replace_between(args.out, f"{prefix}ate", ates)
-
 
 
 if __name__ == "__main__":

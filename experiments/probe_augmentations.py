@@ -1,12 +1,12 @@
 """Which training augmentations (``ftin.train.augment``) help on walkers the model has never seen?
 
-    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase arms
-    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase best
-    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --phase seeds --arms ARM ...
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --phase summary
-    PYTHONPATH=$PWD nice -n 10 .venv/bin/python scripts/probe_augmentations.py --fold 0 --stride 50 \
+    nice -n 10 .venv/bin/python -m experiments.probe_augmentations --phase arms
+    nice -n 10 .venv/bin/python -m experiments.probe_augmentations --phase best
+    nice -n 10 .venv/bin/python -m experiments.probe_augmentations --phase seeds --arms ARM ...
+    .venv/bin/python -m experiments.probe_augmentations --phase summary
+    nice -n 10 .venv/bin/python -m experiments.probe_augmentations --fold 0 --stride 50 \
         --phase seeds --arms yaw_only pace --seeds 0 1
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_augmentations.py --fold 0 --epochs 10 --phone-only \
+    .venv/bin/python -m experiments.probe_augmentations --fold 0 --epochs 10 --phone-only \
         --phase seeds --arms mirror mirror_tilt --seeds 0
 
 A short-budget probe, not a campaign: RoNIN ResNet, 1 s windows at 100 Hz every 0.2 s, batch 128,
@@ -35,24 +35,23 @@ can be re-run.
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 
+from experiments.common import argument_parser, parse
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only, load_sequences
 from ftin.evaluate import score
+from ftin.files import DEFAULT_DATA_ROOT
 from ftin.infer import predict_trajectory
 from ftin.train.config import TrainConfig
 from ftin.train.loop import train
 
-DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 RUNS = Path("runs/probes/augment")
 EPOCHS = 6
 VAL_WALKERS = {protocol.OXIOD: ("user2",), protocol.RIDI: ("hang", "ma")}
@@ -198,8 +197,8 @@ def run_arm(arm: str, seed: int, train_seqs, val_seqs, stride: int = 20, phone_s
         train_seqs = [*train_seqs, *load_sequences(extra, orientation="ground_truth")]
     config = TrainConfig(
         model="ronin_resnet",
-        data=tuple(str(p) for p in [*paths(TRAIN, DATA_ROOT), *extra]),
-        val=tuple(str(p) for p in paths(VAL, DATA_ROOT)),
+        data=tuple(str(p) for p in [*paths(TRAIN, DEFAULT_DATA_ROOT), *extra]),
+        val=tuple(str(p) for p in paths(VAL, DEFAULT_DATA_ROOT)),
         out_dir=str(folder),
         name="model",
         imu_rate_hz=100.0,
@@ -337,9 +336,7 @@ def carry_summary(results: list[dict[str, Any]]) -> str:
 
 def main() -> None:
     global RUNS, TRAIN, VAL, EPOCHS  # a fold's split and budget replace the module's
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    parser = argument_parser(__doc__)
     parser.add_argument("--phase", choices=("arms", "best", "seeds", "summary"), required=True)
     parser.add_argument("--seeds", type=int, nargs="*", default=[2, 3], help="phase seeds: these seeds")
     parser.add_argument(
@@ -352,8 +349,7 @@ def main() -> None:
     parser.add_argument(
         "--phone-only", action="store_true", help="score the validation walkers phone only as well"
     )
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     EPOCHS = args.epochs
     if args.fold is not None:
         RUNS = Path(f"runs/probes/augment-f{args.fold}" + (f"-e{EPOCHS}" if EPOCHS != 6 else ""))
@@ -365,9 +361,9 @@ def main() -> None:
         args.out.write_text(text)
         print(text)
         return
-    train_seqs = load_sequences(paths(TRAIN, DATA_ROOT), orientation="ground_truth")
-    val_seqs = load_sequences(paths(VAL, DATA_ROOT), orientation="ground_truth")
-    phone_seqs = load_phone_only(paths(VAL, DATA_ROOT)) if args.phone_only else None
+    train_seqs = load_sequences(paths(TRAIN, DEFAULT_DATA_ROOT), orientation="ground_truth")
+    val_seqs = load_sequences(paths(VAL, DEFAULT_DATA_ROOT), orientation="ground_truth")
+    phone_seqs = load_phone_only(paths(VAL, DEFAULT_DATA_ROOT)) if args.phone_only else None
     if args.phase == "arms":
         arms = [arm for arm in (args.arms or ORDER) if arm != BASELINE]
         plan = [(BASELINE, 0), *[(arm, 0) for arm in arms], (BASELINE, 1)]

@@ -1,6 +1,6 @@
 """Probe: stage one's walker-held-out comparisons again, with the turned-copy average inference now runs.
 
-    .venv/bin/python scripts/probe_crossval_averaged.py [--runs runs/generalisation] \
+    .venv/bin/python -m experiments.probe_crossval_averaged [--runs runs/generalisation] \
         [--records docs/results/generalisation] [--out runs/crossval_averaged]
     .venv/bin/ftin campaign crossval --results runs/crossval_averaged --out runs/crossval_averaged
 
@@ -15,13 +15,12 @@ with the average (each fold's recordings read once), for ``ftin campaign crossva
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
-import torch
 from tqdm import tqdm
 
+from experiments.common import argument_parser, job_checkpoints, parse
 from ftin import protocol
 from ftin.campaign.folder import Campaign, record_name
 from ftin.campaign.job import part_datasets, part_rows
@@ -32,20 +31,21 @@ from ftin.yaw_average import YAW_COPIES
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("--runs", type=Path, default=Path("runs/generalisation"))
     parser.add_argument("--records", type=Path, default=Path("docs/results/generalisation"))
     parser.add_argument("--out", type=Path, default=Path("runs/crossval_averaged"))
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     campaign = Campaign(args.runs)
     by_fold: dict[int, list[tuple[protocol.Job, Path, dict]]] = {}
-    for job in campaign.jobs():
-        record_path = args.records / record_name(job.name)
-        checkpoints = [p for p in campaign.job_dir(job).glob(f"{job.checkpoint_stem}.safetensors")]
-        if campaign.is_done(job) and record_path.exists() and checkpoints:
+    recorded = [
+        (job, checkpoint, args.records / record_name(job.name))
+        for job, checkpoint in job_checkpoints(campaign, campaign.is_done)
+    ]
+    for job, checkpoint, record_path in recorded:
+        if record_path.exists():
             record = json.loads(record_path.read_text())
-            by_fold.setdefault(job.fold, []).append((job, checkpoints[0], record))
+            by_fold.setdefault(job.fold, []).append((job, checkpoint, record))
     args.out.mkdir(parents=True, exist_ok=True)
     for fold, jobs in sorted(by_fold.items()):
         datasets = part_datasets(jobs[0][0], campaign.data_root, "val", protocol.PHONE_ONLY)

@@ -1,13 +1,13 @@
 """Probe: how inference turns window velocities into a path, on hidden walks (phone only).
 
-    .venv/bin/python scripts/probe_integration.py [--checkpoint checkpoints/ftin-pedestrian] \
+    .venv/bin/python -m experiments.probe_integration [--checkpoint checkpoints/ftin-pedestrian] \
         [--data ../shared/data] [--out docs/results/probes/integration.md]
 
 Each window velocity is the mean velocity over its window. Inference today gives each sample interval
 the mean of the windows that cover it (``ftin.infer.integrate_spans``), so with 1 s windows every 0.2 s
 the path is the truth averaged twice over 1 s: on tight turns it cuts the corners twice. RoNIN's
 reference integrates each window's velocity over one stride instead (the truth averaged once). This
-probe runs a checkpoint once per recording, phone only (as ``scripts/hidden_walks.py`` loads them), on
+probe runs a checkpoint once per recording, phone only (as the hidden-walks check loads them), on
 recordings that decide nothing else and that ``ftin-pedestrian`` never trained on: the validation parts
 of OxIOD and RIDI and every Inria walk outside its test part (Nexus 5 and iPhone 5, both walkers; the
 test parts stay unread), and integrates the same velocities both ways: each window's velocity over its
@@ -18,20 +18,20 @@ correct window model is the reference: the true window velocities integrated bot
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 from tqdm import tqdm
 
+from experiments.common import argument_parser, hidden_walk_paths, parse, write_report
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
 from ftin.data.types import Trajectory
 from ftin.evaluate import score
+from ftin.files import DEFAULT_DATA_ROOT
 from ftin.infer import integrate_spans, predict_trajectory
 
 DATASETS = (protocol.OXIOD, protocol.RIDI, protocol.INRIA)
@@ -63,18 +63,16 @@ def figures(prediction, p_world_m: np.ndarray) -> tuple[float, float | None]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("--checkpoint", type=Path, default=Path("checkpoints/ftin-pedestrian"))
-    parser.add_argument("--data", type=Path, default=Path("../shared/data"))
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=Path("docs/results/probes/integration.md"))
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     loaded = load_model(args.checkpoint)
     window, stride = loaded.window, loaded.stride
     rows: dict[tuple[str, str], list[dict[str, float]]] = defaultdict(list)
     for dataset in DATASETS:
-        parts = ("train", "val") if dataset == protocol.INRIA else ("val",)
-        paths = [p for part in parts for p in protocol.split_paths(args.data, dataset, part)]
+        paths = hidden_walk_paths(args.data, dataset)
         for seq in tqdm(load_phone_only(paths, f"{dataset} probe walks"), desc=dataset, unit="walk"):
             prediction = predict_trajectory(loaded, seq, keep_prepared=False, yaw_copies=1)
             t_s, starts = prediction.trajectory.t_s, prediction.starts
@@ -95,7 +93,8 @@ def main() -> None:
     lines = [
         "# Integrating window velocities: over the whole window or over the stride at its centre",
         "",
-        f"Made by `scripts/probe_integration.py --checkpoint {args.checkpoint}` (its docstring: method). "
+        f"Made by `python -m experiments.probe_integration --checkpoint {args.checkpoint}` "
+        "(its docstring: method). "
         "The validation parts of OxIOD and RIDI and Inria's Nexus 5 and iPhone 5 walks (no test part), "
         "phone only (`auto` orientation), RoNIN convention. Distance ratio: the path "
         "as predicted over the walked distance (the true path smoothed over 1 s). 'Correct model': the true "
@@ -119,10 +118,7 @@ def main() -> None:
         lines.append(f"| {dataset} | {carry} | {len(group)} | {cells(group)} |")
     everything = [r for group in rows.values() for r in group]
     lines.append(f"| all | | {len(everything)} | {cells(everything)} |")
-    text = "\n".join(lines) + "\n"
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
-    print(text)
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Probe: what a phone alone costs a network's walk, heading or tilt, on walker-held-out validation.
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_phone_cost.py [--runs runs/generalisation] \
+    .venv/bin/python -m experiments.probe_phone_cost [--runs runs/generalisation] \
         [--arm ronin_resnet-mirror] [--seed 0] [--out docs/results/probes/phone_cost.md]
 
 Table 1's phone-only rows sit above its ground-truth rows (the default's test ATE: OxIOD 2.4x, RIDI
@@ -18,15 +18,14 @@ aligned, the app's four-copy average) and the path's heading error. The test par
 from __future__ import annotations
 
 import argparse
-import re
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 from scipy.spatial.transform import Rotation
 from tqdm import tqdm
 
+from experiments.common import argument_parser, arm_of, job_checkpoints, parse, write_report
 from ftin import protocol
 from ftin.campaign.folder import Campaign
 from ftin.checkpoint import load_model
@@ -69,23 +68,16 @@ def group(dataset: str, name: str) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("--runs", type=Path, default=Path("runs/generalisation"))
     parser.add_argument("--arm", default="ronin_resnet-mirror")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("docs/results/probes/phone_cost.md"))
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     campaign = Campaign(args.runs)
     rows: dict[str, dict[str, list[tuple[float, float]]]] = defaultdict(lambda: defaultdict(list))
     sources: dict[str, list[str]] = defaultdict(list)
-    for job in campaign.jobs():
-        if re.sub(r"-s\d+$", "", job.name.split("/")[-1]) != args.arm or job.seed != args.seed:
-            continue
-        checkpoint = campaign.job_dir(job) / f"{job.checkpoint_stem}.safetensors"
-        if not checkpoint.exists():
-            print(f"{job.name}: no checkpoint on disk, skipped")
-            continue
+    for job, checkpoint in job_checkpoints(campaign, lambda j: arm_of(j) == args.arm and j.seed == args.seed):
         model = load_model(checkpoint)
         recordings = [
             (dataset, path)
@@ -103,14 +95,15 @@ def main() -> None:
             for way, q in orientations.items():
                 scored = score(predict_trajectory(model, seq.with_(q_world_device_wxyz=q)), "start")
                 rows[key][way].append((scored.metrics.ate, scored.metrics.values.get("heading_error_deg")))
-    write_report(args, rows, sources)
+    render(args, rows, sources)
 
 
-def write_report(args: argparse.Namespace, rows: dict, sources: dict[str, list[str]]) -> None:
+def render(args: argparse.Namespace, rows: dict, sources: dict[str, list[str]]) -> None:
     lines = [
         "# What a phone alone costs: heading or tilt (a probe)",
         "",
-        f"Made by `scripts/probe_phone_cost.py --arm {args.arm} --seed {args.seed}` (its docstring: method).",
+        f"Made by `python -m experiments.probe_phone_cost --arm {args.arm} --seed {args.seed}`",
+        "(its docstring: method).",
         "Stage one's fold checkpoints on the walkers they never trained on. Cells: ATE (m, RoNIN",
         "convention, start-aligned, four-copy average) / the path's heading error (deg), mean over",
         "recordings; `auto` = what the rule chose for a phone export (counts in the last column).",
@@ -137,9 +130,7 @@ def write_report(args: argparse.Namespace, rows: dict, sources: dict[str, list[s
         "The last column of the bold rows: each way's ATE over motion capture's (auto, truth heading +"
     )
     lines.append("auto tilt, auto heading + truth tilt).")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Does an accelerometer that saturates at ±2 g change the speed a model reads? (a probe of minutes)
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_saturation.py \
+    .venv/bin/python -m experiments.probe_saturation \
         --checkpoint checkpoints/ftin-pedestrian --checkpoint checkpoints/ronin_resnet-oxiod \
         --out docs/results/probes/saturation.md
 
@@ -18,14 +18,13 @@ each against the true speed of the same windows.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 
+from experiments.common import add_checkpoint_options, argument_parser, parse, write_report
 from ftin.analysis.speed_cues import probe_windows, window_predictor
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
@@ -34,7 +33,6 @@ from ftin.data.types import ImuSequence
 from ftin.data.windows import velocity_targets
 from ftin.protocol import DATA_FOLDERS, INRIA
 
-DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 G = 9.80665
 
 
@@ -48,16 +46,10 @@ def carry_mode(name: str) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument("--checkpoint", action="append", required=True, help="checkpoint (repeatable)")
-    parser.add_argument("--data-root", type=Path, default=DATA_ROOT)
+    parser = argument_parser(__doc__)
+    add_checkpoint_options(parser, stride=20, checkpoint_help="checkpoint (repeatable)")
     parser.add_argument("--clip-g", type=float, default=2.0, help="saturation per axis, in g")
-    parser.add_argument("--stride", type=int, default=20, help="samples between probed windows")
-    parser.add_argument("--out", type=Path, default=None, help="markdown table (default: print only)")
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     limit = args.clip_g * G
     folders = sorted((args.data_root / DATA_FOLDERS[INRIA] / "ios").glob("*_iPhone5_*"))
     walks = load_sequences(folders, orientation="ground_truth")
@@ -67,7 +59,8 @@ def main() -> None:
     lines = [
         f"# Saturation probe: the accelerometer clipped at ±{args.clip_g:g} g",
         "",
-        f"Made by `scripts/probe_saturation.py` (its docstring: walks, method). {len(walks)} Inria iPhone 5 "
+        "Made by `python -m experiments.probe_saturation` (its docstring: walks, method). "
+        f"{len(walks)} Inria iPhone 5 "
         "walks (both walkers, motion-capture orientation; the test part's iPhone 4S walks unread); "
         "moving windows only. Speed ratio: mean predicted / mean true speed of the same windows, as "
         f"recorded and with every device axis clipped to ±{args.clip_g:g} g; change: clipped against "
@@ -109,10 +102,7 @@ def main() -> None:
             )
             lines.append(row)
             print(row, flush=True)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        print(f"wrote {args.out}")
+    write_report(args.out, lines, echo=False)  # the rows were printed as they came
 
 
 if __name__ == "__main__":

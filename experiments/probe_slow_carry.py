@@ -1,6 +1,6 @@
 """Where do the short carry modes (AR, phoning) lose their distance? (a probe of minutes)
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_slow_carry.py \
+    .venv/bin/python -m experiments.probe_slow_carry \
         --checkpoint 0=runs/generalisation/walking-f0/ftin-ordered-pace-s0/ftin-walking \
         --checkpoint 1=runs/generalisation/walking-f1/ftin-ordered-pace-s0/ftin-walking \
         --out docs/results/probes/slow_carry.md
@@ -22,13 +22,12 @@ the speed-cue probe found the models read.
 
 from __future__ import annotations
 
-import argparse
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 
+from experiments.common import add_checkpoint_options, argument_parser, parse, write_report
 from ftin.analysis.speed_cues import time_warp, window_predictor
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
@@ -37,24 +36,17 @@ from ftin.data.windows import velocity_targets, window_starts
 from ftin.protocol import DATA_FOLDERS, INRIA, fold_parts
 from ftin.report.crossval import carry_of
 
-DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 BANDS = (("standing", 0.0, 0.1), ("slow", 0.1, 0.5), ("walking", 0.5, np.inf))
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument("--checkpoint", action="append", required=True, help="FOLD=checkpoint (repeatable)")
-    parser.add_argument("--data-root", type=Path, default=DATA_ROOT)
-    parser.add_argument("--stride", type=int, default=10, help="samples between windows")
-    parser.add_argument("--out", type=Path, default=None, help="markdown table (default: print only)")
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    parser = argument_parser(__doc__)
+    add_checkpoint_options(parser, stride=10, checkpoint_help="FOLD=checkpoint (repeatable)")
+    args = parse(parser)
     lines = [
         "# Slow carry probe: where AR and phoning lose their distance",
         "",
-        "Made by `scripts/probe_slow_carry.py` (its docstring: walks, bands, method). Each fold "
+        "Made by `python -m experiments.probe_slow_carry` (its docstring: walks, bands, method). Each fold "
         "checkpoint on its validation walker's Inria walks (Nexus 5, iPhone 5), motion-capture "
         "orientation. Share: of the walked distance, the part made in windows of that true speed; "
         "ratio: predicted over true distance in those windows; bounce: vertical acceleration RMS "
@@ -101,10 +93,7 @@ def main() -> None:
             )
             lines.append(row)
             print(row, flush=True)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        print(f"wrote {args.out}")
+    write_report(args.out, lines, echo=False)  # the rows were printed as they came
 
 
 if __name__ == "__main__":

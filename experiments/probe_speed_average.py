@@ -1,7 +1,7 @@
 """Probe: does the turned-copy average shorten the walk? The mean of the copies' speeds against the
 speed of their mean vector, on walker-held-out validation.
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_speed_average.py [--runs runs/generalisation] \
+    .venv/bin/python -m experiments.probe_speed_average [--runs runs/generalisation] \
         [--arms ronin_resnet-mirror ftin-ordered-pace] [--out docs/results/probes/speed_average.md]
 
 Inference averages four quarter-turned copies of each window (``ftin/yaw_average.py``): each copy's
@@ -21,15 +21,14 @@ path's, smoothed over 1 s). The test parts are never read. Decides on these numb
 from __future__ import annotations
 
 import argparse
-import re
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 from tqdm import tqdm
 
 import ftin.infer
+from experiments.common import argument_parser, arm_of, job_checkpoints, parse, write_report
 from ftin import protocol
 from ftin.campaign.folder import Campaign
 from ftin.campaign.job import part_datasets, part_rows
@@ -81,26 +80,23 @@ def carry(dataset: str, name: str) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("--runs", type=Path, default=Path("runs/generalisation"))
     parser.add_argument("--arms", nargs="+", default=["ronin_resnet-mirror", "ftin-ordered-pace"])
     parser.add_argument("--out", type=Path, default=Path("docs/results/probes/speed_average.md"))
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     campaign = Campaign(args.runs)
     by_fold: dict[int, list[tuple[protocol.Job, Path]]] = defaultdict(list)
-    for job in campaign.jobs():
-        arm = re.sub(r"-s\d+$", "", job.name.split("/")[-1])
-        checkpoint = campaign.job_dir(job) / f"{job.checkpoint_stem}.safetensors"
-        if arm in args.arms and campaign.is_done(job) and checkpoint.exists():
-            by_fold[job.fold].append((job, checkpoint))
+    chosen = job_checkpoints(campaign, lambda j: arm_of(j) in args.arms and campaign.is_done(j))
+    for job, checkpoint in chosen:
+        by_fold[job.fold].append((job, checkpoint))
     # rows[mode][(arm, carry)] -> list of (ate / still, distance ratio)
     rows: dict[str, dict[tuple[str, str], list[tuple[float, float]]]] = {m: defaultdict(list) for m in MODES}
     shrink: dict[str, list[float]] = defaultdict(list)
     for fold, jobs in sorted(by_fold.items()):
         datasets = part_datasets(jobs[0][0], campaign.data_root, "val", protocol.PHONE_ONLY)
         for job, checkpoint in tqdm(jobs, desc=f"fold {fold}", unit="job"):
-            arm = re.sub(r"-s\d+$", "", job.name.split("/")[-1])
+            arm = arm_of(job)
             model = load_model(checkpoint)
             for mode, average in MODES.items():
                 ftin.infer.mean_turned_back = average  # the one place inference averages the copies
@@ -114,15 +110,16 @@ def main() -> None:
                     for row in part_rows_:
                         ratio = row["ate"] / row["stand_still"]["ate"]
                         rows[mode][(arm, carry(dataset, row["name"]))].append((ratio, row["distance_ratio"]))
-    write_report(args, rows, shrink)
+    render(args, rows, shrink)
 
 
-def write_report(args: argparse.Namespace, rows: dict, shrink: dict[str, list[float]]) -> None:
+def render(args: argparse.Namespace, rows: dict, shrink: dict[str, list[float]]) -> None:
     keys = sorted(rows["vector mean"])
     lines = [
         "# The turned-copy average: mean vector against mean speed (a probe)",
         "",
-        f"Made by `scripts/probe_speed_average.py --arms {' '.join(args.arms)}` (its docstring: method).",
+        f"Made by `python -m experiments.probe_speed_average --arms {' '.join(args.arms)}`",
+        "(its docstring: method).",
         "Stage one's walker-fold checkpoints on the walkers they never trained on, phone only, four",
         "quarter-turned copies. Cells: ATE over standing still's (mean over recordings and seeds) /",
         "distance ratio (estimate's path over the true path smoothed over 1 s); n = recordings x seeds.",
@@ -152,9 +149,7 @@ def write_report(args: argparse.Namespace, rows: dict, shrink: dict[str, list[fl
             distance = np.mean([np.mean([v[1] for v in vs]) for vs in per_dataset.values()])
             cells.append(f"**{ate:.3f} / {distance:.2f}**")
         lines.append(f"| {arm} | all (datasets weigh alike) | | " + " | ".join(cells) + " |")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """What do checkpoints read walking speed from? The speed-cue probe (``ftin.analysis.speed_cues``).
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/probe_speed_cues.py \
+    .venv/bin/python -m experiments.probe_speed_cues \
         --checkpoint checkpoints/ftin-pedestrian --checkpoint checkpoints/ronin_resnet-oxiod \
         --out docs/results/probes/speed_cues.md
 
@@ -15,33 +15,24 @@ amplitudes.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
-import torch
-
+from experiments.common import add_checkpoint_options, argument_parser, parse, write_report
 from ftin.analysis.speed_cues import speed_cue_probe, window_predictor
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
 from ftin.protocol import INRIA, OXIOD, RIDI, split_paths
 
-DATA_ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 LABELS = {"vertical": "vertical bounce", "cross_track": "cross-track swing", "along_track": "along-track"}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    parser.add_argument("--checkpoint", action="append", required=True, help="checkpoint (repeatable)")
-    parser.add_argument("--data-root", type=Path, default=DATA_ROOT)
-    parser.add_argument("--stride", type=int, default=20, help="samples between probed windows")
-    parser.add_argument("--out", type=Path, default=None, help="markdown table (default: print only)")
+    parser = argument_parser(__doc__)
+    add_checkpoint_options(parser, stride=20, checkpoint_help="checkpoint (repeatable)")
     parser.add_argument("--title", default="Speed-cue probe")
     parser.add_argument("--fold", type=int, default=None, help="walker fold's validation walkers")
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     names = (OXIOD, RIDI) if args.fold is None else (OXIOD, RIDI, INRIA)
     datasets = {
         name: load_sequences(split_paths(args.data_root, name, "val", args.fold), orientation="ground_truth")
@@ -72,7 +63,7 @@ def main() -> None:
         "orientation. Amplitude rows scale only the zero-mean part of one acceleration component; "
         "cadence rows resample the window from a span x0.8 / x1.25 as long, so the step frequency "
         "changes by that factor while amplitudes stay (a model reading speed from rhythm at a fixed "
-        "stride length would move by -20 % / +25 %). Made by `scripts/probe_speed_cues.py`.",
+        "stride length would move by -20 % / +25 %). Made by `python -m experiments.probe_speed_cues`.",
         "",
         "| cue | factor | " + " | ".join(columns) + " |",
         "|---|---|" + "---|" * len(columns),
@@ -82,11 +73,7 @@ def main() -> None:
         cells = " | ".join(f"{results[c][i].speed_change_pct:+.1f}" for c in columns)
         lines.append(f"| {label} | x{row.factor:g} | {cells} |")
     lines.append("| windows | | " + " | ".join(str(results[c][0].windows) for c in columns) + " |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Probe: does averaging a model over turned copies of its input make a better walker (phone only)?
 
-    .venv/bin/python scripts/probe_yaw_ensemble.py [--checkpoint checkpoints/ftin-pedestrian] \
+    .venv/bin/python -m experiments.probe_yaw_ensemble [--checkpoint checkpoints/ftin-pedestrian] \
         [--data ../shared/data] [--out docs/results/probes/yaw_ensemble.md]
 
 A walk's velocity turns with its world: turning the gravity-aligned input by a yaw turns the true
@@ -10,7 +10,7 @@ time: run the model on K copies of the world-frame input turned by 360/K degree 
 velocity back and average them. Both the vector mean and, beside it, the vector mean's direction with
 the mean speed (a mean of vectors that disagree in direction is shorter than each of them).
 
-Recordings: as ``scripts/probe_integration.py``, those that decide nothing else and that
+Recordings: as ``experiments/probe_integration.py``, those that decide nothing else and that
 ``ftin-pedestrian`` never trained on (OxIOD and RIDI validation parts, Inria's Nexus 5 and iPhone 5
 walks; the test parts stay unread), phone only; with ``--fold K`` (a checkpoint of the generalisation
 campaign's fold K) that fold's held-out walkers. Per dataset: mean ATE, ATE over standing still and
@@ -21,20 +21,20 @@ vertical plane, as the ``mirror`` augmentation reflects it; the velocity reflect
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-import torch
 from tqdm import tqdm
 
+from experiments.common import argument_parser, hidden_walk_paths, parse, write_report
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
 from ftin.data.types import Trajectory
 from ftin.evaluate import score
+from ftin.files import DEFAULT_DATA_ROOT
 from ftin.infer import integrate_spans, predict_trajectory, run_windows
 
 DATASETS = (protocol.OXIOD, protocol.RIDI, protocol.INRIA)
@@ -94,15 +94,14 @@ def figures(prediction, velocity: np.ndarray, window: int) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argument_parser(__doc__)
     parser.add_argument("--checkpoint", type=Path, default=Path("checkpoints/ftin-pedestrian"))
-    parser.add_argument("--data", type=Path, default=Path("../shared/data"))
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=Path("docs/results/probes/yaw_ensemble.md"))
     parser.add_argument(
         "--fold", type=int, default=None, help="a walker-fold model: its fold's held-out walkers instead"
     )
-    args = parser.parse_args()
-    torch.set_num_threads(1)
+    args = parse(parser)
     loaded = load_model(args.checkpoint)
     turns = np.radians(np.arange(0, 360, 45))  # K = 8; K = 4 is every second one
     arms = [f"one copy at {d:.0f}°" for d in np.degrees(turns)] + [
@@ -114,11 +113,7 @@ def main() -> None:
     ]
     rows: dict[str, dict[str, list[dict[str, float]]]] = defaultdict(lambda: defaultdict(list))
     for dataset in DATASETS:
-        if args.fold is not None:
-            paths = protocol.split_paths(args.data, dataset, "val", args.fold)
-        else:
-            parts = ("train", "val") if dataset == protocol.INRIA else ("val",)
-            paths = [p for part in parts for p in protocol.split_paths(args.data, dataset, part)]
+        paths = hidden_walk_paths(args.data, dataset, args.fold)
         for seq in tqdm(load_phone_only(paths, f"{dataset} probe walks"), desc=dataset, unit="walk"):
             prediction = predict_trajectory(loaded, seq, keep_prepared=False, yaw_copies=1)
             vs = [velocities(loaded, prediction.imu_world, prediction.starts, yaw) for yaw in turns]
@@ -144,7 +139,7 @@ def main() -> None:
     lines = [
         "# Averaging a model over turned copies of its input (test-time yaw ensemble)",
         "",
-        f"Made by `scripts/probe_yaw_ensemble.py --checkpoint {args.checkpoint}"
+        f"Made by `python -m experiments.probe_yaw_ensemble --checkpoint {args.checkpoint}"
         f"{'' if args.fold is None else f' --fold {args.fold}'}` (its docstring: method). "
         f"Phone only (`auto`), RoNIN convention; {walks}. Cells: mean ATE (m) / mean ATE over "
         "standing still's / mean distance ratio.",
@@ -161,10 +156,7 @@ def main() -> None:
             ratio = np.mean([r["ratio"] for r in group if r["ratio"] is not None])
             cells.append(f"{ate:.2f} / {still:.2f} / {ratio:.2f}")
         lines.append(f"| {arm} | " + " | ".join(cells) + " |")
-    text = "\n".join(lines) + "\n"
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
-    print(text)
+    write_report(args.out, lines)
 
 
 if __name__ == "__main__":

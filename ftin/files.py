@@ -1,11 +1,14 @@
 """Files written whole or not at all, and values made plain JSON: what every writer of the project uses
-(checkpoints, training state, reports, CLI outputs).
+(checkpoints, training state, reports, CLI outputs); and where the recordings live by default.
 
 Decisions:
 - ``atomic_write_bytes`` writes to a temporary file beside the target and ``os.replace``s it into
   place, so a killed process never leaves a half-written file under the real name.
 - ``to_json_safe`` makes strict JSON: numpy values, tuples, paths and enums converted, non-finite
   floats become null (``json.dumps(..., allow_nan=False)`` then never fails on them).
+- ``DEFAULT_DATA_ROOT``, the one default of every ``--data`` / ``--data-root``: ``shared/data`` beside
+  the checkout (``../shared/data`` from its root), found from this file, so it holds whatever the
+  working folder.
 """
 
 from __future__ import annotations
@@ -19,6 +22,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (an editable install runs from it)
+DEFAULT_DATA_ROOT = REPO_ROOT.parent / "shared" / "data"
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

@@ -30,7 +30,7 @@ call. Steps and decisions:
    the mean keeps the part of the output that turns with the walk; 1 is the network alone). Feature
    taps are those of the input as it is.
    What grows with the recording is linear in the number of samples and small per sample: the
-   resampled, rotated IMU, the velocities and the trajectory (``scripts/bench_memory.py`` measures
+   resampled, rotated IMU, the velocities and the trajectory (``ftin bench memory`` measures
    the peak RSS of a 1-hour 200 Hz recording).
 4. Integration: each velocity is the mean velocity over its span ``[t[a], t[b]]`` (a window, a part
    or one sample interval), so each sample interval ``[t[i], t[i+1]]`` gets the average velocity of

@@ -31,7 +31,7 @@ except ModuleNotFoundError:  # Python 3.10: pytest depends on tomli there
 
 from tests.utils.paths import REPO_ROOT
 
-SCANNED_FOLDERS = ("ftin", "app", "scripts", "tests")
+SCANNED_FOLDERS = ("ftin", "app", "experiments", "tests")
 THIS_FILE = Path(__file__).resolve()
 
 PICKLE_MODULES = {"pickle", "cPickle", "_pickle", "dill", "cloudpickle", "shelve", "marshal", "joblib"}

@@ -60,7 +60,7 @@ MEMORY_METHOD = (
     "increase = that minus ru_maxrss just before the phase's first pass"
 )
 # What the fork server imports once, so that each forked worker starts in milliseconds.
-_SERVER_PRELOAD = ("ftin.bench", "ftin.train.loop")
+_SERVER_PRELOAD = ("ftin.bench.side_by_side", "ftin.train.loop")
 _MIB = 1024.0 * 1024.0
 
 

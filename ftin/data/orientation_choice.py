@@ -22,7 +22,7 @@ Signals (:class:`OrientationEvidence`, from one offline VQF run):
 
 The rule (:func:`choose_orientation`), decided on validation recordings only (OxIOD and RIDI
 validation parts; Inria Nexus 5 and iPhone 5 walks, whose Dist / NoDist labels are what it must
-detect; evidence in ``docs/orientation.md``, ``scripts/orientation_quality.py``):
+detect; evidence in ``docs/orientation.md``, ``experiments/orientation_quality.py``):
 
 1. no magnetometer: ``device``, else ``vqf6d``;
 2. VQF flags less than ``DISTURBED_FRACTION`` of the recording: ``vqf``;

@@ -117,7 +117,7 @@ class AhrsMethod(str, Enum):
     (``vqf.offlineVQF``, C++ core): forward-backward filtering with gyroscope bias estimation and rest
     detection; 9-D (magnetometer-referenced heading) when the recording carries a magnetometer
     (``ImuSequence.mag_uT``), else 6-D. ``MADGWICK`` / ``MAHONY``: the ``ahrs`` package's
-    filters, one Python call per sample (kept for comparison: ``scripts/orientation_quality.py``).
+    filters, one Python call per sample (kept for comparison: ``experiments/orientation_quality.py``).
     """
 
     VQF = "vqf"
