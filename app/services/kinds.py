@@ -2,7 +2,8 @@
 
 Decisions:
 - A checkpoint's training data and a sequence's folder are named by what they are ("OxIOD",
-  "simulated walks"), never by a developer's path (``../shared/data/oxiod``) or a reader id (``csv``).
+  "simulated walks"), never by a developer's path (``../shared/data/oxiod``) or a reader id (``csv``):
+  a dataset's words are its reader's ``LABEL``, kept with the reader (``ftin.data.readers``).
 - A checkpoint's kinds are the datasets its card names (``ftin train`` records them,
   ``ftin.train.provenance``); older cards are read by the words of their paths. A sequence's kind
   comes from its
@@ -19,18 +20,17 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
+from ftin.data.readers import reader_label
+
 SIMULATED = "simulated"
+# The reader formats that are datasets, in the order ``kind_of`` tries them (a phone export or a generic
+# CSV is no kind of data). A kind is its format's first word, the one folders and cards name it by
+# (``inria_attitude`` -> ``inria``); its label is the reader's (``ftin.data.readers.reader_label``).
+DATASET_FORMATS = ("oxiod", "ronin", "ridi", "tlio", "rnin", "imunet", "euroc", "inria_attitude")
 
 KIND_LABELS = {
-    SIMULATED: "simulated walks",
-    "oxiod": "OxIOD",
-    "ronin": "RoNIN",
-    "ridi": "RIDI",
-    "tlio": "TLIO",
-    "rnin": "RNIN",
-    "imunet": "IMUNet",
-    "euroc": "EuRoC",
-    "inria": "Inria attitude benchmark",
+    SIMULATED: "simulated walks",  # no reader of its own: ``ftin sim`` writes generic CSV files
+    **{fmt.split("_")[0]: reader_label(fmt) for fmt in DATASET_FORMATS},
 }
 
 _WORD = re.compile(r"[a-z0-9]+")

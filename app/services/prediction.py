@@ -19,9 +19,11 @@ Decisions:
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
   spectra for the window it shows (see ``features``).
 - Orientation (``ftin.data.orientation_option``): every door takes a choice (``auto`` by default); a
-  listed sequence is read as the choice needs (the phone's attitude or the reference), the choice is
-  applied before the run, and the run keeps the oriented sequence, so that the drawn ground truth is
-  in the frame the model ran in. A request without a model runs the one ``model_choice`` picks.
+  listed sequence is read as the choice needs (the phone's attitude or the reference). The service
+  only chooses: the library's one orientation step (``orient``) applies the choice, once, before the
+  model runs on the oriented sequence (inference then has no choice left to apply), and the run keeps
+  that sequence, so that the drawn ground truth is in the frame the model ran in. A request without a
+  model runs the one ``model_choice`` picks.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ from ftin import infer
 from ftin.data import DataFormatError, ImuSequence, Trajectory
 from ftin.data.errors import TooManySamplesError
 from ftin.data.from_bytes import read_bytes
-from ftin.data.orientation_option import apply_orientation, parse_orientation
+from ftin.data.orientation_option import orient, parse_orientation
 from ftin.data.validate import validate
 from ftin.evaluate import score
 from ftin.metrics import Alignment
@@ -261,15 +263,10 @@ class PredictionService:
         try:
             with self.slots.acquire(deadline):
                 deadline.check(what)
-                seq = apply_orientation(seq, orientation)
+                seq = orient(seq, orientation)  # applied once, here: the run keeps the oriented sequence
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
-                    entry.loaded,
-                    seq,
-                    batch_size=BATCH_WINDOWS,
-                    progress=progress,
-                    keep_prepared=False,
-                    orientation=orientation,
+                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress, keep_prepared=False
                 )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))

@@ -87,7 +87,7 @@ def predict_command(
                 seq,
                 stride=stride,
                 progress=report,
-                orientation=orientation.value,
+                orientation=None,  # applied above, once
                 yaw_copies=yaw_copies,
             )
         scored = score(prediction, align)

@@ -59,7 +59,8 @@ def load_phone_only(paths: Sequence[str | Path], option: str = "--data") -> list
     """Every sequence in ``paths`` oriented as a phone alone would be (``auto`` choosing from
     gyroscope, accelerometer and magnetometer, the phone's attitude unseen): what a user who uploads a
     bare recording gets, with the reference turned into the estimate's world at the start for scoring
-    (``ftin.data.orientation_option.apply_phone_only``)."""
+    (``ftin.data.orientation_option.apply_phone_only``). Each is read with the phone's attitude; one
+    whose only orientation is its reference (EuRoC, TLIO, a simulation) raises ``ValueError``."""
     read = load_sequences(paths, option, Orientation.DEVICE.value)
     return [apply_phone_only(seq) for seq in read]
 

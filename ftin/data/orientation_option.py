@@ -17,8 +17,14 @@ table --orientation`` and ``TrainConfig.orientation`` take):
 (``device``, ``estimated``, ``ground_truth``). A choice the recording cannot give raises
 ``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
 and a reference (OxIOD, RIDI, the Inria benchmark) read the one the choice needs
-(:func:`reader_orientation`); ``ftin.data.prepare.prepare`` calls :func:`apply_orientation`, so
-training and inference apply a choice the same way.
+(:func:`reader_orientation`).
+
+:func:`orient` is the one step that orients a recording: ``ftin.data.prepare.prepare`` calls it, so
+training and inference apply a choice the same way, and a caller that keeps the oriented recording
+itself (the app's run draws its truth in the frame the model ran in) calls it once and hands the
+result to inference with no choice left to apply. :func:`apply_phone_only` orients a recording as a
+phone alone would (the campaign's phone-only rows), and refuses one read with its reference as its
+own orientation: that cannot be made phone-only.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ from typing import Any
 
 from ftin.data.errors import DataFormatError
 from ftin.data.orientation_choice import choose_orientation
-from ftin.data.preprocess import estimate_orientation
+from ftin.data.preprocess import ensure_orientation, estimate_orientation
 from ftin.data.types import ImuSequence
 
 # Readers whose ``orientation`` option takes "device" or "ground_truth".
@@ -80,9 +86,18 @@ def apply_phone_only(seq: ImuSequence) -> ImuSequence:
     accelerometer and magnetometer, runs on ``seq``, so that its ground truth is turned into the
     estimate's world over the first seconds through the phone's attitude (as the device rows' truth
     is turned into the phone's world). Without that, the truth's heading would be unrelated to the
-    estimate's and only a fitted alignment could score it."""
-    if _own_is_reference(seq) or seq.q_world_device_wxyz is None:
-        return apply_orientation(seq, Orientation.AUTO)
+    estimate's and only a fitted alignment could score it.
+
+    ``seq`` is read with the phone's attitude (``ftin.data.loading.load_phone_only``), or with none.
+    One whose own orientation is its reference (read with ``orientation="ground_truth"``; EuRoC, TLIO,
+    a simulation) raises ``ValueError``: ``auto`` would keep the reference, which no phone gives."""
+    if _own_is_reference(seq):
+        raise ValueError(
+            f"{seq.name!r}: its orientation is its reference (motion capture, Tango or a simulation), not "
+            "a phone's attitude, so it cannot be oriented as a phone alone would be; read it with the "
+            "phone's attitude (ftin.data.loading.load_phone_only, or its reader's orientation='device'), "
+            "or call apply_orientation(seq, 'auto') to keep the reference"
+        )
     source, reason = choose_orientation(phone_only(seq))
     return _with_source(seq, Orientation.AUTO, source, reason)
 
@@ -111,9 +126,18 @@ def _unavailable(seq: ImuSequence, choice: Orientation, why: str) -> Orientation
     )
 
 
+def orient(seq: ImuSequence, choice: Orientation | str | None = None) -> ImuSequence:
+    """``seq`` oriented: with ``choice``, that choice applied (:func:`apply_orientation`); without one,
+    its own orientation (the phone's attitude, or the reference as its reader chose), and when it has
+    none an attitude filter's estimate (``ensure_orientation``, whose note names the filter)."""
+    return ensure_orientation(seq) if choice is None else apply_orientation(seq, choice)
+
+
 def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orientation.AUTO) -> ImuSequence:
     """``seq`` with the orientation ``choice`` asks for, and ``meta["orientation_choice"]`` saying which
-    source ran and why (module docstring). A sequence that already carries this choice is returned as is."""
+    source ran and why (module docstring). A sequence that already carries this choice is returned as is:
+    a prepared one read back (``ftin.campaign.burst`` packs the model's input with its identity attitude)
+    must not be filtered a second time."""
     choice = parse_orientation(choice)
     done = seq.meta.get("orientation_choice")
     if isinstance(done, dict) and done.get("requested") == choice.value:

@@ -2,11 +2,12 @@
 
 ``prepare(seq, rate_hz, window, stride, orientation=...)`` returns a ``PreparedSequence``:
 
-1. Orientation: with ``orientation`` (``auto``, ``device``, ``vqf``, ``vqf6d``, ``ground_truth``), that
-   choice applied (``ftin.data.orientation_option.apply_orientation``: which source ran and why in
-   ``meta["orientation_choice"]``); without it, the sequence's own (device attitude, or ground truth as a
-   reader chose), and when it has none an attitude filter estimates it (``ensure_orientation``), with a
-   note. Either way the filter's own warning names the mode that ran.
+1. Orientation (``ftin.data.orientation_option.orient``, the one step that orients a recording): with
+   ``orientation`` (``auto``, ``device``, ``vqf``, ``vqf6d``, ``ground_truth``), that choice applied
+   (which source ran and why in ``meta["orientation_choice"]``); without it, the sequence's own (device
+   attitude, or ground truth as a reader chose), and when it has none an attitude filter estimates it,
+   with a note. Either way the filter's own warning names the mode that ran. A caller that keeps the
+   oriented recording (the app's run) orients it first and passes no choice here.
 2. Rate: unless the input already lies on a uniform grid at ``rate_hz`` (relative tolerance
    ``RATE_TOLERANCE`` on every interval), it is resampled to it (ground truth too), because a window
    length means a duration only at that rate. A sequence already on the grid is kept bit for bit.
@@ -26,8 +27,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ftin.data.orientation_option import Orientation, apply_orientation
-from ftin.data.preprocess import ensure_orientation, resample
+from ftin.data.orientation_option import Orientation, orient
+from ftin.data.preprocess import resample
 from ftin.data.types import ImuSequence
 from ftin.data.windows import window_starts, world_imu
 
@@ -76,8 +77,7 @@ def prepare(
     """``seq`` oriented (``orientation``: the choice to apply, module docstring) and on the ``rate_hz``
     grid, with its world-frame IMU and window starts."""
     notes: list[str] = []
-    # an estimate's own message names the filter and whether the heading drifts
-    prepared = ensure_orientation(seq) if orientation is None else apply_orientation(seq, orientation)
+    prepared = orient(seq, orientation)  # an estimate's own message names the filter and its heading
     if not on_grid(prepared, rate_hz):
         if len(prepared) > 1 and abs(prepared.rate_hz - rate_hz) > 0.01 * rate_hz:
             notes.append(

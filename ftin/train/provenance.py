@@ -23,7 +23,10 @@ from pathlib import PurePath
 from typing import Any
 
 _WORD = re.compile(r"[a-z0-9]+")
-# The datasets a legacy card's paths may name (the readers' names); only for ``convert_card``.
+# The datasets a legacy card's paths may name (reader formats, ``ftin.data.readers``, and the simulator's
+# ``sim``); only for ``convert_card``. Kept as a list, not read from the registry: cards written before
+# datasets were recorded no longer change, so a reader added since must not change how they read.
+# Labels for people are the readers' (``reader_label``), never kept here.
 KNOWN_DATASETS = ("oxiod", "ridi", "ronin", "tlio", "rnin", "imunet", "euroc", "sim")
 
 

@@ -10,7 +10,9 @@ from ftin.data.loading import read_one, reader_options
 from ftin.data.orientation_option import (
     OrientationUnavailableError,
     apply_orientation,
+    apply_phone_only,
     available_orientations,
+    orient,
     parse_orientation,
 )
 from ftin.data.prepare import prepare
@@ -89,6 +91,29 @@ def test_prepare_applies_the_choice_once() -> None:
     again = apply_orientation(prepared, "vqf6d")
     assert again is prepared  # already applied: not filtered twice
     assert "orientation_choice" not in prepare(seq, 100.0).seq.meta  # no choice: the sequence's own
+
+
+def test_orient_applies_a_choice_or_keeps_the_recordings_own() -> None:
+    seq = walk()
+    assert orient(seq) is seq  # its own attitude: nothing to estimate
+    assert orient(seq, "vqf6d").meta["orientation_choice"]["source"] == "vqf6d"
+    bare = orient(walk(device_yaw_deg=None))
+    assert bare.meta["orientation_source"] == "estimated" and "orientation_choice" not in bare.meta
+
+
+def test_phone_only_chooses_without_the_phone_attitude_and_estimates_on_the_recording() -> None:
+    seq = walk()
+    out = apply_phone_only(seq)
+    assert out.meta["orientation_choice"]["requested"] == "auto"
+    assert out.meta["orientation_choice"]["source"] in ("vqf", "vqf6d")  # never the phone's attitude
+    assert out.meta["orientation_source"] == "estimated"
+
+
+def test_phone_only_refuses_a_recording_read_with_its_reference() -> None:
+    seq = walk()
+    seq = seq.with_(meta={**seq.meta, "orientation_source": "ground_truth"})  # read for ground_truth
+    with pytest.raises(ValueError, match="its orientation is its reference .*load_phone_only"):
+        apply_phone_only(seq)
 
 
 def test_readers_with_a_reference_are_asked_for_what_the_choice_needs() -> None:

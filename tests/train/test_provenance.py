@@ -6,8 +6,15 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 from app.services.kinds import training_kinds
+from ftin.data.readers import READERS
 from ftin.train.model_card import _dataset_of
-from ftin.train.provenance import absolute_paths_in, convert_card, relative_recording, training_data_record
+from ftin.train.provenance import (
+    KNOWN_DATASETS,
+    absolute_paths_in,
+    convert_card,
+    relative_recording,
+    training_data_record,
+)
 
 
 def _seq(name: str, dataset: str) -> SimpleNamespace:
@@ -76,3 +83,7 @@ def test_a_legacy_card_is_converted_once_and_read_without_guessing() -> None:
     assert (
         training_kinds(named_only) == ("simulated",) and _dataset_of({"training_data": named_only}) == "sim"
     )
+
+
+def test_the_datasets_a_legacy_card_may_name_are_reader_formats_or_the_simulators() -> None:
+    assert set(KNOWN_DATASETS) - {"sim"} <= set(READERS)

@@ -2,13 +2,19 @@
 
 Each public module ``ftin.data.readers.<format>`` is a reader and follows one contract:
 
-* ``FORMAT: str``;
+* ``FORMAT: str`` (the reader's id) and ``LABEL: str`` (how people name it: ``"OxIOD"``,
+  ``"Sensor Logger export"``; ``reader_label``);
 * ``discover(root) -> list[Path]``: every sequence of the format under ``root`` (recursive, sorted);
   a path identifies one sequence, a file or a folder, whatever ``read`` takes;
 * ``read(path, **options) -> ImuSequence``, raising ``DataFormatError`` on bad input, decorated with
   ``@register_reader(priority=...)`` (``_registry``: the priority orders detection);
 * optionally ``claims(path) -> bool``: a cheap "is this one of my sequences?" used for
-  auto-detection; without it detection asks ``discover`` about the path's folder.
+  auto-detection; without it detection asks ``discover`` about the path's folder;
+* optionally, for a phone app's export, ``claims_export(files) -> bool`` and
+  ``read_export(files, name) -> ImuSequence`` on the export's files held in memory
+  (``ftin.data.io.phone_exports.ExportFiles``: an upload's ZIP or one uploaded CSV), which
+  ``ftin.data.from_bytes`` offers them in priority order (``export_readers``); ``NEEDS_WHOLE_EXPORT =
+  True`` says that one file of the export alone is never a recording (refused, naming the fix).
 
 Importing this package imports every public module in it, so a new reader is one new module here.
 What readers share (the generic CSV's columns, phone exports, the sensor clock, folders of fixed
@@ -21,9 +27,9 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-from ftin.data.readers._registry import PRIORITY, READERS, register_reader
+from ftin.data.readers._registry import PRIORITY, READERS, export_readers, reader_label, register_reader
 
-__all__ = ["PRIORITY", "READERS", "register_reader"]
+__all__ = ["PRIORITY", "READERS", "export_readers", "reader_label", "register_reader"]
 
 for _module in pkgutil.iter_modules(__path__):
     if not _module.name.startswith("_"):

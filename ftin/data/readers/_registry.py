@@ -1,9 +1,11 @@
 """The table of readers: each reader module registers itself with ``@register_reader(priority=...)``.
 
-A reader is a module of ``ftin.data.readers`` that defines the contract (``FORMAT``, ``discover``,
-``read``, optionally ``claims``; see the package docstring) and decorates its ``read``::
+A reader is a module of ``ftin.data.readers`` that defines the contract (``FORMAT``, ``LABEL``,
+``discover``, ``read``, optionally ``claims`` and the export hooks; see the package docstring) and
+decorates its ``read``::
 
     FORMAT = "mydataset"
+    LABEL = "My Dataset"
 
     def discover(root: Path) -> list[Path]: ...
 
@@ -13,12 +15,14 @@ A reader is a module of ``ftin.data.readers`` that defines the contract (``FORMA
 Decisions:
 
 * The module, not the function, is registered: discovery, detection and reading look ``discover``,
-  ``claims`` and ``read`` up on it when they run, so the decorator may stand above functions the
-  module defines later, and a test can patch a module's function.
-* ``priority`` orders detection and listing, highest first (ties by format name): a path claimed by
-  a format is not offered to formats below it. Bands in use: dataset layouts 40-100 (folders and
-  files of their own shape), phone exports 20-30, the generic CSV 0 (last: it accepts any CSV whose
-  header names the required columns, RIDI's and RNIN's included).
+  ``claims``, ``claims_export`` and ``read`` up on it when they run, so the decorator may stand above
+  functions the module defines later, and a test can patch a module's function.
+* ``priority`` orders detection and listing, highest first (ties by format name): a path (or an
+  upload's files, ``export_readers``) claimed by a format is not offered to formats below it. Bands in
+  use: dataset layouts 35-100 (folders and files of their own shape), phone exports 20-30, the generic
+  CSV 0 (last: it accepts any CSV whose header names the required columns, RIDI's and RNIN's included).
+* ``LABEL`` is how people name the format ("OxIOD", "Sensor Logger export"): the app's kinds of data
+  (``app.services.kinds``) read it here (``reader_label``), so a new reader brings its own words.
 * Registering a second module under a format already taken is an error, not a silent replacement.
 * A format whose sequences are folders marked by their own files (RoNIN, TLIO, RNIN) passes its
   ``layout`` (``ftin.data.io.sequence_folders.MarkedFolderLayout``): the module's ``discover`` and
@@ -49,6 +53,9 @@ def register_reader(priority: int, layout: Any = None) -> Callable[[ReadFunction
         fmt = getattr(module, "FORMAT", None)
         if not isinstance(fmt, str) or not fmt:
             raise TypeError(f"{module.__name__}: a reader module defines FORMAT (a non-empty str) above read")
+        label = getattr(module, "LABEL", None)
+        if not isinstance(label, str) or not label:
+            raise TypeError(f"{module.__name__}: a reader module defines LABEL (a non-empty str) above read")
         taken = READERS.get(fmt)
         if taken is not None and taken.__name__ != module.__name__:
             raise ValueError(f"{module.__name__}: format {fmt!r} is already registered by {taken.__name__}")
@@ -59,3 +66,17 @@ def register_reader(priority: int, layout: Any = None) -> Callable[[ReadFunction
         return read
 
     return register
+
+
+def reader_label(fmt: str) -> str:
+    """How people name format ``fmt`` (its reader's ``LABEL``): ``"oxiod"`` -> ``"OxIOD"``."""
+    module = READERS.get(fmt)
+    if module is None:
+        raise ValueError(f"no reader is registered for format {fmt!r}; formats: {', '.join(READERS)}")
+    return str(module.LABEL)
+
+
+def export_readers() -> list[ModuleType]:
+    """The readers of phone exports held in memory (``claims_export`` and ``read_export``: an upload's
+    ZIP or CSV, ``ftin.data.from_bytes``), highest priority first."""
+    return [module for module in READERS.values() if hasattr(module, "claims_export")]

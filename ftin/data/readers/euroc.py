@@ -32,6 +32,7 @@ from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
 
 FORMAT = "euroc"
+LABEL = "EuRoC"
 
 IMU_FILE = Path("mav0") / "imu0" / "data.csv"
 GT_FILE = Path("mav0") / "state_groundtruth_estimate0" / "data.csv"

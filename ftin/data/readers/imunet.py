@@ -35,6 +35,7 @@ from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence
 
 FORMAT = "imunet"
+LABEL = "IMUNet"
 
 # ARCore's world is y-up; IMUNet stored positions as (x, -z, y), a +90 deg turn about x.
 R_ZUP_YUP = Rotation.from_euler("x", 90.0, degrees=True)

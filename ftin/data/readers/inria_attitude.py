@@ -60,6 +60,7 @@ from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import STANDARD_GRAVITY_M_S2, validate_read
 
 FORMAT = "inria_attitude"
+LABEL = "Inria attitude benchmark"
 
 PLATFORMS = ("android", "ios")
 MOCAP_FOLDER = "qualisys"

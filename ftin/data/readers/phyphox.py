@@ -44,6 +44,7 @@ from ftin.data.types import ImuSequence
 from ftin.data.validate import validate_read
 
 FORMAT = "phyphox"
+LABEL = "phyphox export"
 
 _AXIS = re.compile(r"^(?P<prefix>.*?)\s*\b(?P<axis>[xyz])\b\s*\((?P<unit>[^)]*)\)$", re.IGNORECASE)
 _TIME = re.compile(r"^\s*time\s*\(\s*s\s*\)\s*$", re.IGNORECASE)
@@ -91,6 +92,11 @@ def is_phyphox_csv(data: bytes) -> bool:
     if not cells or not _TIME.match(cells[0]):
         return False
     return any(_AXIS.match(cell) for cell in cells[1:])
+
+
+def claims_export(files: ExportFiles) -> bool:
+    """An export held in memory (``ftin.data.from_bytes``): some CSV of it is phyphox's."""
+    return any(is_phyphox_csv(data) for data in files.files.values())
 
 
 def claims(path: Path) -> bool:

@@ -45,6 +45,7 @@ from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
 FORMAT = "ridi"
+LABEL = "RIDI"
 PROCESSED_CSV = Path("processed") / "data.csv"
 MAX_ALIGNMENT_TILT_DEG = 5.0
 NS_PER_S = 1e9

@@ -40,6 +40,7 @@ from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import check_increasing, check_quaternions, check_rate, csv_row_label, validate_read
 
 FORMAT = "rnin"
+LABEL = "RNIN"
 DATA_FILE = "SenseINS.csv"
 
 IMU_COLUMNS = (*(f"gyro_{a}" for a in "xyz"), *(f"acce_{a}" for a in "xyz"))

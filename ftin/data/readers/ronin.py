@@ -56,6 +56,7 @@ from ftin.data.validate import (
 )
 
 FORMAT = "ronin"
+LABEL = "RoNIN"
 DATA_FILE = "data.hdf5"
 INFO_FILE = "info.json"
 MAX_ALIGNMENT_TILT_DEG = 5.0

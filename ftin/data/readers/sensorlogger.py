@@ -49,6 +49,8 @@ from ftin.data.validate import validate_read
 # Sensor Logger documents its gyroscope in rad/s on both platforms (awesome-sensor-logger UNITS.md).
 GYRO_UNIT_DOCUMENTED = "rad/s (Sensor Logger's documented unit)"
 FORMAT = "sensorlogger"
+LABEL = "Sensor Logger export"
+NEEDS_WHOLE_EXPORT = True  # one CSV per sensor: no single file holds the gyroscope and the accelerometer
 
 AXIS_SENSORS = (
     "Accelerometer",
@@ -81,6 +83,11 @@ def looks_like_sensor_file(name: str, data: bytes) -> bool:
     if name.lower() == "orientation.csv":
         return {"qw", "qx", "qy", "qz"} <= cells and bool({"time", "seconds_elapsed"} & cells)
     return {"x", "y", "z"} <= cells and bool({"time", "seconds_elapsed"} & cells)
+
+
+def claims_export(files: ExportFiles) -> bool:
+    """An export held in memory (``ftin.data.from_bytes``): some file of it is one of Sensor Logger's."""
+    return any(looks_like_sensor_file(name, data) for name, data in files.files.items())
 
 
 def claims(path: Path) -> bool:

@@ -33,21 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ftin.data import frames
+from ftin.data import frames, validate
 from ftin.data.errors import DataFormatError
 from ftin.data.io.sequence_folders import MarkedFolderLayout, json_numbers, read_json, reference_pose_meta
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.data.validate import (
-    check_finite,
-    check_increasing,
-    check_quaternions,
-    check_rate,
-    sample_row_label,
-    validate_read,
-)
 
 FORMAT = "tlio"
+LABEL = "TLIO"
 DATA_FILE = "imu0_resampled.npy"
 DESCRIPTION_FILE = "imu0_resampled_description.json"
 CALIBRATION_FILE = "calibration.json"
@@ -152,16 +145,16 @@ def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSe
         )
     data = data.astype(np.float64)
     source = str(data_path)
-    check_finite(data, list(COLUMN_NAMES), source, sample_row_label)
-    check_increasing(data[:, 0], source, sample_row_label, column="ts_us")
+    validate.check_finite(data, list(COLUMN_NAMES), source, validate.sample_row_label)
+    validate.check_increasing(data[:, 0], source, validate.sample_row_label, column="ts_us")
     t_s = data[:, 0] * 1e-6
     rate_hz = float(1.0 / np.median(np.diff(t_s)))
-    check_rate(rate_hz, source)
+    validate.check_rate(rate_hz, source)
 
     warnings: list[str] = []
     in_world, compensated = _column_layout(folder, warnings)
     q_world_device = frames.make_continuous(
-        check_quaternions(data[:, [10, 7, 8, 9]], source, sample_row_label)
+        validate.check_quaternions(data[:, [10, 7, 8, 9]], source, validate.sample_row_label)
     )
     gyro, acc = data[:, 1:4], data[:, 4:7]
     if in_world:
@@ -185,4 +178,4 @@ def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSe
     gt = Trajectory(t_s, data[:, 11:14], q_world_device)
     meta = reference_pose_meta(FORMAT, folder, rate_hz, warnings)
     seq = ImuSequence(folder.name, t_s, gyro, acc, q_world_device, gt, meta)
-    return validate_read(seq)  # the checks every reader shares
+    return validate.validate_read(seq)  # the checks every reader shares

@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 from fastapi.testclient import TestClient
 
+import ftin.data.orientation_option as orientation_option
 from app.services.prediction import RunOptions
 from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, arrays_body, detail, upload
 
@@ -146,3 +147,19 @@ def test_the_truth_drawn_is_in_the_frame_the_filter_ran_in(
     scored = run.prediction.truth
     assert run.prediction.orientation_choice["source"] == "vqf"
     np.testing.assert_allclose(run.truth.p_world_m[-1], scored.p_world_m[-1], atol=0.05)
+
+
+def test_a_run_orients_its_recording_once(
+    client: TestClient, sample_frame: pd.DataFrame, monkeypatch
+) -> None:
+    applied = []
+    apply = orientation_option.apply_orientation
+
+    def counted(seq, choice):
+        applied.append(choice)
+        return apply(seq, choice)
+
+    monkeypatch.setattr(orientation_option, "apply_orientation", counted)
+    data = _with_magnetometer(sample_frame).to_csv(index=False).encode()
+    run = client.app.state.services.predictor.predict_csv(data, "walk.csv", RunOptions(orientation="vqf"))
+    assert applied == ["vqf"] and run.sequence.meta["orientation_choice"]["source"] == "vqf"
