@@ -19,6 +19,9 @@ This module reads and writes; the column table, aliases and header matching are 
   silently from the values: the time unit is the one (s, ms, us or ns) whose median interval means
   a 20–1000 Hz rate, and it is reported in ``meta["warnings"]``; accelerations that look like g or
   gyro values that look like deg/s are rejected with the factor to apply (``validate``).
+* Cells are parsed once, as floats straight from the file's bytes (``ftin.data.io.csv_floats``),
+  with ``float``'s values; only a file that this cannot read (a cell that is not a number, quoting,
+  ``\\r`` line ends) is parsed again as strings, to name the line and column at fault or to read it.
 * The raw cells are checked first (finite, enough rows, increasing time: the time unit is detected
   on them and messages quote them), then the sequence goes through ``validate`` with the file's
   own header names and line numbers.
@@ -35,7 +38,7 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -56,6 +59,7 @@ from ftin.data.io.csv_columns import (
     shown,
     sniff_delimiter,
 )
+from ftin.data.io.csv_floats import float_table, plain_header, utf8_error
 from ftin.data.messages import Note, with_messages
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
@@ -91,8 +95,11 @@ __all__ = [  # the table and limits are re-exported: callers and tests know them
 ]
 
 FORMAT = "csv"
+LABEL = "generic CSV"
 DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+# A line and its break as pandas' C parser splits them (\n, \r, \r\n): str.splitlines also breaks at
+# form feeds, \x1c-\x1e and U+2028, which shifted the header row off pandas' rows (found by schemathesis).
+_LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|\Z)")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -106,7 +113,8 @@ def _source_label(path_or_buffer: Any, name: str | None) -> str:
     return name or (buffer_name if isinstance(buffer_name, str) else None) or "<uploaded CSV>"
 
 
-def _read_text(path_or_buffer: Any, source: str) -> str:
+def _read_raw(path_or_buffer: Any, source: str) -> bytes | str:
+    """The file's bytes, checked to be UTF-8 text (no decoded copy is kept), or a text buffer's text."""
     try:
         if isinstance(path_or_buffer, (str, os.PathLike)):
             raw: bytes | str = Path(path_or_buffer).read_bytes()
@@ -117,29 +125,100 @@ def _read_text(path_or_buffer: Any, source: str) -> str:
     except OSError as exc:
         raise DataFormatError(f"{source}: cannot read file ({exc.strerror or exc})") from exc
     if isinstance(raw, (bytes, bytearray)):
-        try:
-            raw = bytes(raw).decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
+        raw = bytes(raw)
+        error = utf8_error(raw)
+        if error is not None:
             raise DataFormatError(
-                f"{source}: not UTF-8 text (byte {exc.start}); is this really a CSV file?"
-            ) from exc
-    return raw.lstrip("\ufeff")
+                f"{source}: not UTF-8 text (byte {error.start}); is this really a CSV file?"
+            ) from error
+    return raw
+
+
+class _Parsed(NamedTuple):
+    chosen: dict[str, HeaderMatch]  # canonical name -> the header read for it
+    warnings: list[str]
+    used: list[str]  # the canonical columns present, in ``COLUMNS`` order
+    values: np.ndarray  # (n, len(used)): the cells as written, as floats
+    line_of: np.ndarray  # (n,): 0-based file line of each row
+
+
+def _columns(headers: list[str], source: str) -> tuple[dict[str, HeaderMatch], list[str], list[str]]:
+    """The header row's checks: chosen header per canonical column, warnings, columns to read."""
+    if all(looks_numeric(h) for h in headers if h.strip()):
+        raise DataFormatError(
+            f"{source}: no header row: the first line {','.join(headers)[:60]!r} is data; the first line "
+            f"must name the columns, e.g. t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z"
+        )
+    chosen, warnings = map_columns(headers, source)
+    missing = missing_required(chosen)
+    if missing:
+        found = ", ".join(shown(h.strip()) for h in headers if h.strip())
+        hint = ""
+        if any("acc" in m for m in missing) and "linear" in found.lower():
+            hint = "; linear acceleration (gravity removed) cannot replace specific force including gravity"
+        raise DataFormatError(
+            f"{source}: missing column(s) {', '.join(missing)}; found columns: {found} "
+            f"(accepted names: see the CSV schema){hint}"
+        )
+    for group in ("q", "gt", "mag"):
+        present = [c for c in GROUPS[group] if c in chosen]
+        if present and len(present) < len(GROUPS[group]):
+            absent = [c for c in GROUPS[group] if c not in chosen]
+            raise DataFormatError(
+                f"{source}: incomplete {group} columns: found {', '.join(present)} "
+                f"but not {', '.join(absent)}"
+            )
+    return chosen, warnings, [spec.name for spec in COLUMNS if spec.name in chosen]
+
+
+def _parse_floats(raw: bytes | str, source: str) -> _Parsed | None:
+    """The cells parsed once, as floats, straight from the bytes (``ftin.data.io.csv_floats``); None
+    when the file is not plain or a cell is not a number: ``_parse_strings`` then says which."""
+    try:
+        data = raw if isinstance(raw, bytes) else raw.encode("utf-8")
+    except UnicodeEncodeError:  # a text buffer holding lone surrogates
+        return None
+    header = plain_header(data)
+    if header is None:
+        return None
+    delimiter = sniff_delimiter(header)
+    headers = header.split(delimiter)
+    try:
+        chosen, warnings, used = _columns(headers, source)
+    except DataFormatError:  # raised again by the string parse, after any fault it finds first
+        return None
+    table = float_table(data, delimiter, len(headers), [chosen[c].index for c in used])
+    return None if table is None else _Parsed(chosen, warnings, used, *table)
+
+
+def _parse_strings(raw: bytes | str, source: str) -> _Parsed:
+    """The cells parsed as strings: slower, but names the line and column of a cell that is not a
+    number, and reads what only it handles (``1_000``, quoted cells, ``\\r`` line ends)."""
+    text = (raw.decode("utf-8-sig") if isinstance(raw, bytes) else raw).lstrip("\ufeff")
+    headers, data = _parse_table(text, source)
+    chosen, warnings, used = _columns(headers, source)
+    values = np.column_stack([_to_float(data, chosen[c], source) for c in used])
+    return _Parsed(chosen, warnings, used, values, data.index.to_numpy())
+
+
+def _first_filled_line(text: str) -> tuple[int, str] | None:
+    """Index and text of the first non-blank line."""
+    return next(
+        ((number, line[1]) for number, line in enumerate(_LINE.finditer(text)) if line[1].strip()), None
+    )
 
 
 def _parse_table(text: str, source: str) -> tuple[list[str], pd.DataFrame]:
     """Header cells and the data rows as strings; index = 0-based file line of each row."""
-    # Split lines as pandas' C parser does (\n, \r, \r\n): str.splitlines also breaks at form feeds,
-    # \x1c-\x1e and U+2028, which shifted the header row off pandas' rows (found by schemathesis).
-    lines = _LINE_BREAK.split(text)
-    header_at = next((i for i, line in enumerate(lines) if line.strip()), None)
-    if header_at is None:
+    first = _first_filled_line(text)
+    if first is None:
         raise DataFormatError(f"{source}: the file is empty; expected a header row and samples")
-    delimiter = sniff_delimiter(lines[header_at])
+    header_at, header_line = first
     try:
         table = pd.read_csv(
-            io.StringIO(text),
+            io.BytesIO(text.encode("utf-8")),  # not StringIO: it would hold the text at 4 bytes a character
             header=None,
-            sep=delimiter,
+            sep=sniff_delimiter(header_line),
             dtype=str,
             keep_default_na=False,
             skip_blank_lines=False,
@@ -224,36 +303,22 @@ def read_csv(
     source = _source_label(path_or_buffer, name)
     if name is None:
         name = Path(source).stem if not source.startswith("<") else "upload"
-    text = _read_text(path_or_buffer, source)
-    headers, data = _parse_table(text, source)
-    if all(looks_numeric(h) for h in headers if h.strip()):
-        raise DataFormatError(
-            f"{source}: no header row: the first line {','.join(headers)[:60]!r} is data; the first line "
-            f"must name the columns, e.g. t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z"
-        )
-    chosen, warnings = map_columns(headers, source)
-    missing = missing_required(chosen)
-    if missing:
-        found = ", ".join(shown(h.strip()) for h in headers if h.strip())
-        hint = ""
-        if any("acc" in m for m in missing) and "linear" in found.lower():
-            hint = "; linear acceleration (gravity removed) cannot replace specific force including gravity"
-        raise DataFormatError(
-            f"{source}: missing column(s) {', '.join(missing)}; found columns: {found} "
-            f"(accepted names: see the CSV schema){hint}"
-        )
-    for group in ("q", "gt", "mag"):
-        present = [c for c in GROUPS[group] if c in chosen]
-        if present and len(present) < len(GROUPS[group]):
-            absent = [c for c in GROUPS[group] if c not in chosen]
-            raise DataFormatError(
-                f"{source}: incomplete {group} columns: found {', '.join(present)} "
-                f"but not {', '.join(absent)}"
-            )
+    # The parsed cells live only inside _sequence: validate's copies do not pile on top of them.
+    seq, row_label, names = _sequence(_parse(path_or_buffer, source), name, source, min_samples)
+    return validate(seq, source=source, row_label=row_label, columns=names, min_samples=min_samples)
 
-    used = [spec.name for spec in COLUMNS if spec.name in chosen]
-    values = np.column_stack([_to_float(data, chosen[c], source) for c in used])
-    line_of = data.index.to_numpy()
+
+def _parse(path_or_buffer: Any, source: str) -> _Parsed:
+    """The cells as floats: parsed once from the bytes, or as strings when that cannot be done."""
+    raw = _read_raw(path_or_buffer, source)
+    return _parse_floats(raw, source) or _parse_strings(raw, source)
+
+
+def _sequence(
+    parsed: _Parsed, name: str, source: str, min_samples: int
+) -> tuple[ImuSequence, RowLabel, ColumnNames]:
+    """The sequence in canonical units, before ``validate``, with what its messages name."""
+    chosen, warnings, used, values, line_of = parsed
     row_label: RowLabel = lambda i: f"line {int(line_of[i]) + 1}"  # noqa: E731
     # The raw cells first: the time unit is detected from the raw intervals, and messages quote them.
     check_finite(values, [chosen[c].header.strip() for c in used], source, row_label)
@@ -297,7 +362,7 @@ def read_csv(
         headers_of("q") if q is not None else ColumnNames.q,
         headers_of("gt") if gt is not None else ColumnNames.gt,
     )
-    return validate(seq, source=source, row_label=row_label, columns=names, min_samples=min_samples)
+    return seq, row_label, names
 
 
 @register_reader(priority=0)
