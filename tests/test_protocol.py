@@ -313,3 +313,11 @@ def test_stage_two_retrains_every_checkpoint_with_the_choices_default_candidates
     assert all(job.options["lr"] == 1e-4 and job.options["batch_size"] == 512 for job in jobs)
     assert by_name["oxiod/ftin-mixed-s3"].options["model_kwargs"]["fdl_output"] == "mixed"
     assert names[-1] == "sim/ftin-mixed-s0" and jobs[-1].options["augment"] == {"mirror": None}
+
+
+def test_oxiod_walkers_of_the_new_folders_are_told_apart() -> None:
+    assert protocol.walker(protocol.OXIOD, "multi users/user2/syn/imu4.csv") == "user2"
+    assert protocol.walker(protocol.OXIOD, "multi users/user3/syn/imu7.csv.xz") == "user3"
+    assert protocol.walker(protocol.OXIOD, "multi users/user4/syn/imu4.csv.xz") == "user4"
+    assert protocol.walker(protocol.OXIOD, "handheld/data1/syn/imu2.csv") == "user1"
+    assert protocol.walker(protocol.OXIOD, "large scale/floor1/syn/imu3.csv.xz") == "large scale-floor1"

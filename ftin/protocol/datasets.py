@@ -96,11 +96,14 @@ SPLITS: dict[str, dict[str, tuple[str, ...]]] = {
 
 
 def walker(dataset: str, recording: str) -> str:
-    """Who walked a recording (a path relative to the dataset's folder). OxIOD: the handheld folders
-    are users 1 and 2; each trolley folder is its own group. RIDI and Inria: the name's first word."""
+    """Who walked a recording (a path relative to the dataset's folder). OxIOD: ``handheld`` is user 1,
+    ``multi users/userN`` user N; any other folder (trolley, running, pocket, another phone, the large
+    floor: the release names no walker) is its own group. RIDI and Inria: the name's first word."""
     if dataset == OXIOD:
         top, folder = recording.split("/")[:2]
-        return {"handheld": "user1", "multi users": "user2"}.get(top, f"{top}-{folder}")
+        if top == "multi users":
+            return folder
+        return "user1" if top == "handheld" else f"{top}-{folder}"
     if dataset in (RIDI, INRIA):
         return Path(recording).name.split("_")[0]
     raise ValueError(f"no walkers known for dataset {dataset!r}")

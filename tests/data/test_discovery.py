@@ -163,7 +163,7 @@ def test_a_format_registers_once(monkeypatch):
     monkeypatch.setattr(readers._registry, "READERS", dict(readers.READERS))
     monkeypatch.setattr(readers._registry, "PRIORITY", dict(readers.PRIORITY))
     module = types.ModuleType("another_csv_reader")
-    module.FORMAT = "csv"
+    module.FORMAT, module.LABEL = "csv", "another CSV"
     monkeypatch.setitem(sys.modules, module.__name__, module)
 
     def read(path: Path) -> ImuSequence:
@@ -177,6 +177,18 @@ def test_a_format_registers_once(monkeypatch):
     module.FORMAT = ""
     with pytest.raises(TypeError, match="another_csv_reader: a reader module defines FORMAT"):
         readers.register_reader(priority=5)(read)
+    module.FORMAT, module.LABEL = "another", None
+    with pytest.raises(TypeError, match="another_csv_reader: a reader module defines LABEL"):
+        readers.register_reader(priority=5)(read)
+
+
+def test_every_reader_names_its_format_in_words_and_exports_are_offered_by_priority():
+    assert readers.reader_label("oxiod") == "OxIOD"
+    assert readers.reader_label("sensorlogger") == "Sensor Logger export"
+    assert all(readers.reader_label(fmt) for fmt in readers.READERS)
+    with pytest.raises(ValueError, match="no reader is registered for format 'nope'; formats: oxiod, "):
+        readers.reader_label("nope")
+    assert [module.FORMAT for module in readers.export_readers()] == ["phyphox", "sensorlogger"]
 
 
 def test_generic_csv_never_claims_a_file_of_another_layout(mixed):
@@ -296,7 +308,7 @@ def test_shared_data_lists_every_dataset(shared_data):
     for ref in refs:
         by_format.setdefault(ref.format, []).append(ref.name)
     assert sorted(by_format) == ["euroc", "inria_attitude", "oxiod", "phyphox", "ridi", "sensorlogger"]
-    assert len(by_format["oxiod"]) == 12 and len(by_format["euroc"]) == 5 and len(by_format["ridi"]) == 21
+    assert len(by_format["oxiod"]) == 42 and len(by_format["euroc"]) == 5 and len(by_format["ridi"]) == 21
     assert len(by_format["inria_attitude"]) == 84
     assert "inria_attitude/datasets/android/Thibaud_Nexus5_Dist_AR" in by_format["inria_attitude"]
     assert sorted(by_format["sensorlogger"]) == [

@@ -1,4 +1,7 @@
-"""OxIOD reader: the real sequences from ../shared/data and synthetic files written in that layout."""
+"""OxIOD reader: the real sequences from ../shared/data and synthetic files written in that layout.
+
+The first 12 shared sequences (plain ``.csv``: handheld, user2, trolley) are read in full here; the 30
+xz-compressed ones (other walkers and phones, Nexus 5, Tango) are in ``test_oxiod_more_walks.py``."""
 
 from __future__ import annotations
 
@@ -47,18 +50,23 @@ def oxiod_root(shared_dataset) -> Path:
     return shared_dataset("oxiod")
 
 
+def first_twelve(root: Path) -> list[Path]:
+    """The 12 Vicon walks shared first (plain .csv; the 30 others are .csv.xz)."""
+    return [path for path in oxiod.discover(root) if path.suffix == ".csv"]
+
+
 @pytest.fixture(scope="module")
 def gt_sequences(oxiod_root: Path):
-    return {path: oxiod.read(path) for path in oxiod.discover(oxiod_root)}
+    return {path: oxiod.read(path) for path in first_twelve(oxiod_root)}
 
 
 @pytest.fixture(scope="module")
 def device_sequences(oxiod_root: Path):
-    return {path: oxiod.read(path, orientation="device") for path in oxiod.discover(oxiod_root)}
+    return {path: oxiod.read(path, orientation="device") for path in first_twelve(oxiod_root)}
 
 
-def test_discover_finds_all_twelve_pairs(oxiod_root: Path):
-    found = oxiod.discover(oxiod_root)
+def test_discover_finds_the_twelve_plain_pairs(oxiod_root: Path):
+    found = first_twelve(oxiod_root)
     assert len(found) == 12
     assert found == sorted(found)
     assert all(p.name.startswith("imu") and (p.parent / p.name.replace("imu", "vi")).is_file() for p in found)

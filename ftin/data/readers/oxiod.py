@@ -1,28 +1,35 @@
-"""Reader for OxIOD (Chen et al. 2018): ``imuN.csv`` + ``viN.csv`` pairs, iPhone at 100 Hz, Vicon.
+"""Reader for OxIOD (Chen et al. 2018): ``imuN.csv`` + ``viN.csv`` (Vicon) or ``tangoN.csv`` (Tango).
 
-Layout facts (see ../shared/data/README.md): no header, rows synchronised 1:1, the time column is
-lossy so time comes from the row index. ``imuN.csv`` columns: 0 time, 1-3 attitude roll, pitch, yaw
-(rad), 4-6 rotation rate (rad/s, device frame), 7-9 gravity (g), 10-12 user acceleration (g),
-13-15 magnetic field (µT, kept as ``ImuSequence.mag_uT``). ``viN.csv``: 0 time, 1 Vicon frame
-counter (unusable), 2-4 position (m, Vicon world, z up), 5-8 marker orientation quaternion x, y, z, w.
+Layout facts (see ../shared/data/README.md): no header, 100 Hz, the time column is lossy so time
+comes from the row index; files are ``.csv`` or ``.csv.xz`` (the shared copy compresses the 30 walks
+beyond the first 12). ``imuN.csv`` is an iPhone's CoreMotion file (16 columns; magnetic field kept as
+``ImuSequence.mag_uT``) or, in ``multi devices/nexus 5``, a Nexus 5's (10 columns, no attitude):
+both parsed in :mod:`ftin.data.io.oxiod_csv`. ``viN.csv``: 0 time, 1 Vicon frame counter (unusable),
+2-4 position (m, Vicon world, z up), 5-8 marker orientation quaternion x, y, z, w; rows synchronised
+1:1 with the IMU's. ``tangoN.csv`` (``large scale``): Tango poses, paired with the IMU rows at a lag
+found from the headings (:mod:`ftin.data.io.tango`); IMU rows without a pose are cut.
 
 Decisions (all options of :func:`read`):
 
-- Specific force = ``-(gravity + user_acc) * 9.80665`` (iOS reports acceleration in g with the
-  opposite sign); the phone's attitude is ``R_world_device = Rotation.from_euler("ZXY", [yaw,
-  pitch, roll])``.
-- Vicon glitches (marker mislabelling: jumps of up to 1.2 m / 180 deg that come back after a few
+- Specific force and attitude as :mod:`ftin.data.io.oxiod_csv` derives them. A Nexus 5 has no
+  attitude: with ``orientation="device"`` its ``q_world_device_wxyz`` is None and the ground truth
+  stays in the levelled Vicon frame; its uncalibrated magnetometer is not kept.
+- ``meta``: ``carry`` as the release documents it (folder names; user3's ``Readme.txt`` per walk;
+  user4 and ``large scale`` undocumented: "unknown", ``carry_source`` says which), ``walker`` (the
+  ``multi users`` folder, else "unknown") and ``phone`` (the ``multi devices`` folder, else "iPhone":
+  the release does not name the main phone's model).
+- Vicon (and Tango) glitches (marker mislabelling: jumps of up to 1.2 m / 180 deg that come back after a few
   frames) and exactly repeated rows (dropped Vicon frames) are interpolated over before anything
   else (:func:`ftin.data.frames.repair_pose_glitches`); ``meta["warnings"]`` lists them.
 - Trimming: ``trim_start_rows=1200`` and ``trim_end_rows=300`` by default, the common practice with
   OxIOD (the phone stands still and is picked up / put down there).
-- The marker is not the IMU: the fixed rotation ``R_device_marker`` is solved per sequence (Wahba,
-  ``Rotation.align_vectors``) by aligning gyro with the angular rate differenced from the Vicon
-  orientations. Gyro alone cannot fix the twist about the axis the body turns about, and a trolley
-  turns about one axis only, so by default the specific force (IMU) is aligned with the one the
-  Vicon implies (second difference of positions plus gravity, in marker axes) as well, scaled by
-  1/g so that 1 g weighs like 1 rad/s. Both sides are smoothed over ``align_smoothing_s`` to tame
-  Vicon differencing noise. The solve uses the kept (trimmed) rows.
+- The marker (or the Tango device) is not the IMU: the fixed rotation ``R_device_marker`` is solved
+  per sequence (Wahba, ``Rotation.align_vectors``) by aligning gyro with the angular rate
+  differenced from the Vicon orientations. Gyro alone cannot fix the twist about the axis the body
+  turns about, and a trolley turns about one axis only, so by default the specific force (IMU) is
+  aligned with the one the Vicon implies (second difference of positions plus gravity, in marker
+  axes) as well, scaled by 1/g so that 1 g weighs like 1 rad/s. Both sides are smoothed over
+  ``align_smoothing_s`` to tame Vicon differencing noise. The solve uses the kept (trimmed) rows.
 - Levelling: the Vicon world's z axis is tilted from gravity by ~0.8 deg on every shared sequence.
   The mean acceleration over the kept rows is the velocity change over minutes, negligible, so the
   mean world-frame specific force is gravity; ``level_world=True`` turns the Vicon world by the
@@ -51,22 +58,22 @@ from enum import Enum
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.io import tango
+from ftin.data.io.oxiod_csv import STANDARD_GRAVITY_M_S2, PhoneRows, read_numeric_csv, read_phone
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
 
 FORMAT = "oxiod"
+LABEL = "OxIOD"
 
-STANDARD_GRAVITY_M_S2 = 9.80665
-IMU_COLUMNS = 16
 VICON_COLUMNS = 9
-_IMU_NAME = re.compile(r"imu(\d+)\.csv")
+_IMU_NAME = re.compile(r"imu(\d+)(\.csv(?:\.xz)?)")
 
 # Folder names of the OxIOD release -> carry mode. "multi users", "running" and "slow walking"
 # were recorded with the phone in the hand (the OxIOD paper's motion-mode sets).
@@ -78,7 +85,14 @@ CARRY_BY_FOLDER = {
     "pocket": "pocket",
     "handbag": "bag",
     "trolley": "trolley",
+    "multi devices": "handheld",  # the shared README: the other phones were hand-held
 }
+# Walks whose carry mode the release documents per sequence: user3's Readme.txt ("1-2: handheld,
+# 3-5: pocket, 6-7: handbag"). user4's walks and the large-scale floor walks are not documented.
+CARRY_BY_WALK = {
+    "user3": {1: "handheld", 2: "handheld", 3: "pocket", 4: "pocket", 5: "pocket", 6: "bag", 7: "bag"}
+}
+UNDOCUMENTED_CARRY = ("user4", "large scale")
 
 
 class OrientationSource(str, Enum):
@@ -87,57 +101,60 @@ class OrientationSource(str, Enum):
 
 
 def discover(root: Path) -> list[Path]:
-    """Every ``imuN.csv`` under ``root`` (recursive) that has a ``viN.csv`` beside it, sorted."""
+    """Every ``imuN.csv`` or ``imuN.csv.xz`` under ``root`` (recursive) with its ground truth
+    (``viN`` or ``tangoN``, either suffix) beside it, sorted."""
     root = Path(root)
     if root.is_file():
-        return [root] if _vicon_path(root) is not None else []
+        return [root] if ground_truth_path(root) is not None else []
     if not root.is_dir():
         raise DataFormatError(f"{root}: no such directory")
-    return sorted(p for p in root.rglob("imu*.csv") if _vicon_path(p) is not None)
+    return sorted(p for p in root.rglob("imu*.csv*") if ground_truth_path(p) is not None)
 
 
-def _vicon_path(imu_path: Path) -> Path | None:
+def ground_truth_path(imu_path: Path) -> Path | None:
+    """The ``viN`` (Vicon) or else ``tangoN`` (Tango) file beside ``imuN``, plain or xz; None if none."""
     match = _IMU_NAME.fullmatch(imu_path.name)
     if match is None:
         return None
-    vicon = imu_path.with_name(f"vi{match.group(1)}.csv")
-    return vicon if vicon.is_file() else None
+    for stem in ("vi", "tango"):
+        for suffix in dict.fromkeys((match.group(2), ".csv", ".csv.xz")):
+            path = imu_path.with_name(f"{stem}{match.group(1)}{suffix}")
+            if path.is_file():
+                return path
+    return None
+
+
+def carry_and_source(path: Path) -> tuple[str, str]:
+    """Carry mode as the release documents it (module docstring), else ``"unknown"``, and where it
+    was found: ``"user3 Readme.txt"``, ``"folder name"``, ``"not documented in the release"``, ``"none"``."""
+    match = _IMU_NAME.fullmatch(Path(path).name)
+    number = None if match is None else int(match.group(1))
+    for part in reversed([part.lower() for part in Path(path).parent.parts]):
+        if number in CARRY_BY_WALK.get(part, {}):
+            return CARRY_BY_WALK[part][number], f"{part} Readme.txt"
+        if part in UNDOCUMENTED_CARRY:
+            return "unknown", "not documented in the release"
+        if part in CARRY_BY_FOLDER:
+            return CARRY_BY_FOLDER[part], "folder name"
+    return "unknown", "none"
 
 
 def carry_mode(path: Path) -> str:
-    """Carry mode from the nearest folder name that OxIOD uses for one, else ``"unknown"``."""
-    for part in reversed(Path(path).parent.parts):
-        carry = CARRY_BY_FOLDER.get(part.lower())
-        if carry is not None:
-            return carry
-    return "unknown"
+    """Carry mode as the release documents it (:func:`carry_and_source`), else ``"unknown"``."""
+    return carry_and_source(path)[0]
 
 
-def _read_numeric_csv(path: Path, n_columns: int, what: str) -> np.ndarray:
-    try:
-        values = pd.read_csv(path, header=None, dtype=np.float64).to_numpy()
-    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
-        values = None  # re-read as text below to say which row and column is wrong
-    except OSError as exc:
-        raise DataFormatError(f"{path}: cannot read ({what}): {exc}") from exc
-    if values is not None and values.shape[1] == n_columns and np.isfinite(values).all():
-        return values
-    try:
-        frame = pd.read_csv(path, header=None, dtype=str)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise DataFormatError(f"{path}: cannot read as CSV ({what}): {exc}") from exc
-    if frame.shape[1] != n_columns:
-        raise DataFormatError(
-            f"{path}: expected {n_columns} comma-separated columns ({what}), found {frame.shape[1]}"
-        )
-    values = frame.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=np.float64)
-    bad = np.argwhere(~np.isfinite(values))
-    if len(bad):
-        row, col = (int(i) for i in bad[0])
-        found = frame.iat[row, col]
-        found = "an empty field" if pd.isna(found) else repr(found)
-        raise DataFormatError(f"{path}: row {row + 1}, column {col}: expected a finite number, found {found}")
-    return values
+def walker_and_phone(path: Path) -> tuple[str, str]:
+    """``("user3", "iPhone")``-style: the walker named by a ``multi users`` folder, the phone by a
+    ``multi devices`` folder; "unknown" and "iPhone" where the release names neither."""
+    parents = [part for part in Path(path).parent.parts if part.lower() != "syn"]
+    walker, phone = "unknown", "iPhone"
+    for above, folder in zip(parents, parents[1:], strict=False):
+        if above.lower() == "multi users":
+            walker = folder
+        elif above.lower() == "multi devices":
+            phone = {"nexus 5": "Nexus 5"}.get(folder.lower(), folder)
+    return walker, phone
 
 
 @dataclass(frozen=True)
@@ -212,29 +229,29 @@ def read(
     remove_heading_jumps: bool = True,
     heading_jump_deg: float = 2.0,
 ) -> ImuSequence:
-    """Read one OxIOD sequence; ``path`` is its ``imuN.csv`` (``viN.csv`` must sit beside it)."""
+    """Read one OxIOD sequence; ``path`` is its ``imuN.csv`` or ``imuN.csv.xz`` (``viN`` or ``tangoN``
+    must sit beside it)."""
     try:
         orientation = OrientationSource(orientation)
     except ValueError:
         choices = ", ".join(o.value for o in OrientationSource)
         raise ValueError(f"orientation must be one of {choices}; got {orientation!r}") from None
     imu_path = Path(path)
-    vicon_path = _vicon_path(imu_path)
-    if vicon_path is None:
+    truth_path = ground_truth_path(imu_path)
+    if truth_path is None:
         match = _IMU_NAME.fullmatch(imu_path.name)
         if match is None:
             raise DataFormatError(f"{imu_path}: an OxIOD sequence is named imuN.csv (N a number)")
-        raise DataFormatError(f"{imu_path}: the Vicon file vi{match.group(1)}.csv is missing beside it")
+        raise DataFormatError(
+            f"{imu_path}: the Vicon file vi{match.group(1)}.csv is missing beside it (or, for a large-scale "
+            f"walk, the Tango file tango{match.group(1)}.csv)"
+        )
     if trim_start_rows < 0 or trim_end_rows < 0:
         raise ValueError(f"trim rows must be >= 0, got start={trim_start_rows}, end={trim_end_rows}")
 
-    imu = _read_numeric_csv(imu_path, IMU_COLUMNS, "CoreMotion IMU")
-    vicon = _read_numeric_csv(vicon_path, VICON_COLUMNS, "Vicon pose")
     warnings: list[str] = []
-    n = min(len(imu), len(vicon))
-    if len(imu) != len(vicon):
-        warnings.append(f"{imu_path.name} has {len(imu)} rows, {vicon_path.name} {len(vicon)}: kept {n}")
-        imu, vicon = imu[:n], vicon[:n]
+    truth = _paired_rows(imu_path, truth_path, rate_hz, warnings)
+    phone, n = truth.phone, len(truth.phone)
     keep = slice(trim_start_rows, n - trim_end_rows)
     n_kept = len(range(n)[keep])
     min_rows = 3 * int(round(max(align_smoothing_s, align_window_s) * rate_hz)) + 3
@@ -244,32 +261,22 @@ def read(
             f"{trim_end_rows} leaves {n_kept}, fewer than the {min_rows} needed"
         )
 
-    t_s = np.arange(n) / rate_hz
-    gyro = imu[:, 4:7]
-    acc = -(imu[:, 7:10] + imu[:, 10:13]) * STANDARD_GRAVITY_M_S2
-    R_world_device = Rotation.from_euler("ZXY", imu[:, [3, 2, 1]])  # yaw, pitch, roll
-    p_vicon = vicon[:, 2:5]
-    q_vicon_marker = frames.make_continuous(vicon[:, [8, 5, 6, 7]])
+    t_s = (phone.first_row + np.arange(n)) / rate_hz  # the IMU file's row clock
+    gyro, acc, R_world_device = phone.gyro_rad_s, phone.acc_m_s2, phone.R_world_device
+    p_vicon = truth.p_m
+    q_vicon_marker = frames.make_continuous(truth.q_wxyz)
     norms = np.linalg.norm(q_vicon_marker, axis=1)
     if np.any(np.abs(norms - 1.0) > 1e-2):
         row = int(np.argmax(np.abs(norms - 1.0)))
         raise DataFormatError(
-            f"{vicon_path}: row {row + 1}, columns 5-8: expected a unit quaternion, norm is {norms[row]:.4f}"
+            f"{truth_path}: row {truth.first_row + row + 1}, columns 5-8: expected a unit quaternion, "
+            f"norm is {norms[row]:.4f}"
         )
 
     if repair_glitches:
         repair = frames.repair_pose_glitches(t_s, p_vicon, q_vicon_marker, glitch_limits)
         p_vicon, q_vicon_marker = repair.p_m, repair.q_wxyz
-        if repair.glitches:
-            spans = ", ".join(f"{a + 1}-{b}" for a, b in repair.glitches)
-            warnings.append(f"Vicon glitches interpolated over in {vicon_path.name}, rows {spans}")
-        if repair.held_samples:
-            warnings.append(f"{repair.held_samples} repeated Vicon rows (dropped frames) interpolated")
-        if repair.ramped:
-            spans = ", ".join(f"{a + 1}-{b}" for a, b in repair.ramped)
-            warnings.append(f"Vicon steps without a jump back spread over rows {spans} of {vicon_path.name}")
-        for k in repair.unrepaired_jumps:
-            warnings.append(f"Vicon jump between rows {k + 1} and {k + 2} of {vicon_path.name} left as is")
+        warnings += _repair_warnings(repair, truth_path, truth.first_row)
 
     fit = solve_device_to_marker(
         t_s[keep],
@@ -298,6 +305,12 @@ def read(
     gt = Trajectory(t_s[keep], p_vicon[keep], q_gt)
     if orientation is OrientationSource.GROUND_TRUTH:
         q_world_device = q_gt
+    elif R_world_device is None:
+        q_world_device = None
+        warnings.append(
+            "the Nexus 5 file has no attitude: no device orientation; ground truth left in the "
+            f"{'levelled ' if level_world else ''}{_SYSTEM[truth.system]} frame"
+        )
     else:
         q_world_device = frames.make_continuous(frames.wxyz_from_rotation(R_world_device))
         if remove_heading_jumps:
@@ -314,30 +327,111 @@ def read(
         meta_extra["gt_yaw_offset_deg"] = round(float(np.degrees(yaw)), 3)
         meta_extra["gt_tilt_offset_deg"] = round(float(np.degrees(tilt)), 3)
         warnings.append(
-            "device attitude used as orientation: its heading drifts against Vicon; ground truth "
-            f"turned by {np.degrees(yaw):.1f} deg about z to match it over the first {align_window_s} s"
+            f"device attitude used as orientation: its heading drifts against {_SYSTEM[truth.system]}; "
+            f"ground truth turned by {np.degrees(yaw):.1f} deg about z to match it over the first "
+            f"{align_window_s} s"
         )
 
+    carry, carry_source = carry_and_source(imu_path)
+    walker, phone_name = walker_and_phone(imu_path)
     meta = {
         "dataset": FORMAT,
         "source": str(imu_path),
         "rate_hz": float(rate_hz),
-        "carry": carry_mode(imu_path),
+        "carry": carry,
+        "carry_source": carry_source,
+        "walker": walker,
+        "phone": phone_name,
         "orientation_source": orientation.value,
         "rows": n,
         "trim_rows": [trim_start_rows, trim_end_rows],
         # What the files hold, before trimming: `ftin data info` reports both.
         "recorded_duration_s": float(t_s[n - 1] - t_s[0]),
+        **truth.meta,
         **meta_extra,
         "warnings": warnings,
     }
+    if q_world_device is None:
+        del meta["orientation_source"]  # as for a phone export without orientation
     name = _sequence_name(imu_path)
-    mag = imu[keep, 13:16]  # CoreMotion's calibrated magnetic field, µT
+    mag = None if phone.mag_uT is None else phone.mag_uT[keep]
     seq = ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta, mag)
     return validate_read(seq)  # the checks every reader shares
+
+
+_SYSTEM = {"vicon": "Vicon", "tango": "Tango"}
+
+
+@dataclass(frozen=True)
+class _PairedRows:
+    """The phone's rows and the ground-truth poses that go with them, row for row."""
+
+    phone: PhoneRows
+    system: str  # "vicon" or "tango"
+    first_row: int  # file row (0-based) of the truth file's first pose used
+    p_m: np.ndarray  # (N, 3)
+    q_wxyz: np.ndarray  # (N, 4), as in the file (not yet made continuous)
+    meta: dict[str, object]
+
+
+def _paired_rows(imu_path: Path, truth_path: Path, rate_hz: float, warnings: list[str]) -> _PairedRows:
+    """Vicon rows go 1:1 with the IMU's; Tango rows at the lag :mod:`ftin.data.io.tango` finds.
+    Rows of one without the other are cut, with a warning."""
+    phone = read_phone(imu_path)
+    if phone.first_row:
+        warnings.append(
+            f"first {phone.first_row} rows of {imu_path.name} dropped: gyroscope and magnetometer not started"
+        )
+    if truth_path.name.startswith("vi"):
+        vicon = read_numeric_csv(truth_path, VICON_COLUMNS, "Vicon pose")[phone.first_row :]
+        n = min(len(phone), len(vicon))
+        if len(phone) != len(vicon):
+            warnings.append(
+                f"{imu_path.name} has {len(phone)} rows, {truth_path.name} {len(vicon)}: kept {n}"
+            )
+        pose = vicon[:n, 2:9]
+        return _PairedRows(phone.rows(0, n), "vicon", phone.first_row, pose[:, :3], pose[:, [6, 3, 4, 5]], {})
+    p_m, q_wxyz = tango.read_tango(truth_path)
+    pairing = tango.pair_with_imu(truth_path, q_wxyz, phone.gyro_rad_s, phone.acc_m_s2, rate_hz)
+    start, stop, lag = pairing.imu_start, pairing.imu_stop, pairing.lag_rows
+    without = [start, len(phone) - stop]
+    if lag or any(without):
+        warnings.append(
+            f"{truth_path.name} row i + {lag} paired with {imu_path.name} row i (lag found from the "
+            f"headings, {pairing.heading_rms_deg:.1f} deg RMS); IMU rows without a pose cut: {without[0]} "
+            f"at the start, {without[1]} at the end"
+        )
+    meta = {
+        "gt_lag_rows": lag,
+        "gt_heading_rms_deg": round(pairing.heading_rms_deg, 2),
+        "rows_without_gt": without,
+    }
+    poses = slice(start + lag, stop + lag)
+    first = phone.first_row + start + lag
+    return _PairedRows(phone.rows(start, stop), "tango", first, p_m[poses], q_wxyz[poses], meta)
+
+
+def _repair_warnings(repair: frames.PoseRepair, truth_path: Path, first_row: int) -> list[str]:
+    """What ``repair_pose_glitches`` changed, in the truth file's row numbers."""
+    system = "Tango" if truth_path.name.startswith("tango") else "Vicon"
+    warnings = []
+    if repair.glitches:
+        spans = ", ".join(f"{first_row + a + 1}-{first_row + b}" for a, b in repair.glitches)
+        warnings.append(f"{system} glitches interpolated over in {truth_path.name}, rows {spans}")
+    if repair.held_samples:
+        warnings.append(f"{repair.held_samples} repeated {system} rows (dropped frames) interpolated")
+    if repair.ramped:
+        spans = ", ".join(f"{first_row + a + 1}-{first_row + b}" for a, b in repair.ramped)
+        warnings.append(f"{system} steps without a jump back spread over rows {spans} of {truth_path.name}")
+    for k in repair.unrepaired_jumps:
+        k += first_row
+        warnings.append(f"{system} jump between rows {k + 1} and {k + 2} of {truth_path.name} left as is")
+    return warnings
 
 
 def _sequence_name(imu_path: Path) -> str:
     """``handheld/data1/imu2``-style name: the folders that tell sequences apart, without ``syn``."""
     parents = [p for p in imu_path.parent.parts[-3:] if p.lower() != "syn"]
-    return "/".join([*parents[-2:], imu_path.stem])
+    match = _IMU_NAME.fullmatch(imu_path.name)
+    stem = imu_path.stem if match is None else f"imu{match.group(1)}"  # without .csv / .csv.xz
+    return "/".join([*parents[-2:], stem])
