@@ -245,14 +245,17 @@ def status_command(runs: RunsOption = DEFAULT_RUNS) -> None:
     out_console().print(table)
 
 
+OnlyOption = Annotated[
+    list[str] | None,
+    typer.Option("--only", help="Only these checkpoint names, e.g. ftin-pedestrian (repeatable)."),
+]
+
+
 @campaign_app.command("collect")
 def collect_command(
     runs: RunsOption = DEFAULT_RUNS,
     results: ResultsOption = DEFAULT_RESULTS,
-    only: Annotated[
-        list[str] | None,
-        typer.Option("--only", help="Only these checkpoint names, e.g. ftin-pedestrian (repeatable)."),
-    ] = None,
+    only: OnlyOption = None,
 ) -> None:
     """Write each finished job's record and manifest.json (which seed ships, the gate's verdicts)."""
     with user_errors(*CAMPAIGN_ERRORS):

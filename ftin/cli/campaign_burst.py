@@ -42,19 +42,20 @@ ResumeOption = Annotated[
 ]
 RunsOption = Annotated[Path, typer.Option("--runs", help="Campaign folder (ftin campaign plan).")]
 OutOption = Annotated[Path, typer.Option("--out", help="Folder for one .tar.gz per finished job.")]
+FirstJobsOption = Annotated[
+    int | None, typer.Option("--jobs", min=1, help="The first N pending jobs (default: all).")
+]
+SkipOption = Annotated[
+    list[str] | None, typer.Option("--skip", help="A pending job to leave to the campaign here (repeatable).")
+]
 
 
 @burst_app.command("pack")
 def pack_command(
     runs: RunsOption,
     out: Annotated[Path, typer.Option("--out", help="Folder for sequences.npz and jobs.json.")],
-    jobs: Annotated[
-        int | None, typer.Option("--jobs", min=1, help="The first N pending jobs (default: all).")
-    ] = None,
-    skip: Annotated[
-        list[str] | None,
-        typer.Option("--skip", help="A pending job to leave to the campaign here (repeatable)."),
-    ] = None,
+    jobs: FirstJobsOption = None,
+    skip: SkipOption = None,
 ) -> None:
     """Pack the pending jobs no driver here has taken, with their recordings prepared for training."""
     with user_errors(*REPORT_ERRORS):
