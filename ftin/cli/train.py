@@ -179,6 +179,10 @@ def train_command(
             ),
         ),
     ] = None,
+    init_from: Annotated[
+        Path | None,
+        typer.Option("--init-from", help="Start from this checkpoint's weights (same model and kwargs)."),
+    ] = None,
     config_file: Annotated[
         Path | None,
         typer.Option("--config", help="Training options as a JSON object (config.json keys); flags win."),

@@ -30,6 +30,9 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
   is uncertain is least for a shrunken vector (the mean of vectors pointing several ways is shorter
   than each), so a model walks short where it doubts the heading; the speed term pays for the
   distance directly.
+- ``init_from`` (``None``: a fresh, seeded initialisation): a checkpoint (``ftin.checkpoint``) whose
+  weights start the run, for fine-tuning; its model, kwargs and rate must be the run's, else the run
+  refuses to start. A resumed run starts from its resume state instead.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
   there are two or more) is held out whole, so no validation window overlaps a training window.
 """
@@ -97,6 +100,7 @@ class TrainConfig:
     device: str = "cpu"
     save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
     weights_dtype: str = "float32"  # storage of the best checkpoint: float32 or float16
+    init_from: str | None = None  # checkpoint whose weights start the run (fine-tuning); None: seeded init
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data", tuple(str(p) for p in self.data))
@@ -104,6 +108,8 @@ class TrainConfig:
         object.__setattr__(self, "log_std_range", tuple(float(v) for v in self.log_std_range))
         object.__setattr__(self, "model_kwargs", dict(self.model_kwargs))
         object.__setattr__(self, "augment", dict(self.augment or {}))
+        if self.init_from is not None:
+            object.__setattr__(self, "init_from", str(self.init_from))
         for name, kind in (("normalization", Normalization), ("loss", LossKind)):
             try:
                 object.__setattr__(self, name, kind(getattr(self, name)))

@@ -19,9 +19,10 @@ Decisions:
   whole run. Either stops the run after the current step and writes the resume state; ``--resume``
   continues it. SIGINT/SIGTERM do the same at the next step boundary.
 - The model is ``create_model(name, window=, out_dim=, **model_kwargs)`` (the registry's contract
-  decides which of them it takes). The dataset yields per-part targets ``(B, K, D)``,
-  K = ``model.target_parts(window)``; ``forward_parts`` is trained with the loss its family's
-  reference uses (``ftin.train.losses``), and validated on the MSE of ~1 s mean velocities.
+  decides which of them it takes), its first weights seeded or, for fine-tuning, ``init_from``'s.
+  The dataset yields per-part targets ``(B, K, D)``, K = ``model.target_parts(window)``;
+  ``forward_parts`` is trained with the loss its family's reference uses (``ftin.train.losses``),
+  and validated on the MSE of ~1 s mean velocities.
 - The scheduler and the best checkpoint follow the validation velocity MSE (training MSE without
   validation data); training ends when the learning rate falls below ``min_lr`` or after
   ``max_epochs``. When a run stops before any epoch ends, its current weights are written as the
@@ -30,6 +31,7 @@ Decisions:
 
 from __future__ import annotations
 
+import json
 import sys
 import threading
 import time
@@ -42,7 +44,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from ftin.checkpoint import save_checkpoint
+from ftin.checkpoint import CheckpointError, load_model, save_checkpoint
 from ftin.data.loading import data_rate_hz, load_sequences
 from ftin.data.types import ImuSequence
 from ftin.interrupts import stop_on_signals
@@ -133,6 +135,8 @@ def _setup(
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"model {config.model!r}: {exc}") from None
     config = config.with_(window=window, out_dim=model.out_dim)
+    if config.init_from is not None and not resume:  # a resumed run starts from its resume state
+        _initialise_from(model, config)
     try:
         parts = model.check_parts(window)
     except ValueError as exc:
@@ -191,6 +195,23 @@ def _setup(
         show_progress=show_progress and ddp.main,
         loss_switch=config.nll_warmup_epochs if use_nll and config.nll_warmup_epochs > 0 else None,
     )
+
+
+def _initialise_from(model: VelocityModel, config: TrainConfig) -> None:
+    """Copy the weights of the checkpoint ``config.init_from`` into ``model``, which must be the same
+    model with the same kwargs (JSON-compared: a checkpoint stores tuples as lists) at the same rate."""
+    try:
+        loaded = load_model(config.init_from)
+    except CheckpointError as exc:
+        raise ConfigError(f"init_from: {exc}") from None
+    ours = (config.model, json.loads(json.dumps(model.config)), config.imu_rate_hz)
+    theirs = (loaded.model_name, json.loads(json.dumps(loaded.model.config)), loaded.imu_rate_hz)
+    if ours != theirs:
+        raise ConfigError(
+            f"init_from {config.init_from}: its {theirs[0]} {theirs[1]} at {theirs[2]:g} Hz cannot start "
+            f"this run's {ours[0]} {ours[1]} at {ours[2]:g} Hz (give the checkpoint's model, kwargs and rate)"
+        )
+    model.load_state_dict(loaded.model.state_dict())
 
 
 @dataclass
