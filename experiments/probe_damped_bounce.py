@@ -38,13 +38,11 @@ import numpy as np
 import torch
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.probe_new_oxiod_walks import NEW_WALKS, group_of
+from experiments.probe_new_oxiod_walks import NEW_WALKS, walk_row
 from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data.loading import load_phone_only, load_sequences
-from ftin.evaluate import score
 from ftin.files import DEFAULT_DATA_ROOT
-from ftin.infer import predict_trajectory
 from ftin.train.config import TrainConfig
 from ftin.train.loop import train
 from ftin.train.state import RESUME_FILE, load_training_state
@@ -89,22 +87,7 @@ def final_weights(run: Path) -> LoadedModel:
 
 
 def score_walks(loaded: LoadedModel, held_out: list) -> list[dict[str, Any]]:
-    rows = []
-    for rel, seq in zip(HELD_OUT, held_out, strict=True):
-        prediction = predict_trajectory(loaded, seq, keep_prepared=False)
-        scored = score(prediction)
-        values = scored.metrics.values
-        rows.append(
-            {
-                "walk": rel.removesuffix(".csv.xz"),
-                "group": group_of(rel),
-                "carry": str(seq.meta.get("carry", "unknown")),
-                "ate": values["ate"],
-                "still": scored.stand_still.values["ate"],
-                "ratio": values.get("distance_ratio"),
-            }
-        )
-    return rows
+    return [walk_row(loaded, rel, seq) for rel, seq in zip(HELD_OUT, held_out, strict=True)]
 
 
 def run_arm(arm: str, minutes: float, lr: float, train_seqs: list, held_out: list) -> dict[str, Any]:

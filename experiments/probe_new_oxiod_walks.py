@@ -25,7 +25,8 @@ import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
 from ftin import protocol
-from ftin.checkpoint import load_model
+from ftin.checkpoint import LoadedModel, load_model
+from ftin.data import ImuSequence
 from ftin.data.loading import load_phone_only
 from ftin.evaluate import score
 from ftin.files import DEFAULT_DATA_ROOT
@@ -49,28 +50,31 @@ def group_of(relative: str) -> str:
     return {"multi users": folder, "multi devices": folder, "large scale": "floor1 (Tango)"}.get(top, top)
 
 
+def walk_row(model: LoadedModel, rel: str, seq: ImuSequence) -> dict:
+    """One walk predicted and scored (RoNIN convention, no alignment): its table row."""
+    prediction = predict_trajectory(model, seq, keep_prepared=False)
+    scored = score(prediction)
+    values = scored.metrics.values
+    return {
+        "walk": rel.removesuffix(".csv.xz"),
+        "group": group_of(rel),
+        "carry": str(seq.meta.get("carry", "unknown")),
+        "orientation": (prediction.orientation_choice or {}).get("source"),
+        "minutes": seq.duration_s / 60,
+        "ate": values["ate"],
+        "still": scored.stand_still.values["ate"],
+        "ratio": values.get("distance_ratio"),
+        "end_per_100m": 100 * values["pde"],  # final position error over the true path length
+    }
+
+
 def score_walks(checkpoint: Path, data_root: Path) -> list[dict]:
     model = load_model(checkpoint)
     paths = [data_root / protocol.DATA_FOLDERS[protocol.OXIOD] / rel for rel in NEW_WALKS]
     rows = []
     for rel, seq in zip(NEW_WALKS, load_phone_only(paths, "new OxIOD walks"), strict=True):
-        prediction = predict_trajectory(model, seq, keep_prepared=False)
-        scored = score(prediction)
-        values = scored.metrics.values
-        rows.append(
-            {
-                "walk": rel.removesuffix(".csv.xz"),
-                "group": group_of(rel),
-                "carry": str(seq.meta.get("carry", "unknown")),
-                "orientation": (prediction.orientation_choice or {}).get("source"),
-                "minutes": seq.duration_s / 60,
-                "ate": values["ate"],
-                "still": scored.stand_still.values["ate"],
-                "ratio": values.get("distance_ratio"),
-                "end_per_100m": 100 * values["pde"],  # final position error over the true path length
-            }
-        )
-        print(f"{checkpoint.stem} {rel}: ATE {values['ate']:.2f} ratio {values.get('distance_ratio')}")
+        rows.append(walk_row(model, rel, seq))
+        print(f"{checkpoint.stem} {rel}: ATE {rows[-1]['ate']:.2f} ratio {rows[-1]['ratio']}")
     return rows
 
 
