@@ -4,7 +4,9 @@ Sources: ``device`` (the phone's own attitude: Android rotation vector, CoreMoti
 rotation vector), ``vqf`` (VQF 9-D: heading from the magnetometer, with VQF's own rejection of
 magnetic disturbances), ``vqf6d`` (VQF without magnetometer: heading from the gyroscope alone).
 :func:`orientation_evidence` measures, without ground truth, whether the magnetometer can be
-trusted; :func:`choose_orientation` turns that into a source and a sentence saying why.
+trusted; :func:`choose_orientation` turns that into a source and a sentence saying why. Both read the
+field as they are given it: ``ftin.data.orientation_option`` first checks it
+(``ftin.data.magnetometer``: as given, calibrated from the recording's own turns, or dropped).
 
 Signals (:class:`OrientationEvidence`, from one offline VQF run):
 

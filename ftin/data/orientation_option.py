@@ -7,15 +7,18 @@ table --orientation`` and ``TrainConfig.orientation`` take):
   the recording alone; a recording whose only orientation is its ground truth (a simulation, EuRoC)
   keeps it;
 * ``device``: the phone's own attitude, as the recording carries it;
-* ``vqf``: VQF 9-D from the gyroscope, accelerometer and magnetometer (6-D, with a note, without one);
+* ``vqf``: VQF 9-D from the gyroscope, accelerometer and magnetometer (6-D, with a note, without one
+  or with one the magnetometer check drops);
 * ``vqf6d``: VQF without the magnetometer (heading from the gyroscope alone);
 * ``ground_truth``: the recording's reference orientation (motion capture, Tango), where it has one.
 
 :func:`apply_orientation` applies a choice to a sequence (the VQF runs are
 ``ftin.data.preprocess.estimate_orientation``'s) and records what ran in
 ``meta["orientation_choice"] = {"requested", "source", "reason"}`` beside ``meta["orientation_source"]``
-(``device``, ``estimated``, ``ground_truth``). A choice the recording cannot give raises
-``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
+(``device``, ``estimated``, ``ground_truth``). Before ``auto`` and ``vqf`` read the magnetometer, its
+field is checked (``ftin.data.magnetometer``): used as given, calibrated from the recording's own
+turns, or dropped, and the reason says which when it is not as given. A choice the recording cannot
+give raises ``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
 and a reference (OxIOD, RIDI, the Inria benchmark) read the one the choice needs
 (:func:`reader_orientation`).
 
@@ -32,7 +35,9 @@ from __future__ import annotations
 from enum import Enum
 from typing import Any
 
+from ftin.data import magnetometer
 from ftin.data.errors import DataFormatError
+from ftin.data.magnetometer import MagnetometerAction, MagnetometerDecision
 from ftin.data.orientation_choice import choose_orientation
 from ftin.data.preprocess import ensure_orientation, estimate_orientation
 from ftin.data.types import ImuSequence
@@ -98,8 +103,9 @@ def apply_phone_only(seq: ImuSequence) -> ImuSequence:
             "phone's attitude (ftin.data.loading.load_phone_only, or its reader's orientation='device'), "
             "or call apply_orientation(seq, 'auto') to keep the reference"
         )
+    seq, field = magnetometer.checked(seq)
     source, reason = choose_orientation(phone_only(seq))
-    return _with_source(seq, Orientation.AUTO, source, reason)
+    return _with_source(seq, Orientation.AUTO, source, _with_field(field, source, reason))
 
 
 def _own_is_reference(seq: ImuSequence) -> bool:
@@ -147,13 +153,39 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
             source = Orientation.GROUND_TRUTH.value
             reason = "the recording's only orientation is its reference (no phone attitude in it): kept"
         else:
+            seq, field = magnetometer.checked(seq)
             source, reason = choose_orientation(seq)
+            reason = _with_field(field, source, reason)
     elif choice is Orientation.VQF and seq.mag_uT is None:
         source = Orientation.VQF6D.value
         reason = "VQF asked for, but the recording has no magnetometer: VQF 6-D (heading from the gyroscope)"
+    elif choice is Orientation.VQF:
+        seq, field = magnetometer.checked(seq)
+        source, reason = choice.value, _REASONS[choice]
+        if field.action is MagnetometerAction.DROPPED:
+            source = Orientation.VQF6D.value
+            dropped = f"VQF 9-D asked for, but the magnetometer is {field.text}"
+            reason = f"{dropped}: VQF 6-D (heading from the gyroscope)"
+        elif field.action is MagnetometerAction.CALIBRATED:
+            reason = f"asked for: VQF 9-D (heading from the magnetometer, {field.text})"
     else:
         source, reason = choice.value, _REASONS[choice]
     return _with_source(seq, choice, source, reason)
+
+
+def _with_field(field: MagnetometerDecision | None, source: str, reason: str) -> str:
+    """The ``auto`` rule's ``reason`` preceded by what the magnetometer check did, when it did something
+    (``ftin.data.magnetometer``; a field as given keeps the rule's words alone)."""
+    if field is None or field.action is MagnetometerAction.AS_GIVEN:
+        return reason
+    if field.action is MagnetometerAction.CALIBRATED:
+        return f"magnetometer {field.text}; then: {reason}"
+    without = (
+        "the phone's own attitude, which needs none"
+        if source == Orientation.DEVICE.value
+        else "VQF 6-D, heading from the gyroscope alone"
+    )
+    return f"magnetometer {field.text}: {without}"
 
 
 _REASONS = {
