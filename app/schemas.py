@@ -1,7 +1,8 @@
 """Request and response bodies of the REST API (pydantic), and their conversion from library types.
 
 Units follow the library: seconds, metres, m/s, rad/s, m/s². Trajectories travel as parallel arrays
-``{t, x, y, z}`` (compact, and what plotting code wants).
+``{t, x, y, z}`` (compact, and what plotting code wants). The server's own state (``GET /health``)
+is in ``app.schemas_health``.
 """
 
 from __future__ import annotations
@@ -22,23 +23,6 @@ from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_met
 
 class ErrorResponse(BaseModel):
     detail: str = Field(description="What was wrong with the request, in plain words.")
-
-
-class HealthResponse(BaseModel):
-    status: str = "ok"
-    version: str
-    models: list[str]
-    default_model: str | None
-    default_model_why: str | None = Field(
-        None, description="Why the default model is the default (the checkpoint folder's default.json)."
-    )
-    sequences: int
-    scene_url: str | None = Field(description="URL of the viser 3D scene, when it runs.")
-    notes: list[str] = Field(description="Configuration problems worth knowing (empty folders, fallbacks).")
-    inferences_running: int = Field(0, description="Predictions running right now.")
-    max_upload_mb: float = Field(description="Largest upload accepted (FTIN_MAX_UPLOAD_MB), MiB.")
-    max_samples: int = Field(description="Most IMU samples one prediction reads (FTIN_MAX_SAMPLES).")
-    inference_timeout_s: float = Field(description="Time limit of one prediction (FTIN_INFERENCE_TIMEOUT_S).")
 
 
 class ModelInfo(BaseModel):

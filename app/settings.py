@@ -14,7 +14,8 @@ Decisions:
   that checkpoint is absent the first FTIN checkpoint stands in (``ModelStore``). The 3D scene ticks,
   per sequence, the checkpoint trained on that kind of data (``app.services.kinds``).
 - Limits: one prediction reads at most ``FTIN_MAX_SAMPLES`` samples (default one hour at
-  200 Hz) and must finish within ``FTIN_INFERENCE_TIMEOUT_S`` (waiting for a free slot included);
+  200 Hz) and is stopped after ``FTIN_INFERENCE_TIMEOUT_S`` without progress (waiting for a free slot
+  included; a long recording that keeps making progress is never cut: ``app.services.limits``);
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
   slow each other down, and each holds its windows in memory); finished runs are kept while they
   hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs).
@@ -25,6 +26,9 @@ Decisions:
   thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
   prediction took 0.6 s with one thread and 4.9 s with two, whose threads wait for each other.
   ``0`` keeps torch's own choice (one per core), for a dedicated machine.
+- ``FTIN_PRECISION`` (default ``auto``): bf16 autocast where this CPU does bf16 natively and the
+  model's family kept its accuracy under it, fp32 elsewhere (``ftin.precision``), chosen at start-up
+  and named in ``GET /health``; ``fp32`` / ``bf16`` force one.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 import ftin
+from ftin.precision import PrecisionSetting
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
@@ -74,10 +79,15 @@ class Settings(BaseSettings):
         720_000, ge=1, description="Most IMU samples one prediction may read (default: 1 h at 200 Hz)."
     )
     inference_timeout_s: float = Field(
-        120.0, gt=0, description="Longest a prediction may take, waiting for a slot included (504 after)."
+        120.0,
+        gt=0,
+        description="Longest a prediction may go without progress, waiting for a slot included (504 after).",
     )
     max_concurrent_inferences: int = Field(1, ge=1, description="Predictions that may run at once.")
     torch_threads: int = Field(1, ge=0, description="torch intra-op threads (0: torch's default).")
+    precision: PrecisionSetting = Field(
+        PrecisionSetting.AUTO, description="Inference precision: auto (bf16 where free), fp32 or bf16."
+    )
     # Live phone streams (POST /live/sensorlogger; app.services.live has the decisions).
     live_token: str | None = Field(
         None, min_length=8, description="Token a push must carry (?token=); required for pushes from the LAN."

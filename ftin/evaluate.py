@@ -178,6 +178,7 @@ def evaluate_checkpoint(
     alignment: Alignment | str | None = None,
     orientation: str | None = None,
     yaw_copies: int = YAW_COPIES,
+    precision: str = "fp32",
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
 
@@ -198,7 +199,13 @@ def evaluate_checkpoint(
         if on_sequence is not None:
             on_sequence(seq.name)
         prediction = predict_trajectory(
-            loaded, seq, stride=stride, keep_prepared=False, orientation=orientation, yaw_copies=yaw_copies
+            loaded,
+            seq,
+            precision=precision,  # ftin.precision; reported numbers are fp32 unless asked
+            stride=stride,
+            keep_prepared=False,
+            orientation=orientation,
+            yaw_copies=yaw_copies,
         )
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:

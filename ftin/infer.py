@@ -28,7 +28,9 @@ call. Steps and decisions:
    Every velocity is the mean over ``yaw_copies`` (default ``ftin.yaw_average.YAW_COPIES``, 4) copies of
    the input turned by quarter turns about the vertical, each velocity turned back (``ftin.yaw_average``:
    the mean keeps the part of the output that turns with the walk; 1 is the network alone). Feature
-   taps are those of the input as it is.
+   taps are those of the input as it is. ``precision`` (``ftin.precision``): ``bf16`` runs the model's
+   forward alone under bf16 autocast, its outputs cast back to float64 before the average; ``fp32``
+   (the default) runs it as trained.
    What grows with the recording is linear in the number of samples and small per sample: the
    resampled, rotated IMU, the velocities and the trajectory (``ftin bench memory`` measures
    the peak RSS of a 1-hour 200 Hz recording).
@@ -67,6 +69,7 @@ from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
+from ftin.precision import Precision, forward_context
 from ftin.yaw_average import YAW_COPIES, mean_turned_back, turned_copies
 
 FRAME_GROUND_TRUTH = "ground_truth"
@@ -109,6 +112,7 @@ def predict_trajectory(
     keep_prepared: bool = True,
     orientation: str | None = None,
     yaw_copies: int = YAW_COPIES,
+    precision: Precision | str = Precision.FP32,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
     carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
@@ -126,7 +130,7 @@ def predict_trajectory(
     if loaded.model.streams:
         _check_length(loaded, seq, n, 2, "two samples (one interval)")
         chunk = min(batch_size * stride, STREAM_CHUNK_MAX_FRAMES)
-        velocity = _run_stream(loaded, prepared.imu_world, chunk, progress, yaw_copies)  # (N - 1, D)
+        velocity = _run_stream(loaded, prepared.imu_world, chunk, progress, yaw_copies, precision)  # (N-1, D)
         span_start = np.arange(n - 1)
         span_end = span_start + 1
     else:
@@ -142,6 +146,7 @@ def predict_trajectory(
             progress,
             return_features,
             yaw_copies,
+            precision,
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     gt = prepared.seq.gt
@@ -293,12 +298,14 @@ def run_windows(
     progress: Callable[[int, int], None] | None,
     return_features: bool,
     yaw_copies: int = YAW_COPIES,
+    precision: Precision | str = Precision.FP32,
 ) -> tuple[np.ndarray, dict | None]:
     """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps.
 
     K = 1 models go through ``forward`` (their taps and log-std exactly as ever), others through
     ``forward_parts``. Velocities are the mean over ``yaw_copies`` turned copies of each window
-    (``ftin.yaw_average``); taps are those of the window as it is (copy 0).
+    (``ftin.yaw_average``); taps are those of the window as it is (copy 0). Under ``precision`` bf16
+    the forward alone runs in autocast; velocities and taps come back as float32 or wider.
     """
     model = loaded.model
     device = next(model.parameters()).device
@@ -309,9 +316,12 @@ def run_windows(
 
     def call(inputs: torch.Tensor, features: dict | None) -> Any:
         inputs = loaded.normalization.apply(inputs)
-        return (
-            model(inputs, features=features) if parts == 1 else model.forward_parts(inputs, features=features)
-        )
+        with forward_context(precision):
+            return (
+                model(inputs, features=features)
+                if parts == 1
+                else model.forward_parts(inputs, features=features)
+            )
 
     model.eval()
     with torch.inference_mode():
@@ -327,7 +337,7 @@ def run_windows(
             velocity[first : first + len(batch_starts)] = batch_velocity.reshape(len(batch_starts), parts, -1)
             if taps is not None:
                 if output.log_std is not None:
-                    features["log_std"] = output.log_std
+                    features["log_std"] = output.log_std.float()
                 for name, value in features.items():
                     taps.setdefault(name, []).append(value.detach().float().cpu().numpy())
             if progress is not None:
@@ -342,6 +352,7 @@ def _run_stream(
     chunk: int,
     progress: Callable[[int, int], None] | None,
     yaw_copies: int = YAW_COPIES,
+    precision: Precision | str = Precision.FP32,
 ) -> np.ndarray:
     """Per-frame velocities ``(N - 1, D)`` (float64) of a streaming model over the whole recording.
 
@@ -353,24 +364,30 @@ def _run_stream(
     state = None
     for first in range(0, total, chunk):
         frames = imu[first : min(first + chunk, total)]  # (T, 6)
-        velocity[first : first + len(frames)], state = stream_step(loaded, frames, state, yaw_copies)
+        velocity[first : first + len(frames)], state = stream_step(
+            loaded, frames, state, yaw_copies, precision
+        )
         if progress is not None:
             progress(first + len(frames), total)
     return velocity
 
 
 def stream_step(
-    loaded: LoadedModel, frames: np.ndarray, state: Any, yaw_copies: int = YAW_COPIES
+    loaded: LoadedModel,
+    frames: np.ndarray,
+    state: Any,
+    yaw_copies: int = YAW_COPIES,
+    precision: Precision | str = Precision.FP32,
 ) -> tuple[np.ndarray, Any]:
     """A streaming model's per-frame velocities ``(T, D)`` (float64) for the next ``(T, 6)`` world-frame
     frames, and the state to carry on: the mean over ``yaw_copies`` turned copies, which run as one
-    batch with one state each (``ftin.yaw_average``)."""
+    batch with one state each (``ftin.yaw_average``); under bf16 the forward alone runs in autocast."""
     model = loaded.model
     device = next(model.parameters()).device
     model.eval()
     with torch.inference_mode():
         x = torch.from_numpy(np.ascontiguousarray(frames.T)).to(device)[None]  # (1, 6, T)
-        per_frame, state = model.forward_stream(
-            loaded.normalization.apply(turned_copies(x, yaw_copies)), state
-        )
+        inputs = loaded.normalization.apply(turned_copies(x, yaw_copies))
+        with forward_context(precision):
+            per_frame, state = model.forward_stream(inputs, state)
     return mean_turned_back(per_frame.double().cpu().numpy(), yaw_copies)[0], state

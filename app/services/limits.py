@@ -1,11 +1,14 @@
 """Bounds on one prediction: how long it may take and how many may run at once.
 
 Decisions:
-- The time limit is a deadline carried into the worker thread and checked between batches of
-  windows (through the progress callback), so a prediction that runs too long really stops and
+- The time limit bounds inactivity, not the whole prediction: a deadline carried into the worker
+  thread moves ``timeout_s`` further on with every progress report (``progressed``: the upload's body
+  in, each batch of windows done), so an hour-long recording that keeps making progress is never cut,
+  while one that is stuck, or waits too long for a free slot, is stopped with a 504. It is checked
+  between batches of windows (through the progress callback), so a stuck prediction really stops and
   frees its slot; an ``asyncio`` timeout around the thread would answer 504 but leave the model
-  running. Waiting for a free slot counts against the same deadline. Steps that report no
-  progress (reading the CSV, estimating orientation) finish before the next check.
+  running. Steps that report no progress (reading the CSV, estimating orientation, resampling: a few
+  seconds for an hour at 200 Hz) finish before the next check.
 - Concurrency is a counting semaphore shared by every door (REST, upload page, viser GUI): a
   prediction holds its windows and feature maps in memory, so memory stays bounded by the
   number of slots.
@@ -22,14 +25,21 @@ from dataclasses import dataclass
 from app.services.errors import InferenceTimeoutError
 
 
-@dataclass(frozen=True)
+@dataclass
 class Deadline:
+    """Expires ``timeout_s`` after it is made or after its latest ``progressed``, whichever is later.
+    Shared between the request's thread and the worker's (one float written: no lock needed)."""
+
     timeout_s: float
     expires_monotonic_s: float
 
     @classmethod
     def after(cls, timeout_s: float) -> Deadline:
         return cls(float(timeout_s), time.monotonic() + float(timeout_s))
+
+    def progressed(self) -> None:
+        """The prediction moved on: it may take another ``timeout_s`` before its next progress."""
+        self.expires_monotonic_s = max(self.expires_monotonic_s, time.monotonic() + self.timeout_s)
 
     def remaining_s(self) -> float:
         return max(0.0, self.expires_monotonic_s - time.monotonic())
@@ -42,8 +52,8 @@ class Deadline:
         """Raise ``InferenceTimeoutError`` naming ``what`` once the deadline has passed."""
         if self.expired:
             raise InferenceTimeoutError(
-                f"{what} took longer than the {self.timeout_s:g} s limit (FTIN_INFERENCE_TIMEOUT_S) "
-                "and was stopped; try a shorter recording"
+                f"{what} made no progress within the {self.timeout_s:g} s limit (FTIN_INFERENCE_TIMEOUT_S) "
+                "and was stopped; try again later, or a shorter recording"
             )
 
 

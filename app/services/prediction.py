@@ -3,8 +3,12 @@ upload page and the viser upload button all end in ``PredictionService.run``.
 
 Decisions:
 - At most ``max_concurrent_inferences`` predictions run at once (``InferenceSlots``), and each must
-  finish before its ``Deadline`` (``limits``): checked while waiting for a slot and between batches
-  of windows. Callers run this off the event loop.
+  keep making progress before its ``Deadline`` (``limits``: ``FTIN_INFERENCE_TIMEOUT_S`` without
+  progress): checked while waiting for a slot and between batches of windows, each batch moving it
+  on. Everything here is heavy (reading, orientation, resampling, the model, scoring): callers run it
+  off the event loop.
+- Precision (``ftin.precision``): each model runs in what ``FTIN_PRECISION`` means on this CPU for its
+  family (``precision_for``), decided once a process (the CPU's flags are read once).
 - Uploads are read by ``ftin.data.from_bytes.read_bytes`` (detection by content, gzip, ZIP exports,
   the uncompressed-size and sample limits, a CSV's line count checked before parsing); this service
   adds what is HTTP's: the client's file name as a label only, the upload size limit on the body,
@@ -52,6 +56,7 @@ from ftin.data.orientation_option import orient, parse_orientation
 from ftin.data.validate import validate
 from ftin.evaluate import score
 from ftin.metrics import Alignment
+from ftin.precision import PrecisionChoice, choose
 
 log = logging.getLogger(__name__)
 
@@ -123,10 +128,15 @@ class PredictionService:
         self.runs = runs
         self.settings = settings  # the limits: FTIN_MAX_UPLOAD_MB, FTIN_MAX_SAMPLES, ...
         self.slots = InferenceSlots(settings.max_concurrent_inferences)
+        log.info("inference precision: %s", choose(settings.precision).reason)  # decided once, at start-up
 
     def new_deadline(self) -> Deadline:
         """The deadline of a prediction requested now (routes take it when the request arrives)."""
         return Deadline.after(self.settings.inference_timeout_s)
+
+    def precision_for(self, entry: ModelEntry) -> PrecisionChoice:
+        """What ``entry`` runs in: ``FTIN_PRECISION`` on this CPU, for its family, and why."""
+        return choose(self.settings.precision, entry.architecture)
 
     def check_sample_count(self, n: int, what: str) -> None:
         """413 when ``what`` holds more samples than one prediction may read."""
@@ -257,6 +267,7 @@ class PredictionService:
 
         def progress(done: int, total: int) -> None:
             deadline.check(what)  # raising here stops the model between two batches
+            deadline.progressed()  # a batch done: another FTIN_INFERENCE_TIMEOUT_S for the next one
             self.runs.progress(run_id, done, total)
 
         self.runs.start(run_id, entry.name, seq.name)
@@ -266,7 +277,12 @@ class PredictionService:
                 seq = orient(seq, orientation)  # applied once, here: the run keeps the oriented sequence
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
-                    entry.loaded, seq, batch_size=BATCH_WINDOWS, progress=progress, keep_prepared=False
+                    entry.loaded,
+                    seq,
+                    batch_size=BATCH_WINDOWS,
+                    progress=progress,
+                    keep_prepared=False,
+                    precision=self.precision_for(entry).precision,
                 )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))

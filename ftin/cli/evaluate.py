@@ -29,11 +29,13 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
+from ftin.cli.predict import PrecisionOption
 from ftin.data.loading import load_sequences
 from ftin.data.orientation_option import Orientation
 from ftin.evaluate import evaluate_checkpoint
 from ftin.files import atomic_write_text
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
+from ftin.precision import PrecisionSetting, choose
 from ftin.yaw_average import YAW_COPIES
 
 
@@ -51,11 +53,14 @@ def evaluate_command(
     address: AddressOption = None,
     orientation: OrientationOption = Orientation.AUTO,
     yaw_copies: YawCopiesOption = YAW_COPIES,
+    precision: PrecisionOption = PrecisionSetting.FP32,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
-    sequence and their mean, under a stated convention."""
+    sequence and their mean, under a stated convention (in fp32 unless ``--precision`` says otherwise,
+    so that reported numbers stay comparable)."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
+        chosen = choose(precision, loaded.model_name)
         sequences = load_sequences(data, "--data", orientation.value)
         with progress_bar() as bar:
             task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
@@ -69,6 +74,7 @@ def evaluate_command(
                 "alignment": align,
                 "orientation": orientation.value,
                 "yaw_copies": yaw_copies,
+                "precision": chosen.precision.value,
             }
             if workers is not None or address is not None:  # one Ray task per recording
                 report = evaluate_checkpoint_on_ray(
@@ -108,6 +114,7 @@ def evaluate_command(
     console = out_console()
     console.print(table)
     console.print(report.describe(), highlight=False, soft_wrap=True)
+    console.print(f"precision: {chosen.precision.value} ({chosen.reason})", highlight=False, soft_wrap=True)
     aligned = [r for r in report.sequences if r.metrics.alignment is not None]
     if aligned:
         shown = "; ".join(

@@ -34,9 +34,18 @@ from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
 from ftin.metrics.verdicts import confinement_note, still_verdict
+from ftin.precision import PrecisionSetting, choose
 from ftin.yaw_average import YAW_COPIES
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
+PrecisionOption = Annotated[
+    PrecisionSetting,
+    typer.Option(
+        "--precision",
+        help="fp32, bf16 (autocast around the model: faster on a CPU with avx512_bf16 / amx_bf16) or auto "
+        "(bf16 where that is free and kept the model family's accuracy: ftin/precision.py).",
+    ),
+]
 
 
 @app.command("predict")
@@ -63,6 +72,7 @@ def predict_command(
     ] = None,
     orientation: OrientationOption = Orientation.AUTO,
     yaw_copies: YawCopiesOption = YAW_COPIES,
+    precision: PrecisionOption = PrecisionSetting.AUTO,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
     CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
@@ -71,6 +81,7 @@ def predict_command(
 
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
+        chosen = choose(precision, loaded.model_name)
         # Applied before the progress bar, so that a choice the recording cannot give is one clean line.
         seq = apply_orientation(read_one(input_path, orientation.value), orientation)
         with progress_bar() as bar:
@@ -89,6 +100,7 @@ def predict_command(
                 progress=report,
                 orientation=None,  # applied above, once
                 yaw_copies=yaw_copies,
+                precision=chosen.precision,
             )
         scored = score(prediction, align)
         shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
@@ -121,6 +133,7 @@ def predict_command(
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")
+    typer.echo(f"precision: {chosen.precision.value} ({chosen.reason})")
     if scored is not None and scored.metrics is not None:
         m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"

@@ -84,27 +84,48 @@ def test_too_many_samples_is_413_for_every_door(
 # --- inference time --------------------------------------------------------------------------------
 
 
-def test_inference_over_the_time_limit_is_504_and_really_stops(
+def slow_upload(client: TestClient, data: bytes, monkeypatch, seconds: float, run_id: str):
+    """``upload`` through the default model made ``seconds`` slower a call (two calls a batch: the
+    window, then its turned copies); the response, the forward calls' times and the time it took."""
+    model = client.app.state.services.models.get(DEFAULT_MODEL).loaded.model
+    calls: list[float] = []
+    monkeypatch.setattr(model, "forward", slow_forward(model, seconds, calls))
+    started = time.monotonic()
+    response = upload(client, data, run_id=run_id)
+    return response, calls, time.monotonic() - started
+
+
+def test_inference_stuck_past_the_time_limit_is_504_and_really_stops(
     make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(prediction_module, "BATCH_WINDOWS", 8)  # 2000 samples -> 78 windows -> 10 batches
     with app_client(make_settings(inference_timeout_s=0.3)) as client:
-        model = client.app.state.services.models.get(DEFAULT_MODEL).loaded.model
-        calls: list[float] = []
-        monkeypatch.setattr(model, "forward", slow_forward(model, 0.1, calls))
-        started = time.monotonic()
-        response = upload(client, csv_with_gt, run_id="slow-run-1")
-        elapsed = time.monotonic() - started
+        # 0.4 s a batch: no progress within the limit
+        response, calls, elapsed = slow_upload(client, csv_with_gt, monkeypatch, 0.2, "slow-run-1")
         assert response.status_code == 504
         message = detail(response)
         assert "0.3 s limit" in message and "FTIN_INFERENCE_TIMEOUT_S" in message and DEFAULT_MODEL in message
-        # Stopped between batches: it did not run all ten, and it did not run long past the limit.
+        # Stopped after its first batch: it did not run all ten, nor long past the limit.
         assert 1 <= len(calls) < 10 and elapsed < 2.0
         status = client.get("/runs/slow-run-1").json()
         assert status["state"] == "failed" and "limit" in status["message"]
         # The slot was released: a fast model answers at once.
         monkeypatch.undo()
         assert upload(client, csv_with_gt).status_code == 200
+
+
+def test_a_prediction_making_steady_progress_is_never_cut(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """FTIN_INFERENCE_TIMEOUT_S bounds the time without progress: ten batches of 0.12 s each take four
+    times the 0.3 s limit and finish, each batch moving the deadline on."""
+    monkeypatch.setattr(prediction_module, "BATCH_WINDOWS", 8)  # 10 batches
+    with app_client(make_settings(inference_timeout_s=0.3)) as client:
+        response, calls, elapsed = slow_upload(client, csv_with_gt, monkeypatch, 0.06, "steady-run-1")
+        assert response.status_code == 200, response.text
+        assert elapsed > 1.0 and len(calls) == 20  # every batch ran, long past the old limit
+        status = client.get("/runs/steady-run-1").json()
+        assert status["state"] == "done" and status["done"] == status["total"] > 0
 
 
 def test_waiting_for_a_busy_slot_counts_against_the_deadline(make_settings: Callable[..., Settings]) -> None:
@@ -184,13 +205,18 @@ def test_concurrent_requests_never_run_more_models_than_slots(
         assert results == [200, 200, 200] and peak[0] == 1
 
 
-def test_deadline() -> None:
-    deadline = Deadline.after(0.05)
-    assert not deadline.expired and 0 < deadline.remaining_s() <= 0.05
+def test_deadline_bounds_the_time_without_progress() -> None:
+    deadline = Deadline.after(0.1)
+    assert not deadline.expired and 0 < deadline.remaining_s() <= 0.1
     deadline.check("reading")
-    time.sleep(0.06)
+    for _ in range(4):  # 0.24 s in all, never 0.1 s without progress
+        time.sleep(0.06)
+        deadline.check("reading")
+        deadline.progressed()
+    assert not deadline.expired and deadline.remaining_s() > 0.05
+    time.sleep(0.12)
     assert deadline.expired and deadline.remaining_s() == 0.0
-    with pytest.raises(InferenceTimeoutError, match="reading took longer than the 0.05 s limit"):
+    with pytest.raises(InferenceTimeoutError, match="reading made no progress within the 0.1 s limit"):
         deadline.check("reading")
 
 

@@ -21,6 +21,7 @@ def test_evaluate_prints_a_table_and_writes_json(trained, data_dir, tmp_path):
         and "ATE [m]" in result.stdout
         and "ATE evo [m]" in result.stdout
         and "RoNIN convention" in result.stdout
+        and "precision: fp32 (fp32 as asked)" in result.stdout  # reported numbers stay fp32 by default
     )
     report = json.loads(out.read_text())
     assert len(report["sequences"]) == 3 and report["convention"] == "ronin"

@@ -17,6 +17,7 @@ def test_predict_writes_a_trajectory_csv(trained, data_dir, sim_sequences, tmp_p
     result = runner.invoke(app, ["predict", *checkpoint, recording, "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert "ATE" in result.stdout and "ground truth frame" in result.stdout
+    assert "precision: " in result.stdout and "(auto: " in result.stdout  # --precision auto by default
     text = out.read_text()
     comments = [line for line in text.splitlines() if line.startswith("#")]
     assert any("frame: ground-truth world frame" in line for line in comments)
@@ -33,6 +34,20 @@ def test_predict_writes_a_trajectory_csv(trained, data_dir, sim_sequences, tmp_p
     assert result.exit_code == 0, result.output
     assert "# frame: device world frame" in out.read_text() and "ATE" not in result.stdout
     np.testing.assert_allclose(np.loadtxt(out, delimiter=",", comments="#", skiprows=4)[0, 1:], 0.0)
+
+
+def test_predict_in_bf16_stays_close_to_fp32(trained, data_dir, sim_sequences, tmp_path):
+    recording = str(data_dir / f"{sim_sequences[0].name}.csv")
+    rows = {}
+    for precision in ("fp32", "bf16"):
+        out = tmp_path / f"{precision}.csv"
+        args = ["predict", "--checkpoint", str(trained / "ronin_tcn"), recording, "--out", str(out)]
+        result = runner.invoke(app, [*args, "--precision", precision])
+        assert result.exit_code == 0, result.output
+        assert f"precision: {precision} ({precision} as asked)" in result.stdout
+        rows[precision] = np.loadtxt(out, delimiter=",", comments="#", skiprows=4)
+    np.testing.assert_allclose(rows["bf16"], rows["fp32"], atol=0.5)  # metres over a short walk
+    assert runner.invoke(app, [*args, "--precision", "fp16"]).exit_code == 2
 
 
 def test_predict_bad_input_is_one_line(trained, data_dir, tmp_path):

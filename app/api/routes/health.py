@@ -10,7 +10,9 @@ from fastapi import APIRouter
 
 import ftin
 from app.api.deps import ServicesDep
-from app.schemas import HealthResponse
+from app.schemas_health import HealthResponse, PrecisionPayload
+from app.services import Services
+from ftin.precision import choose
 
 router = APIRouter(tags=["health"])
 
@@ -29,4 +31,19 @@ async def health(services: ServicesDep) -> HealthResponse:
         max_upload_mb=services.settings.max_upload_mb,
         max_samples=services.settings.max_samples,
         inference_timeout_s=services.settings.inference_timeout_s,
+        precision=_precision(services),
+    )
+
+
+def _precision(services: Services) -> PrecisionPayload:
+    """The server's precision (the CPU and FTIN_PRECISION) and the models that run otherwise."""
+    setting = services.settings.precision
+    server = choose(setting)
+    exceptions = {}
+    for name in services.models.names():
+        model = services.predictor.precision_for(services.models.get(name))
+        if model.precision is not server.precision:
+            exceptions[name] = f"{model.precision.value}: {model.reason}"
+    return PrecisionPayload(
+        setting=setting.value, precision=server.precision.value, reason=server.reason, exceptions=exceptions
     )

@@ -5,15 +5,22 @@ The body format follows ``Content-Type``: ``multipart/form-data`` with a file in
 ``application/gzip``, ``application/octet-stream``), or ``application/json`` with the arrays of
 ``ArraysPredictRequest``. A file or raw body is a CSV in the generic schema, a gzip-compressed CSV,
 or a phone app's ZIP export (Sensor Logger, phyphox): detected from the bytes, never from the name
-(``PredictionService.read_upload``). The model runs in the threadpool, under a deadline that starts
-when the request arrives (504 when it passes).
+(``PredictionService.read_upload``).
+
+Nothing heavy runs on the event loop, so that other requests (``GET /health``, progress polls, the
+page) answer while a long recording is read and run: the body arrives asynchronously; reading it,
+orientation, resampling, the model and scoring run in the threadpool (``PredictionService``); the
+answer (one row per sample, the plausibility figures' step detection) is built and serialised to JSON
+there too (``answer``), never by FastAPI on the loop. The deadline starts when the request arrives and
+moves on when the body is in and after every batch of windows (``app.services.limits``): 504 only for
+a prediction that stops making progress, or waits too long for a slot.
 """
 
 from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, Query, Request
+from fastapi import APIRouter, Depends, Query, Request, Response
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
@@ -90,6 +97,18 @@ def _predict_options(
 PredictOptionsDep = Annotated[RunOptions, Depends(_predict_options)]
 
 
+def render(run: Run, scene_url: str | None) -> Response:
+    """``run``'s ``PredictionResponse`` as JSON bytes. Returning a ``Response`` keeps FastAPI from
+    validating and serialising the answer again on the event loop (it does so even for sync routes)."""
+    body = PredictionResponse.from_run(run, scene_url).model_dump_json()
+    return Response(body, media_type="application/json")
+
+
+async def answer(run: Run, scene_url: str | None) -> Response:
+    """``render`` in the threadpool: for an hour at 200 Hz it takes seconds (step detection, JSON)."""
+    return await run_in_threadpool(render, run, scene_url)
+
+
 def _describe(exc: ValidationError) -> str:
     parts = []
     for error in exc.errors():
@@ -132,7 +151,7 @@ def _predict_json(predictor: PredictionService, raw: bytes, options: RunOptions)
 )
 async def predict(
     request: Request, services: ServicesDep, options: PredictOptionsDep, name: NameQuery = None
-) -> PredictionResponse:
+) -> Response:
     content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
     predictor = services.predictor
     if content_type == "multipart/form-data":
@@ -145,18 +164,28 @@ async def predict(
                 )
             data = await upload.read()
             filename = name or upload.filename or "upload.csv"
+        _body_in(options)
         run = await run_in_threadpool(predictor.predict_csv, data, filename, options)
     elif content_type in _RAW_BODY_TYPES:
         data = await request.body()
+        _body_in(options)
         # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
         # recording is named "upload"): never a name the user did not give.
         run = await run_in_threadpool(predictor.predict_csv, data, name or RAW_BODY_LABEL, options)
     elif content_type == "application/json":
-        run = await run_in_threadpool(_predict_json, predictor, await request.body(), options)
+        data = await request.body()
+        _body_in(options)
+        run = await run_in_threadpool(_predict_json, predictor, data, options)
     else:
         raise UnsupportedMediaError(
             f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"
             " file in the field 'file', a raw text/csv, application/zip or application/gzip body, or "
             "application/json arrays"
         )
-    return PredictionResponse.from_run(run, services.scene_url)
+    return await answer(run, services.scene_url)
+
+
+def _body_in(options: RunOptions) -> None:
+    """The whole body arrived: progress, however long a slow connection took to send it."""
+    if options.deadline is not None:
+        options.deadline.progressed()

@@ -8,6 +8,7 @@ from fastapi.responses import Response
 
 from app.api.deps import ServicesDep
 from app.api.routes.exports import RUN_GONE, RunIdPath, TimestampsQuery, attachment, file_route
+from app.api.routes.predict import render
 from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse, RunSummary
 from app.services.exports import Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
@@ -23,9 +24,9 @@ def list_runs(services: ServicesDep) -> list[RunSummary]:
 
 
 @router.get("/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE)
-def run_result(run_id: RunIdPath, services: ServicesDep) -> PredictionResponse:
+def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
     """A kept run's POST /predict answer again (the page shows a kept run with it)."""
-    return PredictionResponse.from_run(services.runs.get(run_id), services.scene_url)
+    return render(services.runs.get(run_id), services.scene_url)  # serialised here, off the event loop
 
 
 @router.get("/runs/{run_id}", response_model=RunStatusResponse, responses={404: {"model": ErrorResponse}})

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Path
+from fastapi import APIRouter, Path, Response
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep
-from app.api.routes.predict import PredictOptionsDep
+from app.api.routes.predict import PredictOptionsDep, answer
 from app.schemas import ErrorResponse, PredictionResponse, SequenceInfo
 
 router = APIRouter(tags=["sequences"])
@@ -33,6 +33,6 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
 )
 async def predict_sequence(
     sequence_id: SequenceIdPath, services: ServicesDep, options: PredictOptionsDep
-) -> PredictionResponse:
+) -> Response:
     run = await run_in_threadpool(services.predictor.predict_sequence, sequence_id, options)
-    return PredictionResponse.from_run(run, services.scene_url)
+    return await answer(run, services.scene_url)  # built and serialised off the event loop

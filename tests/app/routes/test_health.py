@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import pytest
 from fastapi.testclient import TestClient
 
+import ftin.infer
+import ftin.precision
 from app.main import create_app
 from app.settings import Settings
-from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL
+from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, upload
 
 
 def test_health_reports_what_was_loaded(client: TestClient) -> None:
@@ -22,6 +25,15 @@ def test_health_reports_what_was_loaded(client: TestClient) -> None:
     assert body["inferences_running"] == 0
     assert body["max_upload_mb"] == 200.0 and body["max_samples"] == 720_000
     assert body["inference_timeout_s"] == 120.0
+    precision = body["precision"]  # FTIN_PRECISION=auto: what this CPU makes free (ftin/precision.py)
+    assert precision["setting"] == "auto" and precision["precision"] in ("fp32", "bf16")
+    assert precision["reason"].startswith(f"auto: {precision['precision']}")
+
+
+def test_health_names_a_forced_precision(make_settings: Callable[..., Settings]) -> None:
+    with TestClient(create_app(make_settings(precision="bf16"))) as test_client:
+        precision = test_client.get("/health").json()["precision"]
+    assert precision == {"setting": "bf16", "precision": "bf16", "reason": "bf16 as asked", "exceptions": {}}
 
 
 def test_cors_is_closed_by_default(client: TestClient) -> None:
@@ -40,3 +52,27 @@ def test_cors_opens_only_for_configured_origins(make_settings: Callable[..., Set
         assert ok.headers["access-control-allow-origin"] == "http://lab.example"
         other = test_client.get("/health", headers={"Origin": "http://evil.example"})
         assert "access-control-allow-origin" not in other.headers
+
+
+def test_auto_on_a_bf16_cpu_keeps_fp32_for_families_not_shown_within_the_bar(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(ftin.precision, "cpu_bf16", lambda: (True, "this CPU has avx512_bf16"))
+    monkeypatch.setattr(ftin.precision, "BF16_FAMILIES", frozenset({"ftin"}))  # as if FTIN had kept it
+    asked: list[object] = []
+    real_predict = ftin.infer.predict_trajectory
+
+    def recording_predict(*args, **kwargs):
+        asked.append(kwargs["precision"])
+        return real_predict(*args, **kwargs)
+
+    monkeypatch.setattr(ftin.infer, "predict_trajectory", recording_predict)
+    with TestClient(create_app(make_settings())) as test_client:
+        precision = test_client.get("/health").json()["precision"]
+        assert precision["precision"] == "bf16" and "avx512_bf16" in precision["reason"]
+        # the fixture's FTIN is of a family that kept its accuracy; its ResNet (resnet1d) is not
+        assert list(precision["exceptions"]) == [OTHER_MODEL]
+        assert precision["exceptions"][OTHER_MODEL].startswith("fp32: auto: fp32 for resnet1d")
+        for model in (DEFAULT_MODEL, OTHER_MODEL):
+            assert upload(test_client, csv_with_gt, model=model).status_code == 200
+    assert [p.value for p in asked] == ["bf16", "fp32"]
