@@ -366,7 +366,11 @@ class LiveService:
                 self._end(key, live.ended_because or "failed")
                 continue
             try:
-                if s.tick(now):
+                with self._lock:  # ``_end`` (another thread: end_all, stop) may finish it meanwhile
+                    if self._sessions.get(key) is not live:
+                        continue
+                    grew = s.tick(now)
+                if grew:
                     touched.add(key)
             except DataFormatError as exc:
                 live.state, live.ended_because = "failed", str(exc)
