@@ -4,6 +4,6 @@
 ``messages.PushMessage``; ``ordering`` puts messages back in order (loss, duplicates, overtaking),
 ``grid`` merges the sensors onto the model's clock in the export reader's units and signs,
 ``orientation`` is causal (the phone's own, else VQF online), ``incremental`` runs the model on new
-windows only, ``steps`` counts steps for the status line, ``session`` ties them together per phone,
+windows only, ``session`` ties them together per phone (steps by ``ftin.metrics.steps``, as uploads),
 ``replay`` streams a Sensor Logger export as push messages (tests, demos, benchmarks).
 """

@@ -27,8 +27,8 @@ from ftin.live.grid import SensorStreams
 from ftin.live.incremental import IncrementalPredictor
 from ftin.live.messages import PushMessage
 from ftin.live.ordering import MessageOrder
-from ftin.live.orientation import ONLINE_FILTER, CausalOrientation
-from ftin.live.steps import StepCounter
+from ftin.live.orientation import CausalOrientation
+from ftin.metrics.steps import StepDetector
 
 LATENCIES_KEPT = 2048
 
@@ -54,7 +54,7 @@ class LiveSession:
         self.streams = SensorStreams(loaded.imu_rate_hz, push_format, platform, self.source)
         self.orientation = CausalOrientation(loaded.imu_rate_hz)
         self.predictor = IncrementalPredictor(loaded)
-        self.step_counter = StepCounter()
+        self.step_detector = StepDetector(loaded.imu_rate_hz)  # the upload's detector, fed as samples come
         self.started_s = now_s
         self.last_message_s = now_s
         self.messages = 0
@@ -91,11 +91,15 @@ class LiveSession:
             if gyro is not None and len(gyro.t_ns) and self.streams.origin_ns is not None:
                 first, last = ((gyro.t_ns[[0, -1]] - self.streams.origin_ns) * 1e-9).tolist()
                 self._marks.append([first, last, len(gyro.t_ns), now_s, 0])
+            field = message.sensors.get("Magnetometer", message.sensors.get("MagnetometerUncalibrated"))
+            if field is not None and len(field.t_ns) and self.streams.origin_ns is not None:
+                t_s = (field.t_ns - self.streams.origin_ns).astype(np.float64) * 1e-9
+                self.orientation.add_magnetometer(t_s, field.values)
         grew = False
         while (chunk := self.streams.take()) is not None:
             q = self.orientation.update(chunk)
             grew |= self.predictor.extend(chunk.t_s, chunk.gyro_rad_s, chunk.acc_m_s2, q) > 0
-            self.step_counter.update(chunk.t_s, chunk.acc_m_s2)
+            self.step_detector.update(chunk.t_s, chunk.acc_m_s2, chunk.gyro_rad_s)
         return grew
 
     def mark_effect(self, covered_s: float | None, now_s: float) -> None:
@@ -139,7 +143,7 @@ class LiveSession:
 
     @property
     def steps(self) -> int:
-        return self.step_counter.steps
+        return self.step_detector.count  # exactly the upload's count of the samples so far
 
     def distance_m(self) -> float:
         """Horizontal path length so far."""
@@ -162,9 +166,10 @@ class LiveSession:
     def warnings(self) -> list[str]:
         notes = list(self.streams.warnings)
         if self.orientation.source == "estimated":
+            estimate = self.orientation.describe()
             notes.append(
-                f"{self.source}: no orientation streamed; estimated causally with VQF online (6-D), so the "
-                f"heading drifts: tick Orientation in {self.push_format.app} for the phone's own"
+                f"{self.source}: no orientation streamed; estimated causally with {estimate}: "
+                f"tick Orientation in {self.push_format.app} for the phone's own"
             )
         if self.dropped_messages:
             notes.append(
@@ -189,7 +194,7 @@ class LiveSession:
             "warnings": self.warnings(),
         }
         if self.orientation.source == "estimated":
-            meta["orientation_filter"] = ONLINE_FILTER
+            meta["orientation_filter"] = self.orientation.filter_name
         return ImuSequence(name, t, gyro, acc, q, None, meta)
 
     def prediction(self) -> Prediction:

@@ -12,10 +12,14 @@ Decisions:
   and end does not lower the mean speed.
 - Steps and cadence come from the accelerometer (``ftin.metrics.steps``), independently of the
   model; the step length is the predicted path over the step count, so a model that walks too short
-  or too far shows as a step length outside the human range ``STEP_LENGTH_RANGE_M`` (0.4-1.0 m
-  walking; a loop in a small room can truly have shorter steps, and the warning says so).
+  or too far shows as a step length outside the human range for the cadence (``step_length_range``).
+  People lengthen their steps as they quicken them, roughly in proportion: the expected step is
+  ``STEP_AT_CADENCE`` (0.65 m at 110 steps/min) scaled by the cadence, and the range is
+  ``STEP_LENGTH_SHARE`` of it: 0.39-1.04 m at 110 steps/min (an ordinary walk), 0.25-0.66 m at 70
+  (a slow texting or AR walk, where true steps of 0.2-0.4 m are normal), 0.59-1.56 m at 165 (a run).
+  A loop in a small room can truly have shorter steps, and the warning says so.
 - Speed and cadence must agree: the mean speed while moving should lie within
-  ``cadence x STEP_LENGTH_RANGE_M`` widened by ``SPEED_SLACK``; checked only when the step length
+  ``cadence x step_length_range`` widened by ``SPEED_SLACK``; checked only when the step length
   itself raised no warning (one problem, one warning). A prediction that moves briskly while the
   accelerometer shows no steps (a trolley, a vehicle, or a model moving a still phone), or steps
   while the prediction stands, is named too.
@@ -39,8 +43,12 @@ from ftin.metrics.trajectory import horizontal_path_length
 
 GRID_S = 1.0
 MOVING_M_S = 0.2
-STEP_LENGTH_RANGE_M = (0.4, 1.0)
-MAX_WALKING_CADENCE = 140.0  # steps/min; above it a person runs and steps are longer
+# Step length rises roughly in proportion to cadence, walking and running (Grieve & Gear 1966,
+# "The relationships between length of stride, step frequency, time of swing and speed of walking
+# for children and adults", Ergonomics 9:379-399). Anchored on the shared walks with ground truth:
+# 0.65-0.7 m at 105-130 steps/min (RIDI), 0.28-0.52 m at 73-92 (Inria texting), ~1.1 m at 165 (runs).
+STEP_AT_CADENCE = (0.65, 110.0)  # (m, steps/min)
+STEP_LENGTH_SHARE = (0.6, 1.6)  # of the expected step: the range judged human
 MIN_STEPS_TO_JUDGE = 10
 SPEED_SLACK = 0.3
 STILL_SPEED_M_S = 0.1
@@ -147,7 +155,7 @@ FIGURES: tuple[Figure, ...] = (
     Figure(
         "step_length",
         "m",
-        "Predicted path length / detected steps (people walk 0.4-1.0 m a step).",
+        "Predicted path length / detected steps (people walk 0.4-1.0 m a step, shorter when slow).",
         _step_length,
     ),
     Figure("start_to_end", "m", "Straight-line distance from the predicted start to the end.", _start_to_end),
@@ -235,12 +243,19 @@ def assess(trajectory: Trajectory, seq: ImuSequence) -> Plausibility:
     return Plausibility(values, plausibility_warnings(Plausibility(values)), walk.gps, gps_values)
 
 
+def step_length_range(cadence_per_min: float) -> tuple[float, float]:
+    """The step lengths (m) judged human at this cadence (module docstring)."""
+    length, cadence = STEP_AT_CADENCE
+    expected = length * cadence_per_min / cadence
+    return expected * STEP_LENGTH_SHARE[0], expected * STEP_LENGTH_SHARE[1]
+
+
 def plausibility_warnings(p: Plausibility) -> list[str]:
     """At most one warning on the distance walked, in words (module docstring)."""
     steps, cadence = p.value("step_count") or 0.0, p.value("cadence")
     path, length, speed = p.value("path_length") or 0.0, p.value("step_length"), p.value("moving_speed")
-    low, high = STEP_LENGTH_RANGE_M
-    walking = cadence is not None and cadence <= MAX_WALKING_CADENCE and steps >= MIN_STEPS_TO_JUDGE
+    walking = cadence is not None and steps >= MIN_STEPS_TO_JUDGE
+    low, high = step_length_range(cadence) if walking else (0.0, 0.0)
     if walking and (speed is None or speed < STILL_SPEED_M_S):
         return [
             f"The accelerometer shows {steps:.0f} steps ({cadence:.0f} a minute) but the prediction "
@@ -249,14 +264,14 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
     if walking and length is not None and not low <= length <= high:
         side = "below" if length < low else "above"
         cause = (
-            "the model likely underestimates the distance walked (unless the walk went in tight turns, "
-            "where steps are short)"
+            "the model likely underestimates the distance walked (unless the walk went in tight turns "
+            "or shuffled, eyes on the screen, where steps are short)"
             if length < low
             else "the model likely overestimates the distance walked"
         )
         return [
             f"Predicted step length {length:.2f} m ({path:.1f} m over {steps:.0f} steps) is {side} the "
-            f"human walking range {low:.1f}-{high:.1f} m: {cause}."
+            f"human walking range at {cadence:.0f} steps a minute, {low:.2f}-{high:.2f} m: {cause}."
         ]
     if walking and cadence is not None and speed is not None:
         rate = cadence / 60.0

@@ -1,64 +1,81 @@
-"""Steps and cadence from the accelerometer alone, whatever way the phone is carried.
+"""Steps and cadence from the accelerometer (and gyroscope), whatever way the phone is carried: one
+detector for an uploaded recording, a live phone and the CLI.
 
-``detect_steps(t_s, acc_m_s2)`` returns the step times of a recording (``Steps``).
+``StepDetector(rate_hz)`` is fed samples in time order, in chunks of any size (``update``); ``count``
+is the number of steps so far. ``detect_steps(t_s, acc_m_s2, gyro_rad_s)`` runs that same detector
+over a whole recording and returns its steps (``Steps``), so a live session ends with exactly the
+count an upload of the same samples gives, and at any moment shows the count of the samples so far.
 
 Decisions:
-- The signal is the norm of the specific force: it needs no orientation, so a phone in a hand, a
-  pocket, a swinging arm or a bag gives the same kind of signal (one bump per heel strike). It is
-  band-passed (``BAND_HZ``: walking's step rate is 1-2.5 Hz, running's up to 3.5 Hz) with a
-  zero-phase Butterworth filter.
-- The step period is read from the autocorrelation of the filtered signal over sliding windows of
-  ``WINDOW_S``: the first strong peak between ``MIN_PERIOD_S`` and ``MAX_PERIOD_S``. A pocket or a
-  swinging arm moves once per stride (two steps), so a peak at half a stronger lag that is nearly as
-  strong (``HALF_LAG_SHARE``) is taken as the step: the step rate is the rate of heel strikes.
-- A phone on a limb (a pocket on the thigh, a swinging hand) turns fast (band-passed rotation rate
-  above ``LIMB_GYRO_RAD_S``, when the gyroscope is given) and its specific force can repeat once per
-  stride with no peak at the step at all; there a period of ``STRIDE_MIN_S`` or more is a stride
-  and is halved. (Hand-held, texting and bag walks turn at 0.25-0.7 rad/s, pockets and swinging
-  arms at 0.8-2.2, runs at 2-3.4, measured on RIDI and the Inria walks.)
+- One pass, causal, with a bounded look-ahead: every decision about a sample depends only on the
+  samples up to a few seconds after it, taken from the sample index (never from how they arrived).
+  Steps whose look-ahead has arrived are final (``committed``); ``count`` adds the steps that ending
+  the recording now would give (the same code run on a copy, so the live count equals the batch
+  count of the samples so far, and converges to it whatever the chunking).
+- The signal is the norm of the specific force: it needs no orientation (to first order it is the
+  vertical acceleration plus g), so a hand, a pocket, a swinging arm or a bag give the same kind of
+  signal. It is band-passed (``BAND_HZ``: slow walks step at 1 Hz, runs at up to 3.5 Hz) by a causal
+  Butterworth filter (a delay of a fraction of a step: it shifts step times, not counts).
+- The step period is read every ``HOP_S`` from the autocorrelation over the last ``WINDOW_S``: the
+  first peak nearly as strong as the best (``MULTIPLE_SHARE``: two steps correlate as well as one)
+  between ``MIN_PERIOD_S`` and ``MAX_STRIDE_S``; a peak at half of it that is fairly strong
+  (``HALF_LAG_SHARE``) is the step and the first one a stride; a period longer than any step
+  (``MAX_PERIOD_S``) is a stride whose two steps differ (a pocket, an AR walk) and is halved. Each
+  sample takes the median period of the window centred nearest to it and its two neighbours.
+- A phone on a limb (a pocket on the thigh, a swinging hand, a running hand) turns fast: band-passed
+  rotation rate above ``LIMB_GYRO_RAD_S`` (hand-held, texting, phoning and AR walks turn at 0.1-0.7
+  rad/s, pockets and swinging arms at 0.7-2, runs at 1.5-3, on the Inria walks). Its specific force
+  need not peak at every step (the other leg's heel strike is far from the phone), but its rotation
+  repeats once per stride, cleanly: there the step period is half the gyroscope's stride period.
 - A window is walking when its autocorrelation peak reaches ``MIN_PERIODICITY`` (a rhythm, not a
-  jolt) and its filtered signal moves more than ``MIN_STD_M_S2`` (a phone lying still has a rhythm
-  of noise only). Windows overlap by ``HOP_S``; a sample is walking when a window around it is.
-- Steps are the peaks of the filtered signal inside walking spans, no closer than
-  ``REFRACTORY_SHARE`` of the local step period (the refractory period), with a prominence of at
-  least ``PROMINENCE_SHARE`` of the local signal's standard deviation: harmonics of a heel strike
-  (the signal has several bumps per step) fall inside the refractory period.
-- Cadence is steps per minute of walking (not of the whole recording): walking time is the time
-  between the steps of each bout (steps no further apart than ``BOUT_GAP_SHARE`` local periods) plus
-  one period a bout, so standing at the start and end of a recording does not lower it.
+  jolt) and its signal moves more than ``MIN_STD_M_S2`` (a still phone has a rhythm of noise only;
+  slow hand-held walks move only ~0.1 m/s²).
+- Steps are peaks of the filtered signal in walking samples: the highest within ``REFRACTORY_SHARE``
+  of the local period either side, with a prominence of ``PROMINENCE_SHARE`` of the window's standard
+  deviation, and that far from the previous step (the harmonics of a heel strike, and the second
+  bump of a pocket's double peak, fall inside). A gap between two steps of two or three periods
+  (``MAX_FILL``) is a step or two whose peak was too weak (a pocket feels the far leg's heel strike
+  faintly): they are counted in between. A longer gap is a stop.
+- Cadence is steps per minute of walking: the time between the steps of each bout plus one period a
+  bout, so standing at the start and end does not lower it.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, find_peaks, sosfiltfilt
+from scipy.signal import butter, sosfilt, sosfilt_zi
 
 BAND_HZ = (0.6, 3.5)
+GYRO_BAND_HZ = (0.3, 2.0)  # a limb's rotation: the stride (0.4-1.8 Hz), not the step's jolts
 MIN_PERIOD_S = 0.28  # 214 steps/min: running
 MAX_PERIOD_S = 1.2  # 50 steps/min: a very slow walk
+MAX_STRIDE_S = 2.0  # the longest stride read from the specific force (a window holds two)
+STRIDE_RANGE_S = (0.55, 2.4)  # a limb's rotation period: a stride of a run to one of a slow walk
 WINDOW_S = 4.0
 HOP_S = 0.5
 MIN_PERIODICITY = 0.3
-MIN_STD_M_S2 = 0.15
+MIN_STD_M_S2 = 0.05
 HALF_LAG_SHARE = 0.4
+MULTIPLE_SHARE = 0.8
+LIMB_GYRO_RAD_S = 0.7
 REFRACTORY_SHARE = 0.6
 PROMINENCE_SHARE = 0.3
+MAX_FILL = 3
+BOUT_GAP_SHARE = MAX_FILL + 0.5
 MIN_SAMPLES = 32
-LIMB_GYRO_RAD_S = 0.8
-STRIDE_MIN_S = 0.9
-EDGE_SHARE = 0.5
-BOUT_GAP_SHARE = 2.0
+MIN_RATE_HZ = 10.0  # below it the band cannot be filtered (and a step is a sample or two)
 
 
 @dataclass(frozen=True)
 class Steps:
     """The steps of one recording: when they fell and the walking time they span."""
 
-    t_s: np.ndarray  # (S,) time of each step (a peak of the filtered specific-force norm)
-    walking_s: float  # seconds spent walking (the spans in which steps are counted)
-    period_s: float | None  # median step period while walking (None: no walking found)
+    t_s: np.ndarray  # (S,) time of each step
+    walking_s: float  # seconds spent walking (between the steps of each bout, plus a period a bout)
+    period_s: float | None  # median step period at the steps (None: no walking found)
 
     @property
     def count(self) -> int:
@@ -72,106 +89,266 @@ class Steps:
         return 60.0 * self.count / self.walking_s
 
 
-def _band(values: np.ndarray, rate_hz: float) -> np.ndarray:
-    high = min(BAND_HZ[1], 0.45 * rate_hz)
-    sos = butter(2, [BAND_HZ[0], high], btype="band", fs=rate_hz, output="sos")
-    return sosfiltfilt(sos, values - values.mean(axis=0), axis=0)
+@dataclass(frozen=True)
+class _Window:
+    period: float  # step period, samples (0: not walking)
+    std: float  # the filtered signal's standard deviation over the window
 
 
-def step_signal(t_s: np.ndarray, acc_m_s2: np.ndarray) -> tuple[np.ndarray, float]:
-    """The band-passed specific-force norm and the sample rate it was filtered at."""
-    t = np.asarray(t_s, dtype=np.float64)
-    norm = np.linalg.norm(np.asarray(acc_m_s2, dtype=np.float64), axis=1)
-    rate_hz = 1.0 / float(np.median(np.diff(t)))
-    return _band(norm, rate_hz), rate_hz
-
-
-def _period(segment: np.ndarray, rate_hz: float) -> tuple[float, float]:
-    """``(step period s, autocorrelation at it)`` of one window of the filtered signal."""
-    x = segment - segment.mean()
-    energy = float(np.dot(x, x))
-    if energy <= 0.0:
-        return 0.0, 0.0
+def _autocorrelation(x: np.ndarray) -> np.ndarray:
+    """Unbiased, normalised autocorrelation of the columns of ``x`` ``(n, c)``, summed over columns."""
+    x = x - x.mean(axis=0)
+    energy = float(np.sum(x * x))
     n = len(x)
-    spectrum = np.fft.rfft(x, 2 * n)
-    ac = np.fft.irfft(spectrum * np.conj(spectrum))[:n]
-    ac = ac / energy * n / np.maximum(n - np.arange(n), 1)  # unbiased: long lags are not shrunk
-    lo, hi = int(MIN_PERIOD_S * rate_hz), min(int(MAX_PERIOD_S * rate_hz) + 1, n - 1)
+    if energy <= 0.0:
+        return np.zeros(n)
+    spectrum = np.fft.rfft(x, 2 * n, axis=0)
+    ac = np.fft.irfft(spectrum * np.conj(spectrum), axis=0)[:n].sum(axis=1)
+    return ac / energy * n / np.maximum(n - np.arange(n), 1)  # unbiased: long lags are not shrunk
+
+
+def _peak_lags(ac: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Local maxima of ``ac`` at lags ``lo..hi``."""
+    hi = min(hi, len(ac) - 2)
     if hi <= lo + 2:
+        return np.zeros(0, dtype=int)
+    mid = ac[lo : hi + 1]
+    left, right = ac[lo - 1 : hi], ac[lo + 1 : hi + 2]
+    return np.flatnonzero((mid > left) & (mid >= right)) + lo
+
+
+def _step_period(signal: np.ndarray, rate_hz: float) -> tuple[float, float]:
+    """``(step period in samples, autocorrelation at it)`` of one window of the filtered norm."""
+    ac = _autocorrelation(signal[:, None])
+    lags = _peak_lags(ac, max(int(MIN_PERIOD_S * rate_hz), 1), int(MAX_STRIDE_S * rate_hz) + 1)
+    if len(lags) == 0:
         return 0.0, 0.0
-    peaks, _ = find_peaks(ac[lo:hi])
-    if len(peaks) == 0:
-        return 0.0, 0.0
-    lags = peaks + lo
-    best = lags[np.argmax(ac[lags])]
+    best = lags[np.argmax(ac[lags] >= MULTIPLE_SHARE * ac[lags].max())]  # a step, not two
     # A stride (two steps) may correlate more than a step: prefer half of it when it is nearly as strong.
     half = [lag for lag in lags if abs(lag - best / 2) <= 0.15 * best]
     if half:
         candidate = max(half, key=lambda lag: ac[lag])
         if ac[candidate] >= max(HALF_LAG_SHARE * ac[best], MIN_PERIODICITY):
             best = candidate
-    return best / rate_hz, float(ac[best])
+    if best > MAX_PERIOD_S * rate_hz:  # too slow for a step: a stride whose steps differ (a pocket)
+        return best / 2.0, float(ac[best])
+    return float(best), float(ac[best])
 
 
-def detect_steps(t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray | None = None) -> Steps:
-    """The steps in a recording's specific force (``(N, 3)`` m/s², any device frame); the gyroscope
-    (``(N, 3)`` rad/s), when given, tells a phone on a limb (module docstring)."""
-    t = np.asarray(t_s, dtype=np.float64)
-    if len(t) < MIN_SAMPLES or not np.all(np.diff(t) > 0) or 0.45 / np.median(np.diff(t)) <= 2 * BAND_HZ[0]:
-        return Steps(np.empty(0), 0.0, None)  # too short, unordered, or sampled too slowly for steps
-    signal, rate_hz = step_signal(t, acc_m_s2)
-    n, width = len(signal), max(int(round(WINDOW_S * rate_hz)), MIN_SAMPLES)
-    hop = max(int(round(HOP_S * rate_hz)), 1)
-    turning = None
-    if gyro_rad_s is not None:
-        turning = np.sum(_band(np.asarray(gyro_rad_s, dtype=np.float64), rate_hz) ** 2, axis=1)
-    period = np.zeros(n)  # local step period, 0 where not walking
-    weight = np.zeros(n)
-    for start in range(0, max(n - width, 0) + 1, hop):
-        segment = signal[start : start + width]
-        if segment.std() < MIN_STD_M_S2:
-            continue
-        p, strength = _period(segment, rate_hz)
-        on_limb = turning is not None and np.sqrt(turning[start : start + width].mean()) >= LIMB_GYRO_RAD_S
-        if on_limb and p >= STRIDE_MIN_S:
-            p /= 2.0
-        if p > 0 and strength >= MIN_PERIODICITY:
-            # the window's middle half gets its period (edges belong more to the neighbours)
-            a, b = start + width // 4, start + 3 * width // 4
-            if start == 0:
-                a = 0
-            if start + width >= n - hop:
-                b = n
-            period[a:b] += p * strength
-            weight[a:b] += strength
-    walking = weight > 0
-    if not walking.any():
-        return Steps(np.empty(0), 0.0, None)
-    period[walking] /= weight[walking]
-    median_period = float(np.median(period[walking]))
-    distance = max(int(REFRACTORY_SHARE * median_period * rate_hz), 1)
-    scale = float(signal[walking].std())
-    peaks, _ = find_peaks(signal, distance=distance, prominence=PROMINENCE_SHARE * scale)
-    # the refractory period follows the local period: drop a peak closer than that to the last kept
-    kept: list[int] = []
-    for peak in peaks:
-        if not walking[peak] or min(t[peak] - t[0], t[-1] - t[peak]) < EDGE_SHARE * period[peak]:
-            continue
-        if kept and t[peak] - t[kept[-1]] < REFRACTORY_SHARE * period[peak]:
-            if signal[peak] > signal[kept[-1]]:
-                kept[-1] = peak
-            continue
-        kept.append(int(peak))
-    times = t[kept]
-    return Steps(times, _walking_s(times, period[kept]), median_period)
+def _stride_period(gyro: np.ndarray, rate_hz: float) -> tuple[float, float]:
+    """``(stride period in samples, autocorrelation at it)`` of one window of the filtered gyroscope."""
+    ac = _autocorrelation(gyro)
+    lags = _peak_lags(ac, int(STRIDE_RANGE_S[0] * rate_hz), int(STRIDE_RANGE_S[1] * rate_hz) + 1)
+    if len(lags) == 0:
+        return 0.0, 0.0
+    # two or three strides correlate as well as one: the first lag nearly as strong as the best
+    best = lags[np.argmax(ac[lags] >= MULTIPLE_SHARE * ac[lags].max())]
+    return float(best), float(ac[best])
 
 
-def _walking_s(times: np.ndarray, period: np.ndarray) -> float:
+class StepDetector:
+    """Steps of samples fed in time order at ``rate_hz`` (module docstring); any chunking gives the
+    same steps. Memory is bounded: only the last window of samples is kept."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.rate_hz = float(rate_hz)
+        self.usable = self.rate_hz >= MIN_RATE_HZ
+        nyquist_share = 0.45 * self.rate_hz
+        self._sos = butter(
+            2, [BAND_HZ[0], min(BAND_HZ[1], nyquist_share)], btype="band", fs=rate_hz, output="sos"
+        )
+        self._gyro_sos = butter(
+            2, [GYRO_BAND_HZ[0], min(GYRO_BAND_HZ[1], nyquist_share)], btype="band", fs=rate_hz, output="sos"
+        )
+        self._width = max(int(round(WINDOW_S * self.rate_hz)), MIN_SAMPLES)
+        self._hop = max(int(round(HOP_S * self.rate_hz)), 1)
+        self._zi: np.ndarray | None = None
+        self._gyro_zi: np.ndarray | None = None
+        self._start = 0  # absolute index of the first kept sample
+        self._t = np.zeros(0)
+        self._x = np.zeros(0)  # filtered norm of the kept samples
+        self._g = np.zeros((0, 3))  # filtered gyroscope of the kept samples (zeros without one)
+        self._has_gyro = True
+        self._windows: list[_Window] = []  # window k covers samples [k hop, k hop + width)
+        self._first_window = 0  # index of self._windows[0]
+        self._scan = 0  # the first sample not yet judged as a step
+        self._last_step = -1  # absolute index of the last peak found (not of filled steps)
+        self._last_step_s = 0.0  # and its time
+        self.committed: list[float] = []  # times of the final steps
+        self._periods: list[float] = []  # step period (samples) at each final step
+        self._pending_tail: Steps | None = None
+
+    # --- input -----------------------------------------------------------------------------------
+
+    def update(self, t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray | None = None) -> None:
+        """Take samples ``(n,)`` s, ``(n, 3)`` m/s² (and rad/s) in time order (``count``: the steps)."""
+        self._pending_tail = None
+        if not self.usable or len(t_s) == 0:
+            return
+        norm = np.linalg.norm(np.asarray(acc_m_s2, dtype=np.float64), axis=1)
+        if gyro_rad_s is None:
+            self._has_gyro = False
+            gyro = np.zeros((len(norm), 3))
+        else:  # a missing rotation rate turns nothing
+            gyro = np.nan_to_num(np.asarray(gyro_rad_s, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        if self._zi is None:  # start the filters as if the first sample had always been there
+            self._zi = sosfilt_zi(self._sos) * norm[0]
+            self._gyro_zi = sosfilt_zi(self._gyro_sos)[:, :, None] * gyro[0]
+        x, self._zi = sosfilt(self._sos, norm, zi=self._zi)
+        g, self._gyro_zi = sosfilt(self._gyro_sos, gyro, axis=0, zi=self._gyro_zi)
+        self._t = np.concatenate([self._t, np.asarray(t_s, dtype=np.float64)])
+        self._x = np.concatenate([self._x, x])
+        self._g = np.concatenate([self._g, g])
+        self._add_windows()
+        self._judge(final=False)
+        self._trim()
+
+    @property
+    def count(self) -> int:
+        """Steps so far: the final ones and those the samples so far give if they end here (computed
+        when asked, once per update: a copy of the last few seconds judged to their end)."""
+        return len(self.committed) + self.tail().count
+
+    def tail(self) -> Steps:
+        """The steps not yet final, as if the recording ended now (the detector is not changed)."""
+        if self._pending_tail is None:
+            ending = copy.deepcopy(self)
+            before = len(ending.committed)
+            ending._judge(final=True)
+            times = np.asarray(ending.committed[before:])
+            self._pending_tail = Steps(times, 0.0, None)
+        return self._pending_tail
+
+    def finish(self) -> Steps:
+        """All the steps, the recording having ended (no more samples may follow)."""
+        self._judge(final=True)
+        self._pending_tail = Steps(np.zeros(0), 0.0, None)
+        times, periods = np.asarray(self.committed), np.asarray(self._periods) / self.rate_hz
+        median = float(np.median(periods)) if len(periods) else None
+        return Steps(times, _walking_s(times, periods), median)
+
+    # --- the detector ----------------------------------------------------------------------------
+
+    @property
+    def _end(self) -> int:
+        return self._start + len(self._x)
+
+    def _add_windows(self) -> None:
+        while (k := self._first_window + len(self._windows)) * self._hop + self._width <= self._end:
+            a = k * self._hop - self._start
+            self._windows.append(self._window(a, a + self._width))
+
+    def _window(self, a: int, b: int) -> _Window:
+        x = self._x[a:b]
+        std = float(x.std())
+        if std < MIN_STD_M_S2:
+            return _Window(0.0, std)
+        g = self._g[a:b]
+        if self._has_gyro and np.sqrt(np.mean(np.sum(g * g, axis=1))) >= LIMB_GYRO_RAD_S:
+            stride, strength = _stride_period(g, self.rate_hz)
+            period = stride / 2.0
+        else:
+            period, strength = _step_period(x, self.rate_hz)
+        return _Window(period if strength >= MIN_PERIODICITY else 0.0, std)
+
+    def _window_of(self, i: int, final: bool) -> _Window | None:
+        """The window centred nearest to sample ``i``, its period the median of its walking
+        neighbours' (one odd window, a stride read as a step, is outvoted); None: not known yet."""
+        k = max(int(np.floor((i - self._width // 2) / self._hop + 0.5)), 0)
+        last = self._first_window + len(self._windows) - 1
+        if k + 1 > last and not (final and self._windows):
+            return None
+        k = min(k, last)
+        window = self._windows[k - self._first_window]
+        if window.period == 0:
+            return window
+        near = self._windows[max(k - 1 - self._first_window, 0) : k + 2 - self._first_window]
+        return _Window(float(np.median([w.period for w in near if w.period > 0])), window.std)
+
+    def _judge(self, final: bool) -> None:
+        """Find the steps among the samples whose look-ahead has arrived (all of them at the end)."""
+        if final and not self._windows and len(self._x) >= MIN_SAMPLES:
+            self._windows.append(self._window(0, len(self._x)))  # shorter than one window
+        x, start, end = self._x, self._start, self._end
+        reach = int(REFRACTORY_SHARE * MAX_PERIOD_S * self.rate_hz) + 1
+        lo = max(self._scan, start + 1)
+        j = np.arange(lo, end - 1) - start
+        self._scan = max(end - 1, lo)  # where the scan stops unless a candidate waits
+        for i in (lo + np.flatnonzero((x[j] > x[j - 1]) & (x[j] >= x[j + 1]))).tolist():
+            window = self._window_of(i, final)
+            if window is None or (not final and i + reach >= end):
+                self._scan = i  # judged once its window and look-ahead have arrived
+                return
+            r = int(REFRACTORY_SHARE * window.period)
+            if final and i + r >= end:
+                return  # a peak needs its refractory span on both sides: the ends of a recording
+            if i >= r and window.period > 0 and self._is_step(i - start, r, window):  # are the phone
+                self._add_step(i, window.period)  # being taken out or put away, the filter settling
+
+    def _is_step(self, j: int, r: int, window: _Window) -> bool:
+        """Is the local maximum at kept index ``j`` the highest and prominent within ``r`` samples?"""
+        x = self._x
+        left, right = x[max(j - r, 0) : j], x[j + 1 : j + r + 1]
+        if (len(left) and left.max() >= x[j]) or (len(right) and right.max() > x[j]):
+            return False
+        floor = max(left.min() if len(left) else x[j], right.min() if len(right) else x[j])
+        if x[j] - floor < PROMINENCE_SHARE * window.std:
+            return False
+        return self._last_step < 0 or j + self._start - self._last_step >= r
+
+    def _add_step(self, i: int, period: float) -> None:
+        if self._last_step >= 0:
+            gap = (i - self._last_step) / period
+            missed = int(round(gap)) - 1
+            if 1 <= missed < MAX_FILL and gap <= BOUT_GAP_SHARE:  # weak peaks, not a stop
+                t0, t1 = self._last_step_s, float(self._t[i - self._start])
+                for m in range(1, missed + 1):
+                    self.committed.append(float(t0 + (t1 - t0) * m / (missed + 1)))
+                    self._periods.append(period)
+        self._last_step, self._last_step_s = i, float(self._t[i - self._start])
+        self.committed.append(self._last_step_s)
+        self._periods.append(period)
+
+    def _trim(self) -> None:
+        """Forget the samples no later decision reads: before the next window and the step scan."""
+        next_window = (self._first_window + len(self._windows)) * self._hop
+        reach = int(REFRACTORY_SHARE * MAX_PERIOD_S * self.rate_hz) + 2
+        keep_from = min(next_window, self._scan - reach)
+        drop = keep_from - self._start
+        if drop > 0:
+            self._t, self._x, self._g = self._t[drop:], self._x[drop:], self._g[drop:]
+            self._start = keep_from
+        # windows no sample still to judge will read (keep the last: the end uses it)
+        first_needed = max(int(np.floor((self._scan - self._width // 2) / self._hop + 0.5)) - 1, 0)
+        extra = min(first_needed - self._first_window, len(self._windows) - 1)
+        if extra > 0:
+            del self._windows[:extra]
+            self._first_window += extra
+
+
+def _walking_s(times: np.ndarray, period_s: np.ndarray) -> float:
     """Time spent walking: the intervals between steps of one bout (no longer than ``BOUT_GAP_SHARE``
     local periods), and one period for each bout's first step."""
     if len(times) == 0:
         return 0.0
     gaps = np.diff(times)
-    in_bout = gaps <= BOUT_GAP_SHARE * period[1:]
+    in_bout = gaps <= BOUT_GAP_SHARE * period_s[1:]
     bouts = 1 + np.count_nonzero(~in_bout)
-    return float(gaps[in_bout].sum() + bouts * np.median(period))
+    return float(gaps[in_bout].sum() + bouts * np.median(period_s))
+
+
+def sample_rate_hz(t_s: np.ndarray) -> float:
+    """The rate of a uniform grid of times, rounded (to 1 mHz) so that a grid built at a given rate
+    gives that rate back exactly."""
+    return round(1.0 / float(np.median(np.diff(t_s))), 3)
+
+
+def detect_steps(t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray | None = None) -> Steps:
+    """The steps in a recording's specific force (``(N, 3)`` m/s², any device frame, a uniform time
+    grid); the gyroscope (``(N, 3)`` rad/s), when given, tells a phone on a limb (module docstring)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    if len(t) < MIN_SAMPLES or not np.all(np.diff(t) > 0):
+        return Steps(np.empty(0), 0.0, None)  # too short or unordered
+    detector = StepDetector(sample_rate_hz(t))
+    detector.update(t, acc_m_s2, gyro_rad_s)
+    return detector.finish()

@@ -47,14 +47,23 @@ def test_figures_of_a_plausible_walk() -> None:
 
 
 def test_a_walk_predicted_too_short_is_flagged() -> None:
-    # The example: 20 steps walked, 7.7 m predicted (0.39 m a step).
-    seq = walk_sequence(60.0, 20.0)
-    result = assess(straight(seq, 7.7 / 20.0), seq)
-    assert abs(result.value("step_count") - 20) <= 2
-    assert len(result.warnings) == 1 and "below the human walking range 0.4-1.0 m" in result.warnings[0]
-    assert "7.7 m" in result.warnings[0]
-    too_far = assess(straight(seq, 30.0 / 20.0), seq)
+    seq = walk_sequence(110.0, 30.0)  # 55 steps at an ordinary pace: 0.39-1.04 m a step is human
+    result = assess(straight(seq, 0.3 * 55 / 30.0), seq)  # 0.3 m a step
+    assert abs(result.value("step_count") - 55) <= 2
+    [warning] = result.warnings
+    assert "below the human walking range at 110 steps a minute, 0.39-1.04 m" in warning
+    assert "16.5 m" in warning
+    too_far = assess(straight(seq, 1.2 * 55 / 30.0), seq)
     assert len(too_far.warnings) == 1 and "above the human walking range" in too_far.warnings[0]
+
+
+def test_short_steps_are_human_when_slow_but_not_when_running() -> None:
+    # The shared slow texting walks step 0.28-0.52 m at 73-92 steps a minute (Inria, motion capture).
+    slow = walk_sequence(70.0, 30.0)  # 35 steps
+    assert assess(straight(slow, 0.3 * 35 / 30.0), slow).warnings == []
+    run = walk_sequence(165.0, 30.0)  # 82 steps
+    [warning] = assess(straight(run, 0.43 * 82 / 30.0), run).warnings
+    assert "below the human walking range at 16" in warning
 
 
 def test_steps_while_the_prediction_stands_and_motion_without_steps_are_named() -> None:
