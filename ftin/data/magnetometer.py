@@ -60,6 +60,8 @@ TRIM_QUANTILE = 0.9  # the fit is redone on the 90 % of samples closest to the f
 
 
 class MagnetometerAction(str, Enum):
+    """What is done with the field: used as it reads, used after the fit, or not used (6-D)."""
+
     AS_GIVEN = "as given"
     CALIBRATED = "calibrated"
     DROPPED = "dropped"
