@@ -30,7 +30,15 @@ from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
 from ftin.checkpoint import load_model
 from ftin.cli.campaign_burst import burst_app
-from ftin.cli.common import REPORT_ERRORS, AddressOption, app, out_console, user_errors
+from ftin.cli.common import (
+    REPORT_ERRORS,
+    AddressOption,
+    app,
+    echo_written,
+    out_console,
+    show_written,
+    user_errors,
+)
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.report.crossval_render import crossval_report
 from ftin.report.hidden_walks import hidden_walks, write_files
@@ -77,13 +85,6 @@ def stage_two_choices_of(crossval_json: Path) -> protocol.StageTwoChoices:
         raise CampaignError(f"--choices {crossval_json}: not a crossval.json ({exc})") from None
     except ValueError as exc:
         raise CampaignError(f"--choices {crossval_json}: {exc}") from None
-
-
-def show_written(written: list[Path]) -> None:
-    """Print the first file written (a Markdown report) and the path of every one."""
-    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
-    for path in written:
-        typer.echo(f"wrote {path}")
 
 
 @campaign_app.command("plan")
@@ -276,8 +277,7 @@ def ship_command(
     """Copy the checkpoints the manifest ships (with model cards); withdraw the refused names."""
     with user_errors(*CAMPAIGN_ERRORS):
         written = ship(Campaign(runs), results, checkpoints, on_event=lambda line: typer.echo(line))
-    for path in written:
-        typer.echo(f"wrote {path}")
+    echo_written(written)
 
 
 @campaign_app.command("table")

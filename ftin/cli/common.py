@@ -119,6 +119,18 @@ ThreadsOption = Annotated[
 ]
 
 
+def echo_written(written: list[Path]) -> None:
+    """Say where each file went."""
+    for path in written:
+        typer.echo(f"wrote {path}")
+
+
+def show_written(written: list[Path]) -> None:
+    """Print the first file written (a Markdown report), then where each file went."""
+    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
+    echo_written(written)
+
+
 def orientation_text(choice: dict[str, str] | None) -> str:
     """``vqf (asked: auto; magnetometer steady ...)``: the source that ran, what was asked and why."""
     if not choice:

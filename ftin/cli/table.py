@@ -25,8 +25,8 @@ from ftin.cli.common import (
     StrideOption,
     WorkersOption,
     app,
-    out_console,
     progress_bar,
+    show_written,
     user_errors,
 )
 from ftin.data.orientation_option import Orientation
@@ -105,9 +105,7 @@ def table_command(
             written = campaign_table(campaign, out, transfer=evaluated)
         else:
             written = write_report(evaluated, out).paths()
-    out_console().print(written[0].read_text(encoding="utf-8"), markup=False, highlight=False, soft_wrap=True)
-    for path in written:
-        typer.echo(f"wrote {path}")
+    show_written(written)
 
 
 def _evaluate(
