@@ -41,12 +41,12 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 import ftin
+from ftin.checkpoint import DEFAULT_MODEL
+from ftin.files import DEFAULT_CHECKPOINT_DIR
 from ftin.precision import PrecisionSetting
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
-DEFAULT_CHECKPOINT_DIR = REPO_ROOT / "checkpoints"
-DEFAULT_MODEL = "ftin-pedestrian"  # checkpoints/ftin-pedestrian.safetensors (+ .json), trained on real walks
 
 
 class Settings(BaseSettings):

@@ -39,6 +39,27 @@ class CheckpointError(ValueError):
     """A checkpoint cannot be loaded: the message names the file and what is wrong."""
 
 
+DEFAULT_CHOICE_FILE = "default.json"  # ftin.campaign.collect.DEFAULT_FILE: the default model and why
+DEFAULT_MODEL = "ftin-pedestrian"  # without a default.json: the FTIN checkpoint trained on real walks
+
+
+def read_default_choice(checkpoint_dir: Path) -> tuple[str, str] | None:
+    """``(model, why)`` from the folder's ``default.json``; None without one; ``CheckpointError`` for a
+    file that is not ``{"model": str, "why": str, ...}``."""
+    path = checkpoint_dir / DEFAULT_CHOICE_FILE
+    if not path.is_file():
+        return None
+    try:
+        choice = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CheckpointError(f"cannot read {path}: {exc}") from exc
+    if not isinstance(choice, dict) or not all(isinstance(choice.get(k), str) for k in ("model", "why")):
+        raise CheckpointError(
+            f'{path}: expected {{"model": NAME, "why": TEXT}} (written by `ftin campaign ship`)'
+        )
+    return choice["model"], choice["why"]
+
+
 @dataclass(frozen=True)
 class LoadedModel:
     """A model rebuilt from a checkpoint, in eval mode, with what inference needs to feed it."""

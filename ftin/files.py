@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (an editable install runs from it)
+DEFAULT_CHECKPOINT_DIR = REPO_ROOT / "checkpoints"  # the shipped checkpoints
 DEFAULT_DATA_ROOT = REPO_ROOT.parent / "shared" / "data"
 
 

@@ -18,7 +18,6 @@ Decisions:
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 from collections.abc import Callable
@@ -29,29 +28,11 @@ from typing import Any
 from app.services.errors import NotFoundError, StartupError
 from app.services.kinds import labels, training_kinds
 from app.services.model_names import display_name
-from ftin.checkpoint import LoadedModel, load_model
+from ftin.checkpoint import CheckpointError, LoadedModel, load_model, read_default_choice
 
 log = logging.getLogger(__name__)
 
 CHECKPOINT_SUFFIX = ".safetensors"
-DEFAULT_CHOICE_FILE = "default.json"  # ftin.campaign.collect.DEFAULT_FILE: the default model and why
-
-
-def read_default_choice(checkpoint_dir: Path) -> tuple[str, str] | None:
-    """``(model, why)`` from the folder's ``default.json``; None without one; ``StartupError`` for a
-    file that is not ``{"model": str, "why": str, ...}``."""
-    path = checkpoint_dir / DEFAULT_CHOICE_FILE
-    if not path.is_file():
-        return None
-    try:
-        choice = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise StartupError(f"cannot read {path}: {exc}") from exc
-    if not isinstance(choice, dict) or not all(isinstance(choice.get(k), str) for k in ("model", "why")):
-        raise StartupError(
-            f'{path}: expected {{"model": NAME, "why": TEXT}} (written by `ftin campaign ship`)'
-        )
-    return choice["model"], choice["why"]
 
 
 @dataclass(frozen=True)
@@ -162,7 +143,11 @@ class ModelStore:
             log.info("loaded model %s (%s) from %s", name, loaded.model_name, path)
 
         default_why = None
-        if not default_is_explicit and (chosen := read_default_choice(checkpoint_dir)) is not None:
+        try:
+            chosen = None if default_is_explicit else read_default_choice(checkpoint_dir)
+        except CheckpointError as exc:
+            raise StartupError(str(exc)) from exc
+        if chosen is not None:
             default_model, default_why = chosen
         default_name = _find(entries, default_model)
         if default_name is None and default_is_explicit:

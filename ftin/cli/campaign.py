@@ -20,15 +20,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from app.services.checkpoint_store import read_default_choice
-from app.services.errors import StartupError
-from app.settings import DEFAULT_CHECKPOINT_DIR, DEFAULT_MODEL
 from ftin import protocol
 from ftin.campaign import CampaignError, engine
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
 from ftin.campaign.status import STATES, campaign_status
-from ftin.checkpoint import load_model
+from ftin.checkpoint import DEFAULT_MODEL, CheckpointError, load_model, read_default_choice
 from ftin.cli.campaign_burst import burst_app
 from ftin.cli.common import (
     REPORT_ERRORS,
@@ -39,7 +36,7 @@ from ftin.cli.common import (
     show_written,
     user_errors,
 )
-from ftin.files import DEFAULT_DATA_ROOT
+from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
 from ftin.report.crossval_render import crossval_report
 from ftin.report.hidden_walks import hidden_walks, write_files
 
@@ -330,7 +327,7 @@ def hidden_walks_command(
     """The acceptance check: a checkpoint on the protocol's test walks, oriented from the phone alone.
 
     Per dataset the mean ATE against standing still's; per walk, the distance ratio against its bounds."""
-    with user_errors(*CAMPAIGN_ERRORS, StartupError):
+    with user_errors(*CAMPAIGN_ERRORS, CheckpointError):
         if checkpoint is None:  # as the app picks a model for a request that names none
             choice = read_default_choice(DEFAULT_CHECKPOINT_DIR)
             checkpoint = DEFAULT_CHECKPOINT_DIR / (choice[0] if choice else DEFAULT_MODEL)
