@@ -38,6 +38,7 @@ class PathNodes:
     root: Any  # the frame at ``prefix``; removing it removes every child
     marker: Any
     window: Any | None = None
+    end: Any = None  # the end marker (a live walk's moves with the walker)
 
     def remove(self) -> None:
         self.root.remove()
@@ -69,9 +70,9 @@ def draw_path(
         scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, start_color, position=points[0])
     else:
         scene.add_icosphere(f"{prefix}/start", marker_radius * 0.5, color, position=points[0])
-    scene.add_box(f"{prefix}/end", darker(color), (marker_radius * 1.6,) * 3, position=points[-1])
+    end = scene.add_box(f"{prefix}/end", darker(color), (marker_radius * 1.6,) * 3, position=points[-1])
     marker = scene.add_icosphere(f"{prefix}/marker", marker_radius, color, position=points[0])
-    return PathNodes(prefix, root, marker)
+    return PathNodes(prefix, root, marker, end=end)
 
 
 def draw_gps(scene: viser.SceneApi, p_m: np.ndarray, z_m: float, marker_radius: float) -> Any:

@@ -7,9 +7,10 @@ Decisions:
   frame); ground truth, GPS, grid and camera are framed once per recording (``frame``).
 - A repeat replaces its predecessor: a run of a model already shown takes its place.
 - The camera frames every path: a run that leaves the framed square re-frames grid and camera.
-- A live run's view is replaced, not rebuilt (``grow``): drawing costs the same at minute 1 and
-  minute 60 (the path is decimated to ``MAX_LINE_POINTS``); the camera keeps the user's angle and
-  distance and moves its target to the walker.
+- A live run's view is replaced, not rebuilt (``grow``): its path is continued, not redrawn
+  (``app.viz.live_path``), only the new points are checked against the framed square, so drawing
+  costs the same at minute 1 and minute 60; the camera keeps the user's angle and distance and moves
+  its target to the walker.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import viser
 from app.services.checkpoint_store import ModelStore
 from app.services.runs import Run
 from app.viz.drawing import GridNodes, PathNodes, draw_gps, draw_grid, draw_path, extent_of, set_window
+from app.viz.live_path import GrowingPath
 from app.viz.palette import START_COLOR, TRUTH_COLOR, ColorBook
 from app.viz.run_scene_data import RunView, sequence_key
 
@@ -38,6 +40,7 @@ class Overlay:
         self.colors = ColorBook(models.names())  # the upload page's order too
         self.views: dict[str, RunView] = {}  # shown runs, in arrival order
         self.nodes: dict[str, PathNodes] = {}
+        self._growing: dict[str, GrowingPath] = {}  # live runs' paths drawn since they were first drawn
         self.truth: PathNodes | None = None
         self.grid: GridNodes | None = None
         self.sequence_key: tuple[Any, ...] | None = None  # the recording on screen
@@ -75,6 +78,7 @@ class Overlay:
         for old_id, old in self.views.items():
             if old.model_name == view.model_name:
                 self.nodes.pop(old_id).remove()
+                self._growing.pop(old_id, None)
                 views[view.run_id] = view
             else:
                 views[old_id] = old
@@ -90,9 +94,14 @@ class Overlay:
         if old is None:
             return None
         view = self.views[run.run_id] = old.grown(run)
-        self.nodes.pop(run.run_id).remove()
-        self._draw(view)
-        self._reframe_if_outside(view)
+        nodes = self.nodes[run.run_id]
+        if run.run_id not in self._growing:
+            end_s = float(old.trajectory.t_s[-1])
+            self._growing[run.run_id] = GrowingPath(self.server.scene, nodes.prefix, view.color, end_s)
+        new_points = self._growing[run.run_id].grow(view.trajectory)
+        if nodes.end is not None:
+            nodes.end.position = view.trajectory.p_world_m[-1]
+        self._reframe_if_outside(view, new_points)
         self._follow(view.trajectory.p_world_m[-1])
         return view
 
@@ -115,6 +124,7 @@ class Overlay:
         for nodes in self.nodes.values():
             nodes.remove()
         self.nodes.clear()
+        self._growing.clear()
         self.views.clear()
         if self.truth is not None:
             self.truth.remove()
@@ -153,12 +163,13 @@ class Overlay:
             client.camera.position = eye
             client.camera.look_at = centre
 
-    def _reframe_if_outside(self, view: RunView) -> None:
-        """A path that leaves the framed square re-frames grid and camera around everything shown."""
+    def _reframe_if_outside(self, view: RunView, points: np.ndarray | None = None) -> None:
+        """A path that leaves the framed square re-frames grid and camera around everything shown;
+        ``points``: only these of it are new (a live walk's), the rest was checked before."""
         if self._frame_box is None:
             return
         centre, size = self._frame_box
-        p = view.trajectory.p_world_m[:, :2]
+        p = (view.trajectory.p_world_m if points is None else points)[:, :2]
         half = 0.5 * size * 1.15
         if np.all(np.abs(p - centre[:2]) <= half):
             return

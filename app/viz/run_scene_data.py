@@ -155,29 +155,43 @@ class RunView:
         taps = window_taps(self.loaded, self.model_input, index) or {}
         return taps.get(CHANNEL_SPECTRUM), taps.get(TEMPORAL_SPECTRUM)
 
+    # Lookups by time bisect the sorted time axes (never scan them): a slider move, or a live walk's
+    # update, costs the same at minute 1 and minute 60.
+
     def window_at(self, t_s: float) -> int:
         """Index of the window whose time stamp is nearest to ``t_s``."""
-        return int(np.argmin(np.abs(self.window_t_s - t_s)))
+        t = self.window_t_s
+        i = int(np.searchsorted(t, t_s))
+        if i == 0 or i == len(t):
+            return max(0, min(i, len(t) - 1))
+        return i if t[i] - t_s < t_s - t[i - 1] else i - 1
 
     def position_at(self, t_s: float) -> np.ndarray:
-        return interpolate_positions(self.trajectory, np.array([t_s]))[0]
+        return positions_near(self.trajectory, np.array([t_s]))[0]
 
     def window_points(self, index: int, truth: bool = False) -> np.ndarray:
         """Positions along window ``index`` (estimate, or ground truth), at least two points."""
         traj = self.truth if truth else self.trajectory
         assert traj is not None
         t0, t1 = self.window_start_s[index], self.window_end_s[index]
-        inside = traj.t_s[(traj.t_s > t0) & (traj.t_s < t1)]
-        return interpolate_positions(traj, np.concatenate([[t0], inside, [t1]]))
+        inside = traj.t_s[np.searchsorted(traj.t_s, t0, side="right") : np.searchsorted(traj.t_s, t1)]
+        return positions_near(traj, np.concatenate([[t0], inside, [t1]]))
 
     def raw_spectrum(self, index: int) -> tuple[np.ndarray, np.ndarray] | None:
         """Amplitude spectra ``(freq_hz, (6, F))`` of the raw device-frame IMU inside window ``index``."""
         seq = self.sequence
-        mask = (seq.t_s >= self.window_start_s[index]) & (seq.t_s < self.window_end_s[index])
-        if mask.sum() < 4:
+        rows = slice(*np.searchsorted(seq.t_s, [self.window_start_s[index], self.window_end_s[index]]))
+        if rows.stop - rows.start < 4:
             return None
-        samples = np.concatenate([seq.gyro_rad_s[mask], seq.acc_m_s2[mask]], axis=1)
+        samples = np.concatenate([seq.gyro_rad_s[rows], seq.acc_m_s2[rows]], axis=1)
         return amplitude_spectrum(samples, seq.rate_hz)
+
+
+def positions_near(traj: Trajectory, t_s: np.ndarray) -> np.ndarray:
+    """``interpolate_positions`` over only the stretch of ``traj`` that brackets the sorted times ``t_s``."""
+    lo = max(int(np.searchsorted(traj.t_s, t_s[0])) - 1, 0)
+    hi = int(np.searchsorted(traj.t_s, t_s[-1], side="right")) + 1
+    return interpolate_positions(traj.slice(lo, hi), t_s)
 
 
 def sequence_key(run: Run) -> tuple[Any, ...]:

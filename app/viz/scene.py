@@ -175,8 +175,7 @@ class DashboardScene(RunListener):
                 if self.overlay.grow(run) is None:  # cleared meanwhile ("Clear scene", another recording)
                     continue
                 self.controls.keep_upload(run)
-                self.timeline.follow_end(run.sequence)
-                self.timeline.update()
+                self.timeline.follow_end(run.sequence)  # moving the slider queues the one time update
                 self.live.show_status(update.session)
                 self.controls.gui_progress.visible = False  # a live run has no end to show progress towards
 
