@@ -113,3 +113,23 @@ class SceneOptions:
     moves: int = option(20, "Slider moves in the dragged-slider test.")
     models: int = option(0, "Only the first N checkpoints (0: all).")
     chromium: str = option("/usr/bin/chromium", "'' to time without a browser.")
+
+
+@dataclass(frozen=True)
+class LiveDrawingOptions:
+    """What one live update costs the 3D scene as the walk grows: the same updates at each minute mark."""
+
+    minutes: tuple[float, ...] = option((1.0, 30.0), "Minute marks of the walk to time (repeatable).")
+    updates: int = option(40, "Timed updates at each mark.")
+    warmup: int = option(10, "Untimed updates before them.")
+    every_s: float = option(0.5, "Recording between two updates (s): the live service's publishing period.")
+
+    def __post_init__(self) -> None:
+        if (
+            not self.minutes
+            or min(self.minutes) <= 0
+            or self.updates < 1
+            or self.warmup < 0
+            or self.every_s <= 0
+        ):
+            raise ValueError("--minutes must be > 0, --updates >= 1, --warmup >= 0 and --every-s > 0")

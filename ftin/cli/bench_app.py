@@ -12,19 +12,34 @@ import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import Any
 
 import httpx
+import numpy as np
 import torch
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.serve import serve_in_thread
+from app.services.features import ModelInput
+from app.services.live import LiveUpdate
+from app.services.runs import Run
 from app.settings import Settings
-from ftin.bench import live, load, predict, scene
-from ftin.bench.options import SCENE_SETTINGS, LiveOptions, LoadOptions, PredictOptions, SceneOptions
+from ftin.bench import live, live_drawing, load, predict, scene
+from ftin.bench.options import (
+    SCENE_SETTINGS,
+    LiveDrawingOptions,
+    LiveOptions,
+    LoadOptions,
+    PredictOptions,
+    SceneOptions,
+)
+from ftin.data.types import Trajectory
+from ftin.infer import predict_trajectory
+from ftin.sim.config import SimConfig
+from ftin.sim.simulator import simulate
 
 Echo = Callable[[str], None]
 
@@ -102,6 +117,57 @@ def run_live(options: LiveOptions, echo: Echo) -> None:
 def run_scene(options: SceneOptions, echo: Echo) -> None:
     with served(Settings(**SCENE_SETTINGS)) as (base_url, app):
         scene.time_scene(base_url, app.state.scene, options, echo)
+
+
+def run_live_drawing(options: LiveDrawingOptions, echo: Echo) -> None:
+    """A simulated walk as long as the last minute mark, predicted once by the live model; each
+    update is that prediction cut where the walk has got to, as the live service publishes it."""
+    with served(Settings(**SCENE_SETTINGS)) as (_, app):
+        entry = app.state.services.models.get(None)
+        loaded = entry.loaded
+        seq = simulate(SimConfig(duration_s=60.0 * max(options.minutes) + 10.0, seed=5))
+        whole = predict_trajectory(loaded, seq, yaw_copies=1)
+        echo(f"model {entry.name}, a {seq.duration_s / 60:.1f}-minute simulated walk at {seq.rate_hz:.0f} Hz")
+
+        def grown(t_s: float, run_id: str) -> LiveUpdate:
+            return _live_update(run_id, entry.name, whole, loaded.window, t_s)
+
+        seconds = live_drawing.time_updates(app.state.scene, grown, options)
+    for line in live_drawing.describe(seconds, options):
+        echo(line)
+
+
+def _live_update(run_id: str, model_name: str, whole: Any, window: int, t_s: float) -> LiveUpdate:
+    """``whole`` (a prediction of the entire walk) as a live session has it at ``t_s`` seconds."""
+    t = whole.trajectory.t_s
+    n = int(np.searchsorted(t, t[0] + t_s, side="right"))
+    m = int(np.searchsorted(whole.span_t_s[:, 1], t[n - 1], side="right"))
+    trajectory = Trajectory(t[:n], whole.trajectory.p_world_m[:n], whole.trajectory.q_world_body_wxyz[:n])
+    prediction = replace(
+        whole,
+        trajectory=trajectory,
+        window_t_s=whole.window_t_s[:m],
+        velocity_m_s=whole.velocity_m_s[:m],
+        span_t_s=whole.span_t_s[:m],
+        prepared=None,
+        truth=None,
+        imu_world=whole.imu_world[:n],
+        starts=whole.starts[:m],
+    )
+    model_input = ModelInput(whole.imu_world[:n], whole.starts[:m], window)
+    sequence = whole.prepared.seq.slice(0, n).with_(gt=None)  # a phone streaming: no ground truth
+    run = Run(run_id, model_name, sequence, prediction, "live", None, model_input)
+    session = {
+        "device_id": "bench-phone",
+        "state": "live",
+        "model": model_name,
+        "rate_hz": 100.0,
+        "latest_latency_s": 0.2,
+        "dropped_messages": 0,
+        "distance_m": trajectory.path_length_m,
+        "steps": int(t_s * 1.8),
+    }
+    return LiveUpdate(run, session)
 
 
 def run_load(options: LoadOptions, echo: Echo) -> int:
