@@ -18,7 +18,7 @@ Decisions:
   included; a long recording that keeps making progress is never cut: ``app.services.limits``);
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
   slow each other down, and each holds its windows in memory); finished runs are kept while they
-  hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs).
+  hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs) in memory.
 - Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue; a push
   from another machine is refused unless ``FTIN_LIVE_TOKEN`` is set, and then must carry it.
 - ``FTIN_TORCH_THREADS`` (default 1) sets torch's intra-op threads for the whole process while the
@@ -26,6 +26,12 @@ Decisions:
   thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
   prediction took 0.6 s with one thread and 4.9 s with two, whose threads wait for each other.
   ``0`` keeps torch's own choice (one per core), for a dedicated machine.
+- Runs persist (``app.services.run_archive``): every finished run is written under ``FTIN_RUNS_DIR``
+  (default: the user's data folder, ``$XDG_DATA_HOME/ftin-studio/runs``, else
+  ``~/.local/share/ftin-studio/runs``; ``%LOCALAPPDATA%`` on Windows, ``~/Library/Application Support``
+  on macOS) with a SQLite index, and removed only to keep that folder under
+  ``FTIN_RUNS_DISK_BUDGET_MB`` (default 2000), oldest first. ``FTIN_MAX_RUNS`` and
+  ``FTIN_MAX_KEPT_SAMPLES`` bound only the runs also held in memory.
 - ``FTIN_PRECISION`` (default ``auto``): bf16 autocast where this CPU does bf16 natively and the
   model's family kept its accuracy under it, fp32 elsewhere (``ftin.precision``), chosen at start-up
   and named in ``GET /health``; ``fp32`` / ``bf16`` force one.
@@ -34,6 +40,7 @@ Decisions:
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -47,6 +54,18 @@ from ftin.precision import PrecisionSetting
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
+
+
+def default_runs_dir() -> Path:
+    """Where runs are kept unless ``FTIN_RUNS_DIR`` says: the user's data folder, by platform."""
+    home = Path.home()
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or home / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = home / "Library" / "Application Support"
+    else:
+        base = Path(os.environ.get("XDG_DATA_HOME") or home / ".local" / "share")
+    return base / "ftin-studio" / "runs"
 
 
 class Settings(BaseSettings):
@@ -71,7 +90,15 @@ class Settings(BaseSettings):
     viser_host: str = "127.0.0.1"
     viser_port: int = Field(8080, ge=0, le=65535)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
-    max_runs: int = Field(20, ge=1, description="Finished runs kept in memory (oldest dropped first).")
+    max_runs: int = Field(
+        20, ge=1, description="Finished runs also held in memory (the rest are read from FTIN_RUNS_DIR)."
+    )
+    runs_dir: Path = Field(
+        default_factory=default_runs_dir, description="Folder where finished runs are stored (SQLite index)."
+    )
+    runs_disk_budget_mb: float = Field(
+        2000.0, gt=0, description="Most the runs folder may hold, in MiB (the oldest runs removed first)."
+    )
     max_kept_samples: int = Field(
         3_000_000, ge=1, description="Samples all kept runs may hold together (oldest dropped first)."
     )
@@ -113,7 +140,7 @@ class Settings(BaseSettings):
             return [part.strip() for part in value.split(",") if part.strip()]
         return value
 
-    @field_validator("checkpoint_dir", mode="after")
+    @field_validator("checkpoint_dir", "runs_dir", mode="after")
     @classmethod
     def _expand_checkpoint_dir(cls, value: Path) -> Path:
         return value.expanduser()
@@ -121,6 +148,10 @@ class Settings(BaseSettings):
     @property
     def max_upload_bytes(self) -> int:
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def runs_disk_budget_bytes(self) -> int:
+        return int(self.runs_disk_budget_mb * 1024 * 1024)
 
     @property
     def max_uncompressed_bytes(self) -> int:

@@ -27,6 +27,16 @@ def shared_data() -> Path:
 
 
 @pytest.fixture(autouse=True, scope="session")
+def _runs_in_a_temporary_folder(tmp_path_factory: pytest.TempPathFactory):
+    """No test writes runs to the user's data folder (FTIN_RUNS_DIR's default): apps that a test
+    builds without naming a runs folder share this one."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("FTIN_RUNS_DIR", str(tmp_path_factory.mktemp("ftin_runs")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(autouse=True, scope="session")
 def _one_torch_thread():
     """One torch thread for every test: CI has 2 shared cores, and tiny batches only contend."""
     previous = torch.get_num_threads()

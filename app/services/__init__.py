@@ -8,6 +8,7 @@ from app.services.catalog import SequenceCatalog
 from app.services.checkpoint_store import ModelStore
 from app.services.live import LiveService
 from app.services.prediction import PredictionService
+from app.services.run_archive import RunArchive
 from app.services.runs import RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 
@@ -29,7 +30,8 @@ class Services:
             settings.checkpoint_dir, settings.default_model, settings.default_model_is_explicit
         )
         catalog = SequenceCatalog.scan(settings.data_dirs, bundled_dir=BUNDLED_SAMPLES_DIR)
-        runs = RunStore(settings.max_runs, settings.max_kept_samples)
+        archive = RunArchive.open(settings.runs_dir, settings.runs_disk_budget_bytes)
+        runs = RunStore(settings.max_runs, settings.max_kept_samples, archive)
         predictor = PredictionService(models, catalog, runs, settings)
         return cls(settings, models, catalog, runs, predictor, LiveService(settings, models, runs))
 

@@ -117,6 +117,7 @@ class RunOptions:
     deadline: Deadline | None = None  # None: one that starts when the run is asked for
     align: str | None = None  # ``ftin.metrics.Alignment``; None: the recording's default
     orientation: str | None = None  # ``ftin.data.orientation_option``; None: auto
+    group: str | None = None  # the run_id a compare-all started from (app.services.runs.Run.group)
 
 
 class PredictionService:
@@ -230,6 +231,7 @@ class PredictionService:
             align=options.align,
             orientation=options.orientation,
             model_choice=choice,
+            group=options.group,
         )
 
     def run(
@@ -244,6 +246,7 @@ class PredictionService:
         align: str | None = None,
         orientation: str | None = None,
         model_choice: ModelChoice | None = None,
+        group: str | None = None,
     ) -> Run:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
 
@@ -307,6 +310,8 @@ class PredictionService:
             model_input,
             scored,
             model_choice=model_choice,
+            align=align,
+            group=group,
         )
         self.runs.finish(run)
         return run

@@ -1,13 +1,19 @@
-"""Runs: one model applied to one sequence. The store keeps the latest finished runs in memory,
-tracks progress of running ones (``GET /runs/{id}``), and tells listeners (the 3D scene) when a run
-starts, progresses, finishes, fails or is asked to be shown, whichever door the run came in through
-(REST, upload page, viser GUI, a live phone). A live run's growth in between (``update``) is served
-but not announced: the live service tells its own listeners about the walk they follow.
+"""Runs: one model applied to one sequence. The store keeps every finished run on disk
+(``run_archive``: ``FTIN_RUNS_DIR``, evicted only by ``FTIN_RUNS_DISK_BUDGET_MB``, oldest first) with
+the latest ones in memory in front of it (``FTIN_MAX_RUNS``, ``FTIN_MAX_KEPT_SAMPLES``); it tracks the
+progress of running ones (``GET /runs/{id}``), and tells listeners (the 3D scene) when a run starts,
+progresses, finishes, fails or is asked to be shown, whichever door the run came in through (REST,
+upload page, viser GUI, a live phone). A live run's growth in between (``update``) is served but not
+announced: the live service tells its own listeners about the walk they follow.
+
+Without an archive (``RunStore()`` in tests) the store is memory only: a run dropped from memory
+answers 410 ("expired").
 """
 
 from __future__ import annotations
 
 import enum
+import logging
 import re
 import threading
 import time
@@ -20,9 +26,12 @@ from typing import Any
 from app.services.errors import ConflictError, InvalidInputError, NotFoundError, RunExpiredError
 from app.services.features import ModelInput
 from app.services.listeners import Listeners
+from app.services.run_archive import RunArchive, RunRecord
 from app.services.verdict import judge
 from ftin.data import ImuSequence
 from ftin.metrics.plausibility import Plausibility, assess
+
+log = logging.getLogger(__name__)
 
 RUN_ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{6,64}$")
 EXPIRED_KEPT = 10_000  # ids of dropped runs remembered (a few MB at most), for the "expired" message
@@ -49,6 +58,8 @@ class Run:
     score: Any = None  # ftin.evaluate.Scored: metrics, fitted alignment, baseline (None: no ground truth)
     created_s: float = field(default_factory=time.time)
     model_choice: Any = None  # app.services.model_choice.ModelChoice: which rule chose the model
+    align: str | None = None  # the alignment asked for (None: the default rule), to score it again on load
+    group: str | None = None  # the run_id a compare-all started from (its runs are listed beneath it)
 
     @property
     def n_samples(self) -> int:
@@ -98,17 +109,43 @@ class RunListener:
     def run_focused(self, run: Run) -> None: ...
 
 
-class RunStore:
-    """Thread-safe; finished runs beyond ``max_runs``, or beyond ``max_kept_samples`` input samples
-    in all, are dropped oldest first (the newest run is always kept)."""
+def record_of(run: Run, windows: int = 0) -> RunRecord:
+    """``run``'s index row (what GET /runs lists), from the run itself."""
+    seq = run.sequence
+    still = run.verdict.still if run.truth is not None else None
+    return RunRecord(
+        run_id=run.run_id,
+        created_s=float(run.created_s),
+        model=run.model_name,
+        sequence=seq.name,
+        source=run.source,
+        sequence_id=run.sequence_id,
+        group_id=run.group,
+        n_samples=len(seq),
+        t0_s=float(seq.t_s[0]) if len(seq) else None,
+        t1_s=float(seq.t_s[-1]) if len(seq) else None,
+        has_ground_truth=run.truth is not None,
+        worse_than_standing_still=None if still is None else bool(still.worse_than_standing_still),
+        windows=int(windows),
+    )
 
-    def __init__(self, max_runs: int = 20, max_kept_samples: int | None = None) -> None:
+
+class RunStore:
+    """Thread-safe. Finished runs go to ``archive`` (when given) and stay in memory while they are
+    among the latest ``max_runs`` and hold at most ``max_kept_samples`` input samples in all (the
+    newest run is always kept); a run no longer in memory is read back from the archive."""
+
+    def __init__(
+        self, max_runs: int = 20, max_kept_samples: int | None = None, archive: RunArchive | None = None
+    ) -> None:
         self.max_runs = max_runs
         self.max_kept_samples = max_kept_samples
+        self.archive = archive
         self._runs: OrderedDict[str, Run] = OrderedDict()
         self._live: dict[str, Run] = {}  # runs still growing (live phone sessions): never dropped
         self._status: OrderedDict[str, RunStatus] = OrderedDict()
-        # Ids of runs dropped from memory (-> "model on sequence"), to say "expired", not "unknown".
+        # Ids of runs dropped from memory (-> "model on sequence"), to say "expired", not "unknown"
+        # (memory only: with an archive, the archive's rows say it).
         self._expired: OrderedDict[str, str] = OrderedDict()
         self._listeners: Listeners[RunListener] = Listeners("run")
         self._lock = threading.Lock()
@@ -128,8 +165,9 @@ class RunStore:
                 f"run_id {requested!r} must be 6-64 characters of letters, digits, '-' or '_'"
             )
         with self._lock:
-            if requested in self._status:
-                raise ConflictError(f"run_id {requested!r} is already in use; choose another")
+            taken = requested in self._status
+        if taken or (self.archive is not None and self.archive.has(requested)):
+            raise ConflictError(f"run_id {requested!r} is already in use; choose another")
         return requested
 
     def start(self, run_id: str, model_name: str, sequence_name: str) -> RunStatus:
@@ -161,21 +199,46 @@ class RunStore:
     def finish(self, run: Run) -> None:
         with self._lock:
             self._live.pop(run.run_id, None)
-            self._runs[run.run_id] = run
-            while len(self._runs) > self.max_runs or (
-                len(self._runs) > 1
-                and self.max_kept_samples is not None
-                and sum(r.n_samples for r in self._runs.values()) > self.max_kept_samples
-            ):
-                dropped_id, dropped = self._runs.popitem(last=False)
-                self._expired[dropped_id] = f"{dropped.model_name} on {dropped.sequence.name}"
-                while len(self._expired) > EXPIRED_KEPT:
-                    self._expired.popitem(last=False)
+            self._keep_in_memory(run)
             status = self._status.get(run.run_id)
             if status is not None:
                 status.state = RunState.DONE
                 status.done = status.total = max(status.total, status.done)
+        if self.archive is not None:
+            self._store(run, 0 if status is None else status.total)
         self._notify("run_finished", run)
+
+    def _store(self, run: Run, windows: int) -> None:
+        """Write ``run`` to the archive; the runs the budget evicted leave memory too (they answer 410)."""
+        assert self.archive is not None
+        try:
+            evicted = self.archive.store(run, record_of(run, windows))
+        except (OSError, TypeError, ValueError) as exc:  # a full disk must not lose the answer
+            log.error(
+                "run %s could not be stored in %s (%s); it is kept in memory only",
+                run.run_id,
+                self.archive.root,
+                exc,
+            )
+            return
+        with self._lock:
+            for run_id in evicted:
+                self._runs.pop(run_id, None)
+                self._status.pop(run_id, None)  # then the archive's row says why it is gone
+
+    def _keep_in_memory(self, run: Run) -> None:
+        """Under the lock: ``run`` in memory, the oldest beyond the limits out (the newest stays)."""
+        self._runs[run.run_id] = run
+        while len(self._runs) > self.max_runs or (
+            len(self._runs) > 1
+            and self.max_kept_samples is not None
+            and sum(r.n_samples for r in self._runs.values()) > self.max_kept_samples
+        ):
+            dropped_id, dropped = self._runs.popitem(last=False)
+            if self.archive is None:
+                self._expired[dropped_id] = f"{dropped.model_name} on {dropped.sequence.name}"
+                while len(self._expired) > EXPIRED_KEPT:
+                    self._expired.popitem(last=False)
 
     def fail(self, run_id: str, message: str) -> None:
         with self._lock:
@@ -194,29 +257,62 @@ class RunStore:
     def status(self, run_id: str) -> RunStatus:
         with self._lock:
             status = self._status.get(run_id)
-        if status is None:
+        if status is not None:
+            return status
+        record = None if self.archive is None else self.archive.record(run_id)  # 410 when gone
+        if record is None:
             raise NotFoundError(f"unknown run id {run_id!r}")
-        return status
+        return RunStatus(run_id, RunState.DONE, record.model, record.sequence, record.windows, record.windows)
 
     def get(self, run_id: str) -> Run:
         with self._lock:
             run = self._runs.get(run_id) or self._live.get(run_id)
+            if run is not None:
+                if run_id in self._runs:
+                    self._runs.move_to_end(run_id)  # recently used: the last to leave memory
+                return run
             expired = self._expired.get(run_id)
-        if run is None and expired is not None:
+        if expired is not None:
             raise RunExpiredError(
                 f"This run ({expired}) has expired: the server keeps only the latest finished runs "
                 f"(at most {self.max_runs}, FTIN_MAX_RUNS, and FTIN_MAX_KEPT_SAMPLES samples in all). "
                 "Predict again to get it back."
             )
+        run = None if self.archive is None else self.archive.load(run_id, Run)  # 410 when gone
         if run is None:
-            raise NotFoundError(
-                f"unknown run id {run_id!r} (only the latest finished runs are kept, at most {self.max_runs})"
-            )
+            raise NotFoundError(f"unknown run id {run_id!r}")
+        with self._lock:
+            if run_id not in self._runs:
+                self._keep_in_memory(run)
         return run
 
     def list(self) -> list[Run]:
+        """The runs in memory (oldest first) and the live ones: what the memory limits hold."""
         with self._lock:
             return [*self._runs.values(), *self._live.values()]
+
+    def records(
+        self, limit: int | None = None, offset: int = 0, source: str | None = None
+    ) -> list[RunRecord]:
+        """Every finished run (stored, or in memory without an archive) and the live ones growing now,
+        newest first: what GET /runs, the page and the scene list."""
+        with self._lock:
+            live = sorted(self._live.values(), key=lambda r: r.created_s, reverse=True)
+            memory = [] if self.archive is not None else list(reversed(self._runs.values()))
+        growing = [record_of(run) for run in live if source in (None, run.source)]
+        if self.archive is not None:
+            stored = self.archive.records(None if limit is None else limit + offset, 0, source)
+        else:
+            stored = [record_of(run) for run in memory if source in (None, run.source)]
+        kept = [*growing, *stored]
+        return kept[offset:] if limit is None else kept[offset : offset + limit]
+
+    def count(self) -> int:
+        """How many finished runs are kept (stored, or in memory without an archive)."""
+        if self.archive is not None:
+            return self.archive.count()
+        with self._lock:
+            return len(self._runs)
 
     def _trim_status(self) -> None:
         # Statuses are tiny, but a long-lived server should not keep them forever.

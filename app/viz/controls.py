@@ -2,10 +2,11 @@
 actions they start (run the ticked models on the selected or uploaded recording).
 
 Decisions:
-- Uploaded recordings are a dataset of their own in the Dataset menu ("Uploaded recordings"): every
-  upload whose runs the server still keeps (``RunStore``: FTIN_MAX_RUNS, FTIN_MAX_KEPT_SAMPLES; no
-  copy is held here), named "<name> (uploaded)", with the time of the upload where names repeat; a
-  phone streaming now is listed there too, "<name> (live)".
+- Uploaded recordings are a dataset of their own in the Dataset menu ("Uploaded recordings"): the
+  uploads of the latest runs the server keeps (``RunStore.records``: stored under FTIN_RUNS_DIR, so
+  they survive restarts, until its disk budget removes them; no copy is held here, a recording is
+  read back when Run needs it), named "<name> (uploaded)", with the time of the upload where names
+  repeat; a phone streaming now (or streamed before) is listed there too, "<name> (live)".
 - Models are ticked and shown under the names people know ("RNIN · OxIOD"); the hint gives the API
   name.
 - No stale state: the scene sets the menus to what produced the run on screen (``show_recording``,
@@ -26,7 +27,8 @@ import viser
 from app.services import Services
 from app.services.errors import ServiceError
 from app.services.prediction import RunOptions
-from app.services.runs import Run
+from app.services.run_archive import RunRecord
+from app.services.runs import Run, record_of
 from app.viz.choices import ORIENTATION_CHOICES
 from app.viz.run_scene_data import RunView, sequence_key
 
@@ -36,6 +38,7 @@ NO_DATA = "(none)"
 UPLOADED = " (uploaded)"
 LIVE = " (live)"  # a phone streaming now (``app.viz.live``), listed with the uploads
 UPLOADS = "Uploaded recordings"  # the Dataset menu's entry for uploads
+LISTED_RUNS = 200  # the latest runs whose uploads the menu lists (a long-lived folder holds thousands)
 ALIGN_CHOICES = ("default", "none", "start", "se2", "se3")  # ftin.metrics.Alignment, plus the default
 
 
@@ -127,20 +130,21 @@ class Controls:
             labels = [*labels, UPLOADS]
         return labels or [NO_DATA]
 
-    def uploads(self) -> dict[str, Run]:
-        """Menu label -> the first run of a recording, for every upload the server keeps a run of
-        (oldest first), and the one on screen."""
-        first: dict[tuple[Any, ...], Run] = {}
-        for run in [*self.services.runs.list(), *([self._uploaded] if self._uploaded else [])]:
+    def uploads(self) -> dict[str, RunRecord]:
+        """Menu label -> the first run of a recording, for every upload among the latest runs the
+        server keeps (oldest first), and the one on screen."""
+        first: dict[tuple[Any, ...], RunRecord] = {}
+        kept = reversed(self.services.runs.records(LISTED_RUNS))
+        for run in [*kept, *([record_of(self._uploaded)] if self._uploaded else [])]:
             if run.sequence_id is None:
-                first.setdefault(sequence_key(run), run)
-        names = [run.sequence.name for run in first.values()]
+                first.setdefault(run.sequence_key, run)
+        names = [run.sequence for run in first.values()]
         labels = {}
         for run in first.values():
-            label = f"{run.sequence.name}{LIVE if run.source == 'live' else UPLOADED}"
-            if names.count(run.sequence.name) > 1:
+            label = f"{run.sequence}{LIVE if run.source == 'live' else UPLOADED}"
+            if names.count(run.sequence) > 1:
                 when = time.strftime("%H:%M:%S", time.localtime(run.created_s))
-                label = f"{run.sequence.name} (uploaded {when})"
+                label = f"{run.sequence} (uploaded {when})"
             base, n = label, 1
             while label in labels:  # the same name uploaded twice within a second
                 n += 1
@@ -151,7 +155,7 @@ class Controls:
     def upload_label(self, run: Run) -> str | None:
         """The Sequence menu's label of an uploaded ``run``'s recording."""
         key = sequence_key(run)
-        return next((label for label, first in self.uploads().items() if sequence_key(first) == key), None)
+        return next((label for label, first in self.uploads().items() if first.sequence_key == key), None)
 
     def sequence_options(self, dataset_label: str) -> list[str]:
         if dataset_label == UPLOADS:
@@ -231,7 +235,11 @@ class Controls:
         predictor = self.services.predictor
         options = self._run_options()
         if upload is not None and models:
-            seq = upload.sequence
+            try:  # read back (from memory, else from the runs folder)
+                seq = self.services.runs.get(upload.run_id).sequence
+            except ServiceError as exc:  # removed by the disk budget meanwhile: say so
+                self.report_error(client, str(exc))
+                return
             self._run_batch(
                 models, lambda m: predictor.predict_imu(seq, replace(options, model=m), "viser"), client
             )

@@ -82,11 +82,14 @@ def data_dir(tmp_path_factory: pytest.TempPathFactory, csv_with_gt: bytes, csv_w
 
 
 @pytest.fixture(scope="session")
-def make_settings(checkpoint_dir: Path, data_dir: Path) -> Callable[..., Settings]:
+def make_settings(
+    checkpoint_dir: Path, data_dir: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Callable[..., Settings]:
     def make(**overrides: object) -> Settings:
         values: dict[str, object] = {
             "checkpoint_dir": checkpoint_dir,
             "data_dirs": [data_dir],
+            "runs_dir": tmp_path_factory.mktemp("runs"),  # each app its own empty runs folder
             "viser_enabled": False,
             "viser_port": 0,
             "scene_first_run": False,  # tests start from an empty scene (the start-up run has its own)

@@ -125,7 +125,7 @@ def screenshot(page, name: str) -> None:
 
 def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Path) -> None:
     open_upload_page(page, live_server)
-    assert page.input_value("#model-select") == DEFAULT_MODEL  # the default is preselected
+    assert page.input_value("#model-select") == ""  # "default: ..." is preselected: the server chooses
     assert page.is_disabled("#run-button")
     page.set_input_files("#file-input", str(sample_csv_path))
     assert "walk.csv" in page.inner_text("#drop-text")
@@ -316,13 +316,14 @@ def test_item2_and_3_the_scene_shows_one_row_per_model_and_clears_everything(
 def test_item4_an_expired_run_says_so_on_the_page(
     make_settings, server_control, page, sample_csv_path: Path, csv_with_gt: bytes
 ) -> None:
-    live = server_control.start(make_settings(max_runs=1, viser_enabled=True))
+    # A disk budget below one run: the runs folder keeps only the newest run.
+    live = server_control.start(make_settings(max_runs=1, runs_disk_budget_mb=0.001, viser_enabled=True))
     try:
         open_page_at(page, live.base_url)
         page.set_input_files("#file-input", str(sample_csv_path))
         page.click("#run-button")
         wait_for_result(page, "walk.csv")
-        httpx.post(  # another prediction pushes the page's run out of memory
+        httpx.post(  # another prediction pushes the page's run out of the runs folder
             f"{live.base_url}/predict", files={"file": ("w.csv", csv_with_gt, "text/csv")}, timeout=60
         ).raise_for_status()
         page.click("#download-link")

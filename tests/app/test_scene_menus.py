@@ -87,10 +87,18 @@ def test_uploads_of_the_same_name_are_told_apart_and_dropped_with_their_runs(
     scene.flush()
     walks = [label for label in scene.controls.gui_sequence.options if label.startswith("walk (uploaded")]
     assert len(walks) == 2 and len(set(walks)) == 2  # two recordings, two labels (the upload time)
-    for _ in range(6):  # max_runs=5: the server forgets the first uploads, and so does the menu
+    for _ in range(6):  # more than memory holds (max_runs=5): the uploads stay, read back from disk
         predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
     scene.flush()
-    assert UPLOADS not in scene.controls.gui_dataset.options
+    assert set(walks) <= set(scene.controls.sequence_options(UPLOADS))
+    archive = scene.services.runs.archive
+    budget, archive.budget_bytes = archive.budget_bytes, 1  # a full runs folder: all but the newest go
+    try:
+        predictor.predict_sequence("walks--walk_gt", RunOptions(DEFAULT_MODEL))
+        scene.flush()
+        assert UPLOADS not in scene.controls.gui_dataset.options  # the uploads went with their runs
+    finally:
+        archive.budget_bytes = budget
 
 
 def test_clear_resets_the_timeline_range(scene: DashboardScene) -> None:
@@ -111,7 +119,7 @@ def test_one_green_start_when_the_prediction_is_aligned_away_from_the_truth(scen
     handles = scene.server.scene._handle_from_node_name
     assert tuple(handles["/truth/start"].color) == START_COLOR
     assert tuple(handles[f"/runs/{run.run_id}/start"].color) == scene.overlay.views[run.run_id].color
-    assert "green sphere (the ground truth's)" in scene.summary.gui_legend.content
+    assert "green disc (the ground truth's)" in scene.summary.gui_legend.content
 
 
 def test_worse_than_standing_still_is_flagged_in_words(scene: DashboardScene) -> None:

@@ -45,6 +45,13 @@ NameQuery = Annotated[
         max_length=200,
     ),
 ]
+GroupQuery = Annotated[
+    str | None,
+    Query(
+        description="The run_id of the run a compare-all started from (GET /runs groups them).",
+        pattern=r"^[A-Za-z0-9_-]{6,64}$",
+    ),
+]
 
 _CSV_SCHEMA = {
     "type": "string",
@@ -82,6 +89,7 @@ def _predict_options(
     run_id: RunIdQuery = None,
     align: AlignQuery = None,
     orientation: OrientationQuery = Orientation.AUTO,
+    group: GroupQuery = None,
 ) -> RunOptions:
     """The query options every prediction route takes, and the deadline that starts with the request."""
     how = None if align is None else align.value
@@ -91,6 +99,7 @@ def _predict_options(
         deadline=services.predictor.new_deadline(),
         align=how,
         orientation=orientation.value,
+        group=group,
     )
 
 

@@ -1,26 +1,43 @@
-"""GET /runs (the kept runs), GET /runs/{run_id} (progress), its result again, its trajectory as CSV,
-and POST /runs/{run_id}/show (3D scene)."""
+"""GET /runs (the stored runs), GET /runs/{run_id} (progress as JSON; the upload page with the run
+loaded for a browser), its result again, its trajectory as CSV, and POST /runs/{run_id}/show (3D scene).
+
+Decision: one URL per run, ``/runs/{run_id}``, chosen by content negotiation: a request whose
+``Accept`` names ``text/html`` (a browser opening the address, a bookmark, a shared link) gets the
+upload page, which loads the run itself; any other (``fetch``, curl, API clients: ``*/*`` or
+``application/json``) gets the JSON status as before. Both answers say ``Vary: Accept``.
+"""
 
 from __future__ import annotations
 
-from fastapi import APIRouter
-from fastapi.responses import Response
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request
+from fastapi.responses import FileResponse, Response
 
 from app.api.deps import ServicesDep
-from app.api.routes.exports import RUN_GONE, RunIdPath, TimestampsQuery, attachment, file_route
+from app.api.routes.exports import RUN_GONE, ClockQuery, RunIdPath, TimestampsQuery, attachment, file_route
+from app.api.routes.pages import STATIC_DIR
 from app.api.routes.predict import render
-from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse, RunSummary
-from app.services.exports import Timestamps
+from app.schemas import PredictionResponse, RunStatusResponse
+from app.schemas_runs import RunSummary
+from app.services.exports import Clock, Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
 
 router = APIRouter(tags=["runs"])
 
+LimitQuery = Annotated[int, Query(ge=1, le=1000, description="At most this many runs, newest first.")]
+OffsetQuery = Annotated[int, Query(ge=0, description="Skip this many of the newest runs first.")]
+
 
 @router.get("/runs", response_model=list[RunSummary])
-def list_runs(services: ServicesDep) -> list[RunSummary]:
-    """The finished runs kept in memory (the latest FTIN_MAX_RUNS, FTIN_MAX_KEPT_SAMPLES samples in
-    all), newest first, with their downloads."""
-    return [RunSummary.from_run(run) for run in reversed(services.runs.list())]
+def list_runs(
+    services: ServicesDep, response: Response, limit: LimitQuery = 100, offset: OffsetQuery = 0
+) -> list[RunSummary]:
+    """The runs stored on the server (FTIN_RUNS_DIR, until its disk budget removes the oldest) and the
+    live ones growing now, newest first, with their downloads and group (a compare-all's runs carry
+    the run_id it started from). ``X-Total-Count`` says how many finished runs are stored in all."""
+    response.headers["X-Total-Count"] = str(services.runs.count())
+    return [RunSummary.from_record(record) for record in services.runs.records(limit, offset)]
 
 
 @router.get("/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE)
@@ -29,20 +46,34 @@ def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
     return render(services.runs.get(run_id), services.scene_url)  # serialised here, off the event loop
 
 
-@router.get("/runs/{run_id}", response_model=RunStatusResponse, responses={404: {"model": ErrorResponse}})
-def run_status(run_id: RunIdPath, services: ServicesDep) -> RunStatusResponse:
+@router.get(
+    "/runs/{run_id}",
+    response_model=RunStatusResponse,
+    responses={**RUN_GONE, 200: {"content": {"text/html": {}}, "description": "JSON status, or the page"}},
+)
+def run_status(
+    run_id: RunIdPath, request: Request, services: ServicesDep, response: Response
+) -> Response | RunStatusResponse:
+    """The run's progress (``state``, ``done`` of ``total``) as JSON; with ``Accept: text/html`` (a
+    browser), the upload page, which shows the run (or says why it cannot)."""
+    if "text/html" in request.headers.get("accept", ""):
+        return FileResponse(STATIC_DIR / "index.html", media_type="text/html", headers={"Vary": "Accept"})
+    response.headers["Vary"] = "Accept"
     return RunStatusResponse.from_status(services.runs.status(run_id))
 
 
 @file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv")
 def trajectory_csv(
-    run_id: RunIdPath, services: ServicesDep, timestamps: TimestampsQuery = Timestamps.MODEL
+    run_id: RunIdPath,
+    services: ServicesDep,
+    timestamps: TimestampsQuery = Timestamps.MODEL,
+    clock: ClockQuery = Clock.START,
 ) -> Response:
     """The predicted trajectory: ``t_s,x_m,y_m,z_m`` in the prediction's world frame (``timestamps=input``:
-    at the recording's own timestamps)."""
+    at the recording's own timestamps; ``clock=epoch``: ``t_unix_s``, on the phone's clock)."""
     run = services.runs.get(run_id)
     name = f"{run.sequence.name}_{run.model_name}_trajectory.csv"
-    return attachment(trajectory_csv_text(run, timestamps), "text/csv", name)
+    return attachment(trajectory_csv_text(run, timestamps, clock), "text/csv", name)
 
 
 @router.post("/runs/{run_id}/show", response_model=RunStatusResponse, responses=RUN_GONE)

@@ -38,13 +38,15 @@ def test_run_id_conflicts_and_format(client: TestClient, csv_with_gt: bytes) -> 
 def test_an_expired_run_says_so_and_how_to_get_it_back(
     make_settings: Callable[..., Settings], csv_with_gt: bytes
 ) -> None:
-    with TestClient(create_app(make_settings(max_runs=1))) as small:
+    # A disk budget below one run: storing the second removes the first (oldest first).
+    with TestClient(create_app(make_settings(max_runs=1, runs_disk_budget_mb=0.001))) as small:
         first = upload(small, csv_with_gt).json()["run_id"]
-        upload(small, csv_with_gt)  # the first run is dropped from memory
+        upload(small, csv_with_gt)  # the first run is removed from the runs folder
         for response in (
             small.get(f"/runs/{first}/trajectory.csv"),
             small.post(f"/runs/{first}/show"),
         ):
             assert response.status_code == 410
             assert "expired" in detail(response) and "Predict again" in detail(response)
+            assert "FTIN_RUNS_DISK_BUDGET_MB" in detail(response)
         assert small.get("/runs/never-was-a-run/trajectory.csv").status_code == 404
