@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from app.schemas_verdict import VerdictPayload
 from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
@@ -332,6 +333,9 @@ class PredictionResponse(BaseModel):
     z_note: str | None = Field(
         None, description="Why z is a constant (a model that predicts horizontal motion only), if it is."
     )
+    verdict: VerdictPayload | None = Field(
+        None, description="Does it look like a walk, read right? (ok/check/implausible)"
+    )
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
@@ -356,7 +360,7 @@ class PredictionResponse(BaseModel):
             model_choice=None if run.model_choice is None else run.model_choice.to_json(),
             frame=str(pred.frame),
             warnings=verdict.warnings,
-            notes=verdict.notes,
+            notes=[*verdict.notes, *run.plausibility.notes],  # GPS fixes left out, if any
             metrics=MetricsPayload.from_run(run),
             plausibility=PlausibilityPayload.from_run(run),
             csv_url=f"/runs/{run.run_id}/trajectory.csv",
@@ -365,42 +369,7 @@ class PredictionResponse(BaseModel):
             metrics_url=f"/runs/{run.run_id}/metrics.json",
             scene_url=scene_url,
             z_note=z_note(run),
-        )
-
-
-class RunSummary(BaseModel):
-    """A finished run kept in memory (GET /runs): what it is and where its files are."""
-
-    run_id: str
-    model: str
-    sequence: str
-    source: str = Field(description="upload, json, sequence or viser: the door it came in through.")
-    created_s: float = Field(description="When it finished, seconds since the epoch.")
-    has_ground_truth: bool
-    worse_than_standing_still: bool | None
-    csv_url: str
-    tum_url: str
-    ground_truth_tum_url: str | None
-    metrics_url: str
-    result_url: str = Field(description="The whole POST /predict answer again: GET /runs/{run_id}/result.")
-
-    @classmethod
-    def from_run(cls, run: Run) -> RunSummary:
-        still = run.verdict.still if run.truth is not None else None
-        base = f"/runs/{run.run_id}"
-        return cls(
-            run_id=run.run_id,
-            model=run.model_name,
-            sequence=run.sequence.name,
-            source=run.source,
-            created_s=run.created_s,
-            has_ground_truth=run.truth is not None,
-            worse_than_standing_still=None if still is None else still.worse_than_standing_still,
-            csv_url=f"{base}/trajectory.csv",
-            tum_url=f"{base}/trajectory.tum",
-            ground_truth_tum_url=None if run.truth is None else f"{base}/ground_truth.tum",
-            metrics_url=f"{base}/metrics.json",
-            result_url=f"{base}/result",
+            verdict=VerdictPayload.from_run(run),
         )
 
 

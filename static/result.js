@@ -79,6 +79,26 @@ function fillTable(table, rows) {
   }
 }
 
+// The walk's verdict (ok / check / implausible): its line first in the card, coloured by its level;
+// every reason in the line's tooltip. Made here, so the card needs no edit in index.html.
+const VERDICT_MARKS = { ok: "✓", check: "⚠", implausible: "✗" };
+
+function showWalkVerdict(verdict) {
+  let line = $("walk-verdict");
+  if (!line) {
+    line = document.createElement("p");
+    line.id = "walk-verdict";
+    line.setAttribute("role", "status");
+    $("result-title").after(line);
+  }
+  line.hidden = !verdict;
+  if (!verdict) return;
+  line.className = `walk-verdict level-${verdict.level}`;
+  line.dataset.level = verdict.level;
+  line.textContent = `${VERDICT_MARKS[verdict.level] || ""} ${verdict.says}`.trim();
+  line.title = verdict.reasons.map((r) => `${r.level}: ${r.says}`).join("\n");
+}
+
 // Worse than standing still: said first, in words, where nobody can miss it.
 function showVerdict(m) {
   const box = $("verdict");
@@ -126,6 +146,7 @@ function showResult(result, label) {
   $("result").hidden = false;
   $("expired").hidden = true;
   $("result-caption").textContent = `${label || result.sequence} · ${displayName(result.model)}`;
+  showWalkVerdict(result.verdict);
   renderPlot();
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];
@@ -161,6 +182,7 @@ function showDownloads(result) {
   $("download-gt").hidden = !result.ground_truth_tum_url;
   $("download-gt").href = result.ground_truth_tum_url || "#";
   $("evo-line").hidden = !result.ground_truth_tum_url;
+  showExportDownloads(result); // compare.js: GPX / GeoJSON, the clock of CSV and TUM
 }
 
 function showExpired(message) {

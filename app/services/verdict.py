@@ -16,6 +16,10 @@ Decisions:
   confined for ATE to mean much gets a note.
 - Plausibility warnings (``ftin.metrics.plausibility``: step length, speed for the cadence) join the
   warnings; the caller computes them, since they need the IMU sequence.
+- Every run gets a verdict (``walk_verdict``: ok, check or implausible, one line, the reasons;
+  ``ftin.metrics.walk_verdict``) from its plausibility (steps, GPS) and, with ground truth, the
+  reasons ``judge`` adds (``Verdict.reasons``: path ratio, standing still, loop closure on the
+  truth). The serializers only copy it.
 """
 
 from __future__ import annotations
@@ -28,9 +32,9 @@ import numpy as np
 from ftin.data import Trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.verdicts import StillVerdict, confinement_note, still_verdict
+from ftin.metrics.walk_verdict import TRUTH_PATH_CHECK, Reason, WalkVerdict, judge_walk, truth_reasons
 
-MIN_PATH_RATIO = 0.5
-MAX_PATH_RATIO = 2.0
+MIN_PATH_RATIO, MAX_PATH_RATIO = TRUTH_PATH_CHECK  # the verdict's path_ratio check uses the same
 STILL_RADIUS_M = 1.0
 WALK_MIN_M = 5.0
 
@@ -83,6 +87,7 @@ class Verdict:
     stand_still: dict[str, float | None] | None = None  # the table metrics of never moving, same convention
     still: StillVerdict | None = None  # worse than standing still? in words
     scope_note: str | None = None  # too short or too confined for ATE to mean much
+    reasons: tuple[Reason, ...] = ()  # what ground truth adds to the walk's verdict (walk_verdict)
 
 
 def judge(
@@ -108,6 +113,14 @@ def judge(
     scope = confinement_note(truth)
     if verdict is not None and verdict.worse_than_standing_still:
         warnings = unique([*warnings, verdict.text])
+    worse = None if verdict is None else verdict.worse_than_standing_still
+    reasons = truth_reasons(
+        prediction.trajectory,
+        truth,
+        (ratio, predicted_m, true_m),
+        worse,
+        None if verdict is None else verdict.text,
+    )
     return Verdict(
         warnings,
         unique(notes + ([scope] if scope else [])),
@@ -117,7 +130,14 @@ def judge(
         baseline,
         verdict,
         scope,
+        tuple(reasons),
     )
+
+
+def walk_verdict(run: Any) -> WalkVerdict:
+    """The verdict on ``run`` (an ``app.services.runs.Run``): its plausibility's checks and what its
+    ground truth adds (``Run.verdict.reasons``)."""
+    return judge_walk(run.plausibility, run.prediction.trajectory, run.verdict.reasons)
 
 
 def _finite(value: float | None) -> float | None:

@@ -16,6 +16,10 @@ Decisions:
   geodetic -> ECEF -> east/north/up): exact enough for walks of kilometres, needs no map and fetches
   nothing. x is east, y north, in metres from the first fix.
 - A file with fewer than ``MIN_FIXES`` fixes is no track (``None``): one fix says nothing of a path.
+- The track is kept whole in ``meta["gps"]``; what is compared and drawn is clipped to the recording
+  (``clip_to_recording``): a phone logs GPS before it logs the IMU (fixes at -108 s are real), and a
+  fix from before the walk started says nothing of it. A fix within ``CLIP_EDGE_S`` of either end is
+  kept (fixes come once a second: the first may fall just before the first IMU sample).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 MIN_FIXES = 2
+CLIP_EDGE_S = 1.0
 WGS84_A_M = 6378137.0
 WGS84_F = 1.0 / 298.257223563
 
@@ -53,6 +58,52 @@ class GpsTrack:
     def local_plane(self) -> np.ndarray:
         """``(K, 2)`` east and north metres from the first fix (module docstring)."""
         return local_plane(self.lat_deg, self.lon_deg)
+
+
+@dataclass(frozen=True)
+class GpsClip:
+    """What ``clip_to_recording`` dropped: fixes before the recording's start and after its end."""
+
+    before: int = 0
+    after: int = 0
+    earliest_s: float | None = None  # the earliest dropped fix, s on the recording's clock (negative)
+    latest_s: float | None = None  # the latest dropped fix
+
+    @property
+    def dropped(self) -> int:
+        return self.before + self.after
+
+    @property
+    def note(self) -> str | None:
+        """The drop in words (None: nothing dropped)."""
+        if not self.dropped:
+            return None
+        parts = []
+        if self.before:
+            parts.append(f"{self.before} from before the recording's start (from {self.earliest_s:.0f} s)")
+        if self.after:
+            parts.append(f"{self.after} after its end (up to +{self.latest_s:.0f} s)")
+        return f"GPS: {' and '.join(parts)} not drawn or compared ({self.dropped} fixes dropped)."
+
+
+def clip_to_recording(track: GpsTrack, start_s: float, end_s: float) -> tuple[GpsTrack | None, GpsClip]:
+    """The fixes of ``track`` within the recording ``[start_s, end_s]`` (``CLIP_EDGE_S`` either side),
+    None when fewer than ``MIN_FIXES`` remain, and what was dropped (module docstring)."""
+    t = track.t_s
+    early, late = t < start_s - CLIP_EDGE_S, t > end_s + CLIP_EDGE_S
+    clip = GpsClip(
+        int(np.count_nonzero(early)),
+        int(np.count_nonzero(late)),
+        float(t[early].min()) if early.any() else None,
+        float(t[late].max()) if late.any() else None,
+    )
+    if not clip.dropped:
+        return track, clip
+    keep = ~(early | late)
+    if np.count_nonzero(keep) < MIN_FIXES:
+        return None, clip
+    arrays = (track.t_s, track.lat_deg, track.lon_deg, track.altitude_m, track.accuracy_m)
+    return GpsTrack(*(a[keep] for a in arrays), source=track.source), clip
 
 
 def _ecef(lat_deg: np.ndarray, lon_deg: np.ndarray, h_m: np.ndarray) -> np.ndarray:

@@ -15,16 +15,27 @@ Decisions:
   or too far shows as a step length outside the human range for the cadence (``step_length_range``).
   People lengthen their steps as they quicken them, roughly in proportion: the expected step is
   ``STEP_AT_CADENCE`` (0.65 m at 110 steps/min) scaled by the cadence, and the range is
-  ``STEP_LENGTH_SHARE`` of it: 0.39-1.04 m at 110 steps/min (an ordinary walk), 0.25-0.66 m at 70
-  (a slow texting or AR walk, where true steps of 0.2-0.4 m are normal), 0.59-1.56 m at 165 (a run).
-  A loop in a small room can truly have shorter steps, and the warning says so.
+  ``STEP_LENGTH_SHARE`` of it: 0.39-1.04 m at 110 steps/min (an ordinary walk), 0.59-1.56 m at 165
+  (a run). Slower, people shorten their steps more than their cadence: eyes on the screen, in a
+  small room, true steps of 0.2-0.4 m are normal at 65-95 steps/min (the Inria texting and phoning
+  walks, 0.26-0.55 m by motion capture over the detected steps). So below the ordinary cadence the
+  shortest step judged human falls to ``SLOW_STEP_M`` (0.2 m) at ``SLOW_CADENCE`` (90 steps/min) and
+  slower: 0.20-0.66 m at 70, 0.30-0.95 m at 100. A count inflated by half (a pocket counted +44 %)
+  raises the cadence as much as it shortens the step, and still warns where the length is out of
+  range. The Inria AR walks (0.10-0.23 m a step, nearly standing) still warn, and the warning says
+  that steps can truly be that short.
 - Speed and cadence must agree: the mean speed while moving should lie within
   ``cadence x step_length_range`` widened by ``SPEED_SLACK``; checked only when the step length
   itself raised no warning (one problem, one warning). A prediction that moves briskly while the
   accelerometer shows no steps (a trolley, a vehicle, or a model moving a still phone), or steps
   while the prediction stands, is named too.
-- Heading change is the signed sum of the walking direction's changes while moving (unwrapped): 0
-  for a straight line, about +-180 for there and back, +-360 for a loop.
+- Heading change is the signed sum of the walking direction's changes (unwrapped): 0 for a straight
+  line, about +-180 for there and back, +-360 for a loop. It is read on the smoothed path
+  (``heading_change``): positions averaged over ``HEADING_SMOOTH_S`` against the carry's sway, then
+  resampled every ``HEADING_STEP_M`` of travel, so standing still adds nothing and a slow stretch is
+  not skipped (a per-second grid with a speed threshold read one closed RIDI loop as 204-373 deg
+  across four model families, now 334-375; over six closed RIDI loops and eight shipped models, 43
+  of 48 readings lie within 30 deg of a full turn, the median 14 deg off).
 """
 
 from __future__ import annotations
@@ -35,7 +46,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ftin.data.location import GpsTrack
+from ftin.data.location import GpsClip, GpsTrack, clip_to_recording
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.metrics.gps import GpsComparison, compare_gps
 from ftin.metrics.steps import Steps, detect_steps
@@ -49,10 +60,15 @@ MOVING_M_S = 0.2
 # 0.65-0.7 m at 105-130 steps/min (RIDI), 0.28-0.52 m at 73-92 (Inria texting), ~1.1 m at 165 (runs).
 STEP_AT_CADENCE = (0.65, 110.0)  # (m, steps/min)
 STEP_LENGTH_SHARE = (0.6, 1.6)  # of the expected step: the range judged human
+SLOW_STEP_M = 0.2  # the shortest step judged human at SLOW_CADENCE and slower (module docstring)
+SLOW_CADENCE = 90.0  # steps/min
 MIN_STEPS_TO_JUDGE = 10
 SPEED_SLACK = 0.3
 STILL_SPEED_M_S = 0.1
 NO_STEPS_SPEED_M_S = 0.5
+HEADING_SMOOTH_S = 1.0  # the path averaged over this long before its turns are summed
+HEADING_STEP_M = 1.0  # then one direction per metre of travel
+HEADING_DT_S = 0.1
 
 
 @dataclass
@@ -67,10 +83,19 @@ class Walk:
         return detect_steps(self.seq.t_s, self.seq.acc_m_s2, self.seq.gyro_rad_s)
 
     @cached_property
-    def gps(self) -> GpsComparison | None:
-        """The prediction beside the export's GPS track (``seq.meta["gps"]``), if it has one."""
+    def gps_track(self) -> tuple[GpsTrack | None, GpsClip | None]:
+        """The export's GPS track (``seq.meta["gps"]``) clipped to the recording, and what was dropped
+        (``ftin.data.location.clip_to_recording``); ``(None, None)`` without GPS."""
         track = self.seq.meta.get("gps")
-        return compare_gps(self.trajectory, track) if isinstance(track, GpsTrack) else None
+        if not isinstance(track, GpsTrack) or len(self.seq.t_s) == 0:
+            return None, None
+        return clip_to_recording(track, float(self.seq.t_s[0]), float(self.seq.t_s[-1]))
+
+    @cached_property
+    def gps(self) -> GpsComparison | None:
+        """The prediction beside the GPS fixes of the recording's time, if it has two or more."""
+        track = self.gps_track[0]
+        return compare_gps(self.trajectory, track) if track is not None else None
 
     @cached_property
     def path_m(self) -> float:
@@ -132,13 +157,33 @@ def _start_to_end(walk: Walk) -> float:
 
 
 def _heading_change(walk: Walk) -> float | None:
-    d = np.diff(walk.grid, axis=0)
-    if np.count_nonzero(walk.moving) < 2:
+    return heading_change(walk.trajectory.t_s, walk.trajectory.p_world_m)
+
+
+def heading_change(t_s: np.ndarray, p_m: np.ndarray) -> float | None:
+    """Signed total turn (deg) of the horizontal path ``p_m`` ``(N, >=2)`` at times ``t_s``, read on
+    the smoothed path (module docstring); None for a path shorter than three steps of
+    ``HEADING_STEP_M``."""
+    t = np.asarray(t_s, dtype=np.float64)
+    if len(t) < 2 or not t[-1] > t[0]:
         return None
+    ticks = np.arange(t[0], t[-1] + 1e-9, HEADING_DT_S)
+    xy = np.column_stack([np.interp(ticks, t, p_m[:, i]) for i in (0, 1)])
+    k = max(1, min(len(xy), int(round(HEADING_SMOOTH_S / HEADING_DT_S))))
+    padded = np.pad(xy, ((k // 2, k - 1 - k // 2), (0, 0)), mode="edge")
+    kernel = np.full(k, 1.0 / k)
+    smooth = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in (0, 1)])
+    step = np.linalg.norm(np.diff(smooth, axis=0), axis=1)
+    moved = np.concatenate([[True], step > 1e-9])  # arc length strictly increasing for np.interp
+    s = np.concatenate([[0.0], np.cumsum(step)])[moved]
+    smooth = smooth[moved]
+    if s[-1] < 3 * HEADING_STEP_M:
+        return None
+    at = np.linspace(0.0, s[-1], int(round(s[-1] / HEADING_STEP_M)) + 1)  # to the very end
+    points = np.column_stack([np.interp(at, s, smooth[:, i]) for i in (0, 1)])
+    d = np.diff(points, axis=0)
     heading = np.arctan2(d[:, 1], d[:, 0])
-    turns = np.angle(np.exp(1j * np.diff(heading)))  # wrapped to (-pi, pi]
-    both = walk.moving[1:] & walk.moving[:-1]
-    return float(np.degrees(turns[both].sum()))
+    return float(np.degrees(np.angle(np.exp(1j * np.diff(heading))).sum()))  # each turn in (-pi, pi]
 
 
 FIGURES: tuple[Figure, ...] = (
@@ -162,7 +207,8 @@ FIGURES: tuple[Figure, ...] = (
     Figure(
         "heading_change",
         "deg",
-        "Signed sum of the walking direction's changes while moving (0 straight, +-360 a loop).",
+        "Signed sum of the walking direction's changes along the path smoothed over "
+        f"{HEADING_SMOOTH_S:g} s, one direction a metre (0 straight, +-360 a loop).",
         _heading_change,
     ),
 )
@@ -222,6 +268,14 @@ class Plausibility:
     warnings: list[str] = field(default_factory=list)
     gps: GpsComparison | None = None
     gps_figures: list[FigureValue] = field(default_factory=list)
+    steps: Steps | None = None  # the detected steps (ftin.metrics.steps), for the walk's verdict
+    gps_clip: GpsClip | None = None  # GPS fixes dropped outside the recording (None: no GPS)
+
+    @property
+    def notes(self) -> list[str]:
+        """Information, not warnings: GPS fixes left out as outside the recording."""
+        note = None if self.gps_clip is None else self.gps_clip.note
+        return [] if note is None else [note]
 
     def value(self, name: str) -> float | None:
         return next((f.value for f in self.figures if f.name == name), None)
@@ -240,14 +294,26 @@ def assess(trajectory: Trajectory, seq: ImuSequence) -> Plausibility:
     walk = Walk(trajectory, seq)
     values = _values(FIGURES, walk)
     gps_values = _values(GPS_FIGURES, walk) if walk.gps is not None else []
-    return Plausibility(values, plausibility_warnings(Plausibility(values)), walk.gps, gps_values)
+    warnings = plausibility_warnings(Plausibility(values))
+    return Plausibility(values, warnings, walk.gps, gps_values, walk.steps, walk.gps_track[1])
+
+
+def expected_step_m(cadence_per_min: float) -> float:
+    """The step length (m) expected at this cadence: ``STEP_AT_CADENCE`` scaled by it."""
+    length, cadence = STEP_AT_CADENCE
+    return length * cadence_per_min / cadence
 
 
 def step_length_range(cadence_per_min: float) -> tuple[float, float]:
     """The step lengths (m) judged human at this cadence (module docstring)."""
-    length, cadence = STEP_AT_CADENCE
-    expected = length * cadence_per_min / cadence
-    return expected * STEP_LENGTH_SHARE[0], expected * STEP_LENGTH_SHARE[1]
+    expected = expected_step_m(cadence_per_min)
+    low, high = expected * STEP_LENGTH_SHARE[0], expected * STEP_LENGTH_SHARE[1]
+    ordinary_step, ordinary = STEP_AT_CADENCE
+    if cadence_per_min < ordinary:  # slower, the shortest human step falls to SLOW_STEP_M (module docstring)
+        ordinary_low = STEP_LENGTH_SHARE[0] * ordinary_step
+        floor = np.interp(cadence_per_min, [SLOW_CADENCE, ordinary], [SLOW_STEP_M, ordinary_low])
+        low = min(low, float(floor))
+    return low, high
 
 
 def plausibility_warnings(p: Plausibility) -> list[str]:
