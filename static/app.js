@@ -16,13 +16,16 @@ async function loadModels() {
     $("scene-link-header").hidden = false;
   }
   state.models = models;
+  state.defaultWhy = health.default_model_why;
   const select = $("model-select");
   select.textContent = "";
+  // First and selected: no model named, the server chooses (choices.js says who chose, and why).
+  const fallback = models.find((m) => m.default);
+  if (fallback) select.appendChild(defaultOption(fallback, health.default_model_why));
   for (const m of models) {
     const option = document.createElement("option");
     option.value = m.name;
     option.textContent = m.display_name === m.name ? m.name : `${m.display_name} (${m.name})`;
-    option.selected = m.default;
     select.appendChild(option);
   }
   if (!models.length) {
@@ -34,15 +37,16 @@ async function loadModels() {
 }
 
 function describeModel(models) {
-  const m = models.find((x) => x.name === $("model-select").value);
-  $("model-info").textContent = m
+  const picked = $("model-select").value;
+  const m = models.find((x) => (picked ? x.name === picked : x.default));
+  $("model-info").textContent = (picked ? "" : defaultModelWords(state.defaultWhy)) + (m
     ? `${m.architecture}, window ${m.window} samples (${(m.window / m.imu_rate_hz).toFixed(2)} s at ${m.imu_rate_hz} Hz)` +
       (m.trained_on ? `, trained on ${m.trained_on}` : "") + `; API name ${m.name}`
-    : "";
+    : "");
 }
 
 function updateRunButton() {
-  $("run-button").disabled = !(state.file && $("model-select").value);
+  $("run-button").disabled = !(state.file && state.models.length);
 }
 
 function pickFile(file) {
@@ -90,13 +94,12 @@ function stopPolling() {
 
 function runPrediction() {
   state.userActed = true;
-  const model = $("model-select").value;
   const file = state.file;
   const runId = newRunId();
   const form = new FormData();
   form.append("file", file, file.name);
   const xhr = new XMLHttpRequest();
-  xhr.open("POST", `/predict?model=${encodeURIComponent(model)}&run_id=${runId}${alignParam()}${orientationParam()}`);
+  xhr.open("POST", `/predict?run_id=${runId}${modelParam()}${alignParam()}${orientationParam()}`);
   xhr.upload.onprogress = (e) => {
     if (e.lengthComputable) setProgress(e.loaded / e.total, `Uploading ${Math.round((100 * e.loaded) / e.total)} %`);
   };
@@ -116,6 +119,7 @@ function runPrediction() {
       state.compared = [];
       state.source = { file };
       showResult(JSON.parse(xhr.responseText), file.name);
+      rememberRun(runId); // the run's own address (runs.js)
     } else {
       hideResult();
       showError(errorText(xhr.status, xhr.responseText));
@@ -181,7 +185,9 @@ async function predictSample({ auto = false } = {}) {
     }
     state.compared = [];
     state.source = { sampleId: option.value };
-    showResult(JSON.parse(text), `${option.dataset.name} (bundled)`);
+    const result = JSON.parse(text);
+    showResult(result, `${option.dataset.name} (bundled)`);
+    if (!auto) rememberRun(result.run_id);
   } catch (_) {
     if (auto && state.userActed) return;
     hideResult();

@@ -1,52 +1,121 @@
 // "Compare all models": the other models on the same file, one table like the scene's, each flag
-// said in words.
+// said in words. The table is the server's (GET /compare?ids=...: metrics where the recording has
+// ground truth, plausibility figures for every walk), so the CSV and ZIP links give the same rows.
+// Click a column header to sort by it (again: the other way). Also here: the exports of the shown
+// run beyond the basic four (GPX / GeoJSON for a walk with GPS, times on the phone's clock).
 "use strict";
 
+const compareView = { table: null, sort: null, token: 0 }; // the last table, {key, dir}, latest fetch
+
+function comparedRuns() {
+  return [state.result, ...state.compared].filter(Boolean);
+}
+
+// Fetch the table of the runs on the page, then draw it (a newer call wins over an older one).
 function renderCompareTable() {
+  const rows = comparedRuns();
+  const hidden = rows.length < 2 && !state.comparing;
+  $("compare-table").hidden = hidden;
+  $("compare-legend").hidden = hidden;
+  $("compare-downloads").hidden = true;
+  const token = ++compareView.token;
+  if (hidden) {
+    $("compare-table").textContent = "";
+    $("compare-summary").textContent = "";
+    return;
+  }
+  const ids = rows.map((r) => r.run_id).join(",");
+  fetch(`/compare?ids=${encodeURIComponent(ids)}`)
+    .then(async (r) => {
+      if (token !== compareView.token) return;
+      if (!r.ok) {
+        $("compare-summary").textContent = errorText(r.status, await r.text());
+        return;
+      }
+      compareView.table = await r.json();
+      drawCompareTable();
+    })
+    .catch(() => { if (token === compareView.token) $("compare-summary").textContent = errorText(0, ""); });
+}
+
+// Sort keys: a column's value, or the model's shown name; missing values last either way.
+function sortedRows(table) {
+  const rows = [...table.rows];
+  const sort = compareView.sort;
+  if (!sort) return rows;
+  const value = (row) => (sort.key === "model" ? displayName(row.model) : row.values[sort.key]);
+  return rows.sort((a, b) => {
+    const x = value(a), y = value(b);
+    if (x === null || x === undefined) return y === null || y === undefined ? 0 : 1;
+    if (y === null || y === undefined) return -1;
+    const order = typeof x === "string" ? x.localeCompare(y) : x - y;
+    return sort.dir === "desc" ? -order : order;
+  });
+}
+
+function sortBy(key) {
+  const same = compareView.sort && compareView.sort.key === key;
+  compareView.sort = { key, dir: same && compareView.sort.dir === "asc" ? "desc" : "asc" };
+  drawCompareTable();
+}
+
+function drawCompareTable() {
+  const data = compareView.table;
   const table = $("compare-table");
-  const rows = [state.result, ...state.compared].filter(Boolean);
-  table.hidden = rows.length < 2 && !state.comparing;
-  $("compare-legend").hidden = table.hidden;
   table.textContent = "";
+  if (!data) return;
   const head = table.createTHead().insertRow();
-  const shown = tableMetrics();
-  const header = (d) => (d.display_unit ? `${d.label} ${d.display_unit}` : d.label);
-  for (const h of ["model", ...shown.map(header), "flag", "time s"]) {
+  const header = (c) => (c.unit ? `${c.label} ${c.unit}` : c.label);
+  const sortable = [{ key: "model", label: "model", unit: "" }, ...data.columns];
+  for (const c of [...sortable, { label: "verdict" }, { label: "flag" }, { label: "time s" }]) {
     const th = document.createElement("th");
-    th.textContent = h;
+    th.textContent = header(c);
+    if (c.key) {
+      const sort = compareView.sort && compareView.sort.key === c.key ? compareView.sort.dir : null;
+      th.dataset.key = c.key;
+      th.title = `${c.description || "Model"} (click to sort)`;
+      th.style.cursor = "pointer";
+      th.setAttribute("aria-sort", sort === "asc" ? "ascending" : sort === "desc" ? "descending" : "none");
+      if (sort) th.textContent += sort === "asc" ? " ▲" : " ▼";
+      th.addEventListener("click", () => sortBy(c.key));
+    }
     head.appendChild(th);
   }
+  const elapsed = Object.fromEntries(comparedRuns().map((r) => [r.run_id, r.elapsed_s]));
   const body = table.createTBody();
+  const rows = sortedRows(data);
   for (const r of rows) {
     const tr = body.insertRow();
-    const words = flagWords(r.metrics);
-    tr.className = "done" + (words.length ? " flagged" : "") + (isWorseThanStill(r.metrics) ? " worse" : "");
+    tr.className = "done" + (r.flags.length ? " flagged" : "") + (r.worse_than_standing_still ? " worse" : "");
     tr.dataset.model = r.model;
-    const m = r.metrics || {};
+    tr.dataset.runId = r.run_id;
     const swatch = `<span class="swatch" style="background:${modelColor(r.model)}"></span>`;
     tr.insertCell().innerHTML = swatch;
-    tr.cells[0].append(displayName(r.model) + (words.length ? " ⚠" : ""));
+    tr.cells[0].append(displayName(r.model) + (r.flags.length ? " ⚠" : ""));
     tr.cells[0].title = r.model; // the API name
-    const values = shown.map((d) => fmt(m[d.name], d.digits, d.scale));
-    for (const v of [...values, words.join(", "), r.elapsed_s === undefined ? "–" : r.elapsed_s.toFixed(1)]) {
+    const values = data.columns.map((c) => fmt(r.values[c.key], c.digits, c.scale));
+    const seconds = elapsed[r.run_id];
+    for (const v of [...values, r.verdict || "–", r.flags.join(", "), seconds === undefined ? "–" : seconds.toFixed(1)]) {
       const td = tr.insertCell();
       td.textContent = v;
       td.className = "value";
     }
-    if (r.warnings && r.warnings.length) tr.title = r.warnings.join("\n");
+    tr.cells[values.length + 1].title = r.verdict_says || ""; // the verdict's line
+    if (r.warnings.length) tr.title = r.warnings.join("\n");
   }
-  const still = state.result && state.result.metrics && state.result.metrics.stand_still;
+  const still = data.stand_still;
   if (still && rows.length > 1) {
     const tr = body.insertRow();
     tr.className = "baseline";
-    for (const v of ["standing still", ...shown.map((d) => fmt(still[d.name], d.digits, d.scale)), "", ""]) {
-      const td = tr.insertCell();
-      td.textContent = v;
-    }
+    const values = data.columns.map((c) => (c.key in still ? fmt(still[c.key], c.digits, c.scale) : ""));
+    for (const v of ["standing still", ...values, "", "", ""]) tr.insertCell().textContent = v;
   }
-  const worse = rows.filter((r) => isWorseThanStill(r.metrics)).length;
-  $("compare-summary").textContent = rows.length > 1 && still
-    ? `${worse} of ${rows.length} models are worse than standing still on this recording.` : "";
+  $("compare-summary").textContent = rows.length > 1 ? data.summary : "";
+  // The downloads list the rows in the order shown.
+  const ids = encodeURIComponent(rows.map((r) => r.run_id).join(","));
+  $("compare-csv").href = `/compare.csv?ids=${ids}`;
+  $("compare-zip").href = `/compare.zip?ids=${ids}`;
+  $("compare-downloads").hidden = rows.length < 2 || state.comparing;
 }
 
 async function compareModels() {
@@ -62,7 +131,7 @@ async function compareModels() {
     for (const [i, name] of others.entries()) {
       setProgress(i / others.length, `Comparing: ${displayName(name)} (${i + 1} of ${others.length})`);
       const started = performance.now();
-      const model = encodeURIComponent(name);
+      const model = `${encodeURIComponent(name)}&group=${encodeURIComponent(base.run_id)}`; // listed under base
       let r;
       if (source.file) {
         const form = new FormData();
@@ -93,3 +162,30 @@ async function compareModels() {
     refreshKeptRuns();
   }
 }
+
+// --- exports of the shown run: GPX / GeoJSON (a walk with GPS), times on the phone's clock ---------
+
+// GPS anchors a walk when some fixes fall inside it: then the distance to GPS is a number.
+function anchoredOnGps(result) {
+  const gps = result.plausibility && result.plausibility.gps;
+  const rms = gps && gps.figures.find((f) => f.name === "gps_distance_rms");
+  return !!(rms && rms.value !== null);
+}
+
+// Called by showDownloads (result.js) after it has set the four basic links.
+function showExportDownloads(result) {
+  const base = `/runs/${result.run_id}`;
+  const geo = anchoredOnGps(result);
+  for (const [id, href] of [["download-gpx", `${base}/trajectory.gpx`], ["download-geojson", `${base}/trajectory.geojson`]]) {
+    $(id).hidden = !geo;
+    $(id).href = geo ? href : "#";
+  }
+  const epoch = $("epoch-clock").checked ? "?clock=epoch" : "";
+  $("download-link").href = result.csv_url + epoch;
+  $("download-tum").href = result.tum_url + epoch;
+}
+
+for (const id of ["compare-csv", "compare-zip", "download-gpx", "download-geojson"]) {
+  $(id).addEventListener("click", download);
+}
+$("epoch-clock").addEventListener("change", () => { if (state.result) showExportDownloads(state.result); });

@@ -3,11 +3,11 @@
 "use strict";
 
 const TRUTH_COLOR = "#3c3c3c";
-const GPS_COLOR = "#7b3294";
-// The 3D scene's model colours (app/viz/palette.py), in the order of the model list.
-const MODEL_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-  "#17becf", "#c800c8", "#142878", "#78003c", "#006450", "#aec7e8", "#ffbb78", "#98df8a", "#ff9896",
-  "#c5b0d5", "#c49c94", "#f7b6d2", "#9edae5"];
+const GPS_COLOR = "#00796b";
+// The 3D scene's model colours (app/viz/palette.py: no two alike), in the order of the model list.
+const MODEL_COLORS = ["#1f77b4", "#ff7f0e", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+  "#808000", "#f032e6", "#0000ff", "#003cd2", "#ff0078", "#69b400", "#960f4b", "#1e5a0f", "#964b00",
+  "#1e87ff", "#ff7887", "#870096", "#b400ff"];
 const $ = (id) => document.getElementById(id);
 
 const state = {

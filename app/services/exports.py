@@ -9,11 +9,14 @@ Decisions:
 - ``timestamps=model`` (default): the samples the model ran on (the checkpoint's rate);
   ``timestamps=input``: interpolated at the recording's own timestamps inside the predicted span
   (a 200 Hz upload comes back at 200 Hz; for a phone export, its merged sensor clock).
-- Timestamps are seconds from the start of the recording, as in every other output.
+- Timestamps are seconds from the start of the recording, as in every other output; ``clock=epoch``
+  puts them on the phone's own clock instead (seconds since the Unix epoch, UTC, where the export
+  says when it started: ``ftin.data.epoch``; a recording that does not answers 422). The CSV's
+  first column is then ``t_unix_s``, so a file never leaves its clock unsaid.
 - A model that predicts horizontal velocity only holds z at its start: the ground truth's start
   height, else 0. Both files say so in a ``#`` comment first (``z_note``), as the page does.
 - ``metrics.json`` carries what ``POST /predict`` answers about the scores (its ``metrics`` object,
-  field for field, ``plausibility``, ``warnings`` and ``notes``), plus the metric definitions.
+  field for field, ``plausibility``, ``warnings``, ``notes`` and ``verdict``), plus the metric definitions.
 """
 
 from __future__ import annotations
@@ -25,8 +28,11 @@ from typing import Any
 import numpy as np
 
 from app.schemas import MetricsPayload, PlausibilityPayload  # the fields POST /predict answers
+from app.schemas_verdict import VerdictPayload
+from app.services.errors import InvalidInputError
 from app.services.runs import Run
 from app.services.verdict import z_note
+from ftin.data.epoch import start_epoch_s
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.data.types import Trajectory
 from ftin.metrics import list_metrics
@@ -37,42 +43,73 @@ class Timestamps(str, Enum):
     INPUT = "input"
 
 
-def trajectory_at(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> Trajectory:
+class Clock(str, Enum):
+    START = "start"  # seconds from the start of the recording
+    EPOCH = "epoch"  # seconds since 1970-01-01 UTC on the phone's clock
+
+
+def recording_start(run: Run) -> float:
+    """When the run's recording started, in seconds since the epoch; 422 where it does not say."""
+    start = start_epoch_s(run.sequence.meta)
+    if start is None:
+        raise InvalidInputError(
+            f"{run.sequence.name} has no start time on the phone's clock (Sensor Logger and phyphox "
+            "exports, and EuRoC, have one; a plain CSV or a live stream does not): download it with "
+            "clock=start, seconds from the start of the recording"
+        )
+    return start
+
+
+def trajectory_at(
+    run: Run, timestamps: Timestamps | str = Timestamps.MODEL, clock: Clock | str = Clock.START
+) -> Trajectory:
     traj = run.prediction.trajectory
     if Timestamps(timestamps) is Timestamps.INPUT:
-        return at_times(traj, run.sequence.t_s)
+        traj = at_times(traj, run.sequence.t_s)
+    if Clock(clock) is Clock.EPOCH:
+        traj = Trajectory(traj.t_s + recording_start(run), traj.p_world_m, traj.q_world_body_wxyz)
     return traj
 
 
-def trajectory_csv(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:
-    """``t_s,x_m,y_m,z_m`` in the prediction's world frame, after a ``#`` line when z is constant."""
-    traj = trajectory_at(run, timestamps)
+def trajectory_csv(
+    run: Run, timestamps: Timestamps | str = Timestamps.MODEL, clock: Clock | str = Clock.START
+) -> str:
+    """``t_s,x_m,y_m,z_m`` (``t_unix_s,...`` on the epoch clock) in the prediction's world frame, after a
+    ``#`` line when z is constant."""
+    traj = trajectory_at(run, timestamps, clock)
     buffer = io.StringIO()
     note = z_note(run)
     if note is not None:
         buffer.write(f"# {note}\n")
     table = np.column_stack([traj.t_s, traj.p_world_m])
-    np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header="t_s,x_m,y_m,z_m", comments="")
+    time = "t_unix_s" if Clock(clock) is Clock.EPOCH else "t_s"
+    np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header=f"{time},x_m,y_m,z_m", comments="")
     return buffer.getvalue()
 
 
-def trajectory_tum(run: Run, timestamps: Timestamps | str = Timestamps.MODEL) -> str:
+def trajectory_tum(
+    run: Run, timestamps: Timestamps | str = Timestamps.MODEL, clock: Clock | str = Clock.START
+) -> str:
+    on = "Unix time (s since 1970, UTC)" if Clock(clock) is Clock.EPOCH else "s from the start"
     comment = (
         f"FTIN Studio: {run.model_name} on {run.sequence.name}, {run.prediction.frame} frame, "
-        f"orientation {run.prediction.orientation_source}, timestamps: {Timestamps(timestamps).value}"
+        f"orientation {run.prediction.orientation_source}, timestamps: {Timestamps(timestamps).value}, {on}"
     )
     note = z_note(run)
     if note is not None:
         comment += f"\n{note}"
-    return tum_text(trajectory_at(run, timestamps), comment)
+    return tum_text(trajectory_at(run, timestamps, clock), comment)
 
 
-def ground_truth_tum(run: Run) -> str | None:
+def ground_truth_tum(run: Run, clock: Clock | str = Clock.START) -> str | None:
     gt = run.truth
     if gt is None:
         return None
     m = run.metrics
     how = "" if m is None or m.alignment is None else f", alignment {m.alignment} applied"
+    if Clock(clock) is Clock.EPOCH:
+        gt = Trajectory(gt.t_s + recording_start(run), gt.p_world_m, gt.q_world_body_wxyz)
+        how += ", Unix time (s since 1970, UTC)"
     return tum_text(gt, f"FTIN Studio: ground truth of {run.sequence.name} in the prediction's frame{how}")
 
 
@@ -92,6 +129,8 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "metric_definitions": [metric.as_dict() for metric in list_metrics()],
         "plausibility": PlausibilityPayload.from_run(run).model_dump(),
         "warnings": run.verdict.warnings,
-        "notes": run.verdict.notes,
+        "notes": [*run.verdict.notes, *run.plausibility.notes],  # as POST /predict: GPS fixes left out
+        "verdict": VerdictPayload.from_run(run).model_dump(),  # ok / check / implausible, as POST /predict
         "z_note": z_note(run),
+        "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
     }

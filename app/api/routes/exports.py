@@ -1,9 +1,13 @@
 """Exports of a finished run for other tools: ``trajectory.tum`` and ``ground_truth.tum`` (TUM format,
-``timestamp tx ty tz qx qy qz qw``: ``evo_ape tum ground_truth.tum trajectory.tum`` works on them)
-and ``metrics.json`` (the metrics, their convention and alignment in words)."""
+``timestamp tx ty tz qx qy qz qw``: ``evo_ape tum ground_truth.tum trajectory.tum`` works on them),
+``metrics.json`` (the metrics, their convention and alignment in words), ``trajectory.gpx`` and
+``trajectory.geojson`` (latitude / longitude, for maps, when GPS anchors the walk); and the
+"compare all models" table of one recording: ``GET /compare``, ``/compare.csv``, ``/compare.zip``
+(``?ids=`` the runs, comma-separated, in the order of the rows)."""
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Callable
 from typing import Annotated
@@ -13,8 +17,13 @@ from fastapi.responses import JSONResponse, Response
 
 from app.api.deps import ServicesDep
 from app.schemas import ErrorResponse
-from app.services.errors import NotFoundError
-from app.services.exports import Timestamps, ground_truth_tum, metrics_json, trajectory_tum
+from app.schemas_exports import CompareResponse
+from app.services.compare_table import MAX_RUNS, compare_csv, compare_table, compare_zip
+from app.services.errors import InvalidInputError, NotFoundError
+from app.services.exports import Clock, Timestamps, ground_truth_tum, metrics_json, trajectory_tum
+from app.services.geo_exports import geojson, gpx_text
+from app.services.runs import RUN_ID_PATTERN, Run
+from ftin.metrics.gps_anchor import AnchorFit
 
 router = APIRouter(tags=["runs"])
 
@@ -26,7 +35,30 @@ TimestampsQuery = Annotated[
         "the recording's own timestamps."
     ),
 ]
+ClockQuery = Annotated[
+    Clock,
+    Query(
+        description="start: seconds from the start of the recording; epoch: Unix time (s since 1970, UTC) on "
+        "the phone's clock, where the recording says when it started (else 422)."
+    ),
+]
+FitQuery = Annotated[
+    AnchorFit,
+    Query(
+        description="start: pinned to the first GPS fix, heading fitted on the walk's start (as the page "
+        "draws it); walk: a rigid fit (rotation and shift, no scale) onto every GPS fix."
+    ),
+]
+IdsQuery = Annotated[
+    str,
+    Query(
+        description=f"The run ids of one recording, comma-separated (at most {MAX_RUNS}), in the order of "
+        "the rows.",
+        max_length=MAX_RUNS * 65,
+    ),
+]
 RUN_GONE = {404: {"model": ErrorResponse}, 410: {"model": ErrorResponse}}  # 410: finished, then dropped
+UNUSABLE = {**RUN_GONE, 422: {"model": ErrorResponse}}
 
 
 def file_route(on: APIRouter, path: str, media_type: str) -> Callable[[Callable], Callable]:
@@ -34,7 +66,7 @@ def file_route(on: APIRouter, path: str, media_type: str) -> Callable[[Callable]
     return on.get(path, response_class=Response, responses={200: {"content": {media_type: {}}}, **RUN_GONE})
 
 
-def attachment(text: str, media_type: str, name: str) -> Response:
+def attachment(text: str | bytes, media_type: str, name: str) -> Response:
     filename = re.sub(r"[^A-Za-z0-9._-]+", "_", name)  # header values: plain ASCII only
     return Response(
         text, media_type=media_type, headers={"Content-Disposition": f'attachment; filename="{filename}"'}
@@ -43,20 +75,27 @@ def attachment(text: str, media_type: str, name: str) -> Response:
 
 @file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain")
 def trajectory_tum_route(
-    run_id: RunIdPath, services: ServicesDep, timestamps: TimestampsQuery = Timestamps.MODEL
+    run_id: RunIdPath,
+    services: ServicesDep,
+    timestamps: TimestampsQuery = Timestamps.MODEL,
+    clock: ClockQuery = Clock.START,
 ) -> Response:
     """The predicted trajectory in TUM format (seconds, metres, world-from-device quaternion)."""
     run = services.runs.get(run_id)
     return attachment(
-        trajectory_tum(run, timestamps), "text/plain", f"{run.sequence.name}_{run.model_name}_trajectory.tum"
+        trajectory_tum(run, timestamps, clock),
+        "text/plain",
+        f"{run.sequence.name}_{run.model_name}_trajectory.tum",
     )
 
 
 @file_route(router, "/runs/{run_id}/ground_truth.tum", "text/plain")
-def ground_truth_tum_route(run_id: RunIdPath, services: ServicesDep) -> Response:
+def ground_truth_tum_route(
+    run_id: RunIdPath, services: ServicesDep, clock: ClockQuery = Clock.START
+) -> Response:
     """The ground truth in TUM format, in the prediction's frame (the fitted alignment applied)."""
     run = services.runs.get(run_id)
-    text = ground_truth_tum(run)
+    text = ground_truth_tum(run, clock)
     if text is None:
         raise NotFoundError(f"run {run_id!r} ({run.sequence.name}) has no ground truth")
     return attachment(text, "text/plain", f"{run.sequence.name}_ground_truth.tum")
@@ -67,3 +106,67 @@ def metrics_json_route(run_id: RunIdPath, services: ServicesDep) -> JSONResponse
     """The run's metrics (null without ground truth), convention and alignment, as JSON."""
     run = services.runs.get(run_id)
     return JSONResponse(metrics_json(run))
+
+
+@router.get(
+    "/runs/{run_id}/trajectory.gpx",
+    response_class=Response,
+    responses={200: {"content": {"application/gpx+xml": {}}}, **UNUSABLE},
+)
+def trajectory_gpx_route(
+    run_id: RunIdPath, services: ServicesDep, fit: FitQuery = AnchorFit.START
+) -> Response:
+    """The prediction in latitude / longitude (GPX 1.1, with the GPS fixes as a second track), anchored on
+    the export's GPS; 422 for a walk without GPS."""
+    run = services.runs.get(run_id)
+    name = f"{run.sequence.name}_{run.model_name}_trajectory.gpx"
+    return attachment(gpx_text(run, fit), "application/gpx+xml", name)
+
+
+@router.get(
+    "/runs/{run_id}/trajectory.geojson",
+    response_class=Response,
+    responses={200: {"content": {"application/geo+json": {}}}, **UNUSABLE},
+)
+def trajectory_geojson_route(
+    run_id: RunIdPath, services: ServicesDep, fit: FitQuery = AnchorFit.START
+) -> Response:
+    """The prediction as a GeoJSON FeatureCollection (a LineString in longitude, latitude; the GPS fixes
+    as a second one), anchored on the export's GPS; 422 for a walk without GPS."""
+    run = services.runs.get(run_id)
+    name = f"{run.sequence.name}_{run.model_name}_trajectory.geojson"
+    return attachment(json.dumps(geojson(run, fit)), "application/geo+json", name)
+
+
+def compared_runs(ids: str, services: ServicesDep) -> list[Run]:
+    """The runs named by ``ids`` (comma-separated), in that order; 422 for a malformed list."""
+    names = [i.strip() for i in ids.split(",") if i.strip()]
+    if not names or len(names) > MAX_RUNS:
+        raise InvalidInputError(f"ids must name 1 to {MAX_RUNS} runs, comma-separated (got {len(names)})")
+    bad = [i for i in names if not RUN_ID_PATTERN.match(i)]
+    if bad:
+        raise InvalidInputError(f"{bad[0]!r} is not a run id (6-64 letters, digits, '-' or '_')")
+    return [services.runs.get(i) for i in dict.fromkeys(names)]
+
+
+@router.get("/compare", response_model=CompareResponse, responses=UNUSABLE)
+def compare_route(ids: IdsQuery, services: ServicesDep) -> CompareResponse:
+    """The "compare all models" table of one recording: metrics where it has ground truth, and for every
+    walk the plausibility figures (path, steps, step length, end-to-start gap, distance to GPS)."""
+    runs = compared_runs(ids, services)
+    return CompareResponse.from_table(compare_table(runs), ",".join(r.run_id for r in runs))
+
+
+@file_route(router, "/compare.csv", "text/csv")
+def compare_csv_route(ids: IdsQuery, services: ServicesDep) -> Response:
+    """The compare table as CSV: the page's columns and numbers, one row per run, standing still last."""
+    runs = compared_runs(ids, services)
+    return attachment(compare_csv(compare_table(runs)), "text/csv", f"{runs[0].sequence.name}_compare.csv")
+
+
+@file_route(router, "/compare.zip", "application/zip")
+def compare_zip_route(ids: IdsQuery, services: ServicesDep, clock: ClockQuery = Clock.START) -> Response:
+    """Every compared model's trajectory in TUM format (``<model>.tum``), the ground truth where there is
+    one, and ``compare.csv``, in one ZIP."""
+    runs = compared_runs(ids, services)
+    return attachment(compare_zip(runs, clock), "application/zip", f"{runs[0].sequence.name}_compare.zip")

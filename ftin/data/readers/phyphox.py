@@ -34,7 +34,7 @@ import pandas as pd
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.io.sensor_clock as sensor_clock
-from ftin.data import location
+from ftin.data import epoch, location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
@@ -211,6 +211,7 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         mag_label, mag_series, mag_scale = found["mag"][0]
         mag_series = sensor_clock.clean_series(mag_series, source, warnings)
         mag = sensor_clock.on_clock(mag_series, clock, source, warnings) * mag_scale
+    meta.update(epoch.start_meta(epoch.phyphox_start_epoch_s(files.extra, float(clock[0]))))
     gps_file = files.find("Location")
     if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
         track = location.phyphox_track(gps_file[1], gps_file[0], float(clock[0]))

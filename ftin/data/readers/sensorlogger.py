@@ -37,7 +37,7 @@ import pandas as pd
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.io.sensor_clock as sensor_clock
-from ftin.data import frames, location
+from ftin.data import epoch, frames, location
 from ftin.data.errors import DataFormatError
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.io.sensor_clock import SensorSeries
@@ -261,9 +261,10 @@ def _read_export(files: ExportFiles, name: str) -> ImuSequence:
         meta["orientation_source"] = "device"
     mag_key = next((k for k in ("Magnetometer", "MagnetometerUncalibrated") if k in series), None)
     mag = None if mag_key is None else sensor_clock.on_clock(series[mag_key], clock, source, warnings)
+    zero_ns = None if origin is None else origin + int(round(clock[0] * 1e9))
+    meta.update(epoch.start_meta(None if zero_ns is None else zero_ns * 1e-9))  # t = 0 on the phone's clock
     gps_file = files.find("Location")
     if gps_file is not None:  # GPS fixes on the sequence's clock (ftin.data.location)
-        zero_ns = None if origin is None else origin + int(round(clock[0] * 1e9))
         track = location.sensorlogger_track(gps_file[1], gps_file[0], zero_ns, float(clock[0]))
         if track is not None:
             meta["gps"] = track
