@@ -1,5 +1,6 @@
-// The orientation option of every prediction, and the page's words for what the server chose:
-// which orientation source ran and why, which model and by which rule.
+// The orientation and model options of every prediction, and the page's words for who chose: which
+// orientation source ran and why, which model and by which rule ("you chose" it, or the server did:
+// the default, and why it is the default, or the model for the recording's kind).
 
 const ORIENTATION_SOURCE_WORDS = {
   device: "the phone's own attitude",
@@ -24,8 +25,35 @@ function choiceText(result) {
     parts.push(`Orientation: ${what} (${why}).`);
   }
   const m = result.model_choice;
-  if (m) parts.push(`Model: ${m.model} (${m.rule === "requested" ? "as chosen" : m.reason}).`);
+  if (m) {
+    const who = m.rule === "requested" ? "you chose"
+      : m.rule === "default" ? `default: ${m.reason}` : `chosen for this recording: ${m.reason}`;
+    parts.push(`Model: ${m.model} (${who}).`);
+  }
   return parts.join(" ");
+}
+
+// "&model=...": only when the user picked a model; the first option ("default: ...") names none, so
+// the server chooses (the model trained on the recording's kind, else the default) and says so.
+function modelParam() {
+  const select = document.getElementById("model-select");
+  return select && select.value ? `&model=${encodeURIComponent(select.value)}` : "";
+}
+
+// The model select's first option: the default, with the reason it is the default.
+function defaultOption(model, why) {
+  const option = document.createElement("option");
+  option.value = "";
+  option.selected = true;
+  option.textContent = `default: ${model.display_name || model.name}` + (why ? ` (${why})` : "");
+  option.title = option.textContent;
+  return option;
+}
+
+// Under the select while the default is chosen: what the server does with no model named.
+function defaultModelWords(why) {
+  return "No model named: the server runs the model trained on the recording's kind when it recognises " +
+    "it, else the default" + (why ? `, ${why}` : "") + ". ";
 }
 
 function showChoices(result) {

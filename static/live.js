@@ -1,10 +1,12 @@
 // The upload page's "Live from a phone" card: the push URL to type into Sensor Logger and the live
 // sessions (GET /live/info, polled). Device and session names come from phones: set as text, never HTML.
+// The URL shown is one a phone can reach (the LAN address the app answers on); when the app listens on
+// this machine only, the card says so and how to restart it, and shows the local URL as such.
 "use strict";
 
 (() => {
   const POLL_MS = 2000;
-  const COLUMNS = ["Phone", "State", "Samples", "Rate", "Latency", "Dropped", "Distance", "Steps", "Trajectory"];
+  const COLUMNS = ["Phone", "State", "Samples", "Rates", "Latency", "Dropped", "Distance", "Steps", "Trajectory"];
   const el = (id) => document.getElementById(id);
 
   function cell(row, text) {
@@ -14,8 +16,14 @@
     return td;
   }
 
+  // "gyro 500 Hz · acc 100 Hz · mag 50 Hz": every sensor at its own rate (one number misled).
+  function ratesText(rates) {
+    const parts = Object.entries(rates || {}).filter(([, hz]) => hz != null).map(([kind, hz]) => `${kind} ${hz.toFixed(0)} Hz`);
+    return parts.length ? parts.join(" · ") : "–";
+  }
+
   function render(info) {
-    el("live-url").textContent = info.lan_url || info.local_url;
+    el("live-url").textContent = info.lan_url || `${info.local_url} (this machine only)`;
     el("live-note").textContent =
       (info.lan_url ? `On this machine: ${info.local_url}. ` : "") + info.note;
     const table = el("live-sessions");
@@ -34,7 +42,7 @@
       cell(row, s.device_id + (s.part > 1 ? ` (part ${s.part})` : ""));
       cell(row, s.state + (s.ended_because ? `: ${s.ended_because}` : ""));
       cell(row, String(s.samples));
-      cell(row, `${s.rate_hz.toFixed(0)} Hz`);
+      cell(row, ratesText(s.rates_hz));
       cell(row, s.latency_s == null ? "–" : `${s.latency_s.toFixed(2)} s`);
       cell(row, String(s.dropped_messages));
       cell(row, `${s.distance_m.toFixed(1)} m`);

@@ -4,8 +4,10 @@
 // The legend is HTML beside the plot (never over the data, names never cut). Markers: the start is
 // one green circle (the ground truth's, else where the predictions start); a prediction aligned away
 // from it starts at a small circle in its own colour; the ground truth ends at a hollow grey square,
-// a prediction at a triangle in its own colour. GPS fixes are dots on a dotted line, each inside a
-// faint circle of its reported accuracy.
+// a prediction at a triangle in its own colour. GPS fixes are drawn first, under every path: dots on a
+// dotted line, inside their reported accuracy as one pale area (the circles drawn opaque inside a
+// faint group, so a hundred overlapping fixes tint the plot no more than one: they used to wash it).
+// Colours: app/viz/palette.py (START_COLOR here, the rest in util.js), no two alike.
 "use strict";
 
 const FtinPlot = (() => {
@@ -14,6 +16,7 @@ const FtinPlot = (() => {
   const SIZE = { width: 720, height: 540, left: 56, right: 16, top: 16, bottom: 44 };
   const START_COLOR = "#00aa5a";
   const TRUTH_END = "#3c3c3c";
+  const GPS_AREA_OPACITY = 0.1; // the union of the accuracy circles, however many overlap
 
   function el(name, attrs, parent) {
     const node = document.createElementNS(SVG_NS, name);
@@ -66,7 +69,7 @@ const FtinPlot = (() => {
     };
     for (const s of series) {
       if (s.gps) {
-        item(`<svg width="26" height="12"><circle cx="13" cy="6" r="5" fill="${s.color}" fill-opacity="0.15"/><circle cx="13" cy="6" r="2.5" fill="${s.color}"/></svg>`, s.label);
+        item(`<svg width="26" height="12"><circle cx="13" cy="6" r="5" fill="${s.color}" fill-opacity="${GPS_AREA_OPACITY}"/><circle cx="13" cy="6" r="2.5" fill="${s.color}"/></svg>`, s.label);
         continue;
       }
       const dash = s.dashed ? "stroke-dasharray='6 4'" : "";
@@ -148,13 +151,14 @@ const FtinPlot = (() => {
     return svg;
   }
 
-  // GPS fixes: a faint circle of each fix's accuracy (metres, to scale), a dot, a dotted line.
+  // GPS fixes: each fix's accuracy (metres, to scale) as one pale area, a dot, a dotted line.
   function drawGps(svg, s, px, py, scale) {
     const g = el("g", { class: "gps", "data-label": s.label }, svg);
+    const area = el("g", { class: "gps-accuracy", opacity: GPS_AREA_OPACITY }, g);
     for (let i = 0; i < s.x.length; i++) {
       const a = s.accuracy ? s.accuracy[i] : null;
       if (a !== null && a !== undefined && Number.isFinite(a)) {
-        el("circle", { cx: px(s.x[i]), cy: py(s.y[i]), r: Math.max(a * scale, 1), fill: s.color, "fill-opacity": 0.06 }, g);
+        el("circle", { cx: px(s.x[i]), cy: py(s.y[i]), r: Math.max(a * scale, 1), fill: s.color }, area);
       }
     }
     const points = s.x.map((x, i) => `${px(x).toFixed(1)},${py(s.y[i]).toFixed(1)}`);

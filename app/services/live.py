@@ -9,7 +9,8 @@ session, to the listeners (``subscribe``: the 3D scene) with its figures (``Live
 flows one way: route -> service -> session -> run store and listeners, which never call back.
 
 Decisions:
-- One session per (``sessionId``, ``deviceId``); it is a run from its first window on. A session
+- One session per (``sessionId``, ``deviceId``), started by its first message with samples (an
+  empty one is answered with a note and starts none); it is a run from its first window on. A session
   without messages for ``FTIN_LIVE_IDLE_S`` ends and stays an ordinary run; so does one that reached
   ``FTIN_LIVE_MAX_SESSION_S`` or ``FTIN_MAX_SAMPLES`` (later messages of it get 409). A message of an
   idle-ended session starts a new part (a phone that lost the network for a while).
@@ -69,6 +70,10 @@ TICK_S = 0.05  # the worker's look at held messages and idle sessions
 DRAIN_MESSAGES = 256  # messages used before one publication
 CLOSED_KEPT = 20
 PLATFORMS = ("android", "ios")
+EMPTY_PUSH = (
+    "the message carries no sensor samples, so no session was started: tick sensors in the app "
+    "(gyroscope, accelerometer; orientation if it has one) and record"
+)
 
 Key = tuple[str, str]
 
@@ -185,6 +190,8 @@ class LiveService:
         key = (message.session_id, message.device_id)
         with self._lock:
             known = key in self._sessions
+            if not known and message.n_samples == 0:  # starts no session (a phantom in the lists)
+                return {"status": "ok", "test": False, "detail": EMPTY_PUSH}
             if key in self._too_long:
                 raise ConflictError(
                     f"live session {message.session_id} reached its limit (FTIN_LIVE_MAX_SESSION_S "
@@ -235,6 +242,7 @@ class LiveService:
             "samples": s.n_samples,
             "duration_s": round(s.duration_s, 2),
             "rate_hz": s.rate_hz(),
+            "rates_hz": s.rates_by_kind(),
             "latency_s": latency["median_s"],
             "latency_p95_s": latency["p95_s"],
             "latest_latency_s": s.latest_latency_s,
@@ -335,7 +343,7 @@ class LiveService:
         with self._lock:
             live = self._sessions.get(key)
             if live is None:
-                if key in self._too_long:
+                if key in self._too_long or item.message.n_samples == 0:
                     return None
                 entry = self.models.get(item.model or self.settings.live_model)
                 part = 1 + sum(1 for c in self._closed if (c.session.session_id, c.session.device_id) == key)

@@ -285,8 +285,9 @@ class Controls:
             # Ground truth first: the first view should show the model against it.
             for sequence_id in sorted(candidates, key=lambda i: not has_truth(i)):
                 try:
-                    for model in models:
-                        predictor.predict_sequence(sequence_id, RunOptions(model))
+                    for model in models:  # one: the sequence's own, named by nobody (the page says so)
+                        named = model if len(models) > 1 else None
+                        predictor.predict_sequence(sequence_id, RunOptions(named))
                     return
                 except ServiceError as exc:  # unreadable: try the next one
                     log.info("start-up run skipped %s: %s", sequence_id, exc)

@@ -14,13 +14,16 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.viz.palette import GPS_COLOR, RGB, START_COLOR, WINDOW_COLOR, darker
+from app.viz.palette import GPS_COLOR, RGB, START_COLOR, WINDOW_COLOR
 from app.viz.spectra import decimate_indices, polyline_segments
 from ftin.data import Trajectory
 
 MAX_LINE_POINTS = 1500  # per path: plenty on screen; the browser redraws every path on every move
 LINE_PX = 3.0
 WINDOW_LINE_PX = 7.0
+# Marker sizes in position-marker radii (the moving sphere is 1): the start disc's radius, a
+# prediction's own start disc's, the end cube's side.
+START_DISC, OWN_START_DISC, END_CUBE = 2.0, 1.4, 1.6
 
 
 def extent_of(trajectories: list[Trajectory]) -> tuple[np.ndarray, float]:
@@ -53,9 +56,13 @@ def draw_path(
     marker_radius: float,
     start_color: RGB | None = START_COLOR,
 ) -> PathNodes:
-    """Polyline + start (a sphere: green for the ground truth, ``start_color``; a prediction's is
+    """Polyline + start (a flat disc: green for the ground truth, ``start_color``; a prediction's is
     smaller and in its own colour, so that an aligned prediction's start is no second "start") and
-    end (cube in the path's own, darker colour) markers + a position marker at the start."""
+    end (a cube in the path's own colour) markers + a position marker (a sphere) at the start.
+
+    Shapes keep the markers from hiding each other: the start disc is wider than the position
+    sphere (a ring shows around it at time 0), and the end cube is narrower than the start disc, so a
+    loop's end drawn on its start leaves the green ring visible."""
     root = scene.add_frame(prefix, show_axes=False)
     keep = decimate_indices(len(traj), MAX_LINE_POINTS)
     points = traj.p_world_m[keep]
@@ -66,11 +73,9 @@ def draw_path(
         thickness=LINE_PX,
         thickness_units="screen",
     )
-    if start_color is not None:
-        scene.add_icosphere(f"{prefix}/start", marker_radius * 0.8, start_color, position=points[0])
-    else:
-        scene.add_icosphere(f"{prefix}/start", marker_radius * 0.5, color, position=points[0])
-    end = scene.add_box(f"{prefix}/end", darker(color), (marker_radius * 1.6,) * 3, position=points[-1])
+    disc = marker_radius * (START_DISC if start_color is not None else OWN_START_DISC)
+    scene.add_cylinder(f"{prefix}/start", disc, marker_radius * 0.3, start_color or color, position=points[0])
+    end = scene.add_box(f"{prefix}/end", color, (marker_radius * END_CUBE,) * 3, position=points[-1])
     marker = scene.add_icosphere(f"{prefix}/marker", marker_radius, color, position=points[0])
     return PathNodes(prefix, root, marker, end=end)
 

@@ -25,13 +25,19 @@ IDLE_TEXT = (
 )
 
 
+def rates_text(session: dict[str, Any]) -> str:
+    """"gyro 500 Hz · acc 100 Hz": each sensor's own rate (``LiveService.sessions()``' ``rates_hz``)."""
+    rates = session.get("rates_hz") or {"gyro": session["rate_hz"]}
+    return " · ".join(f"{kind} {hz:.0f} Hz" for kind, hz in rates.items() if hz is not None)
+
+
 def status_markdown(session: dict[str, Any]) -> str:
     """The "Live" folder's status line for one session's figures (``LiveService.sessions()``' entry)."""
     latency = "–" if session["latest_latency_s"] is None else f"{session['latest_latency_s']:.2f} s"
     state = "streaming" if session["state"] == "live" else session["state"]
     return (
         f"Phone **{session['device_id']}** ({state}), {session['model']}  \n"
-        f"{session['rate_hz']:.0f} Hz, latency {latency}, dropped {session['dropped_messages']} messages  \n"
+        f"{rates_text(session)}, latency {latency}, dropped {session['dropped_messages']} messages  \n"
         f"**{session['distance_m']:.1f} m** walked, {session['steps']} steps"
     )
 

@@ -6,7 +6,8 @@ Decisions:
 - A run of another recording replaces the overlay (trajectories of different recordings share no
   frame); ground truth, GPS, grid and camera are framed once per recording (``frame``).
 - A repeat replaces its predecessor: a run of a model already shown takes its place.
-- The camera frames every path: a run that leaves the framed square re-frames grid and camera.
+- The camera frames every path: a run that leaves the framed square re-frames grid and camera; the
+  framing leaves out the part of the canvas under the right panel (``app.viz.framing``).
 - A live run's view is replaced, not rebuilt (``grow``): its path is continued, not redrawn
   (``app.viz.live_path``), only the new points are checked against the framed square, so drawing
   costs the same at minute 1 and minute 60; the camera keeps the user's angle and distance and moves
@@ -23,6 +24,7 @@ import viser
 from app.services.checkpoint_store import ModelStore
 from app.services.runs import Run
 from app.viz.drawing import GridNodes, PathNodes, draw_gps, draw_grid, draw_path, extent_of, set_window
+from app.viz.framing import aim, follow
 from app.viz.live_path import GrowingPath
 from app.viz.palette import START_COLOR, TRUTH_COLOR, ColorBook
 from app.viz.run_scene_data import RunView, sequence_key
@@ -47,6 +49,7 @@ class Overlay:
         self._gps: Any = None  # the GPS fixes drawn for the recording on screen
         self._frame_box: tuple[np.ndarray, float] | None = None  # centre, size framed now
         self._marker_radius = 0.1
+        server.on_client_connect(self._aim)  # a browser opening the scene: framed for its canvas
 
     def view_of(self, run: Run) -> RunView:
         """What the scene shows of ``run`` (computed once, outside the lock)."""
@@ -156,12 +159,21 @@ class Overlay:
             self.grid.remove()
         self.grid = draw_grid(self.server.scene, centre, size)
         self._frame_box = (centre, size)
-        eye = centre + np.array([0.0, -0.45 * size, 1.1 * size])  # from above, tilted towards +y
-        self.server.initial_camera.position = tuple(eye)
-        self.server.initial_camera.look_at = tuple(centre)
+        initial = self.server.initial_camera
+        eye, target = aim(centre, size, initial.fov)  # a typical canvas, until a browser says its own
+        initial.position, initial.look_at = tuple(eye), tuple(target)
         for client in self.server.get_clients().values():
-            client.camera.position = eye
-            client.camera.look_at = centre
+            self._aim(client)
+
+    def _aim(self, client: viser.ClientHandle) -> None:
+        """Frame what is shown in the part of ``client``'s canvas the right panel leaves uncovered
+        (``app.viz.framing``); also run for every browser that connects."""
+        box = self._frame_box
+        if box is None:
+            return
+        camera = client.camera
+        eye, target = aim(box[0], box[1], camera.fov, (camera.image_width, camera.image_height))
+        camera.position, camera.look_at = eye, target
 
     def _reframe_if_outside(self, view: RunView, points: np.ndarray | None = None) -> None:
         """A path that leaves the framed square re-frames grid and camera around everything shown;
@@ -180,9 +192,11 @@ class Overlay:
         self._place_grid_and_camera(*extent_of(shown))
 
     def _follow(self, position: np.ndarray) -> None:
-        """Move every camera's target to ``position``, keeping its angle and distance."""
-        target = np.asarray(position, dtype=np.float64)
+        """Keep the walker at ``position`` in view: every camera keeps its angle and distance, and the
+        walker sits in the middle of the part of the canvas the right panel leaves uncovered."""
         for client in self.server.get_clients().values():
-            offset = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
-            client.camera.position = target + offset  # viser moves look_at along with the position
-            client.camera.look_at = target
+            camera = client.camera
+            canvas = (camera.image_width, camera.image_height)
+            eye, target = follow(position, camera.position, camera.look_at, camera.fov, canvas)
+            camera.position = eye  # viser moves look_at along with the position
+            camera.look_at = target

@@ -34,6 +34,7 @@ _BLANK = np.full((8, 8, 3), 255, dtype=np.uint8)
 # Six channel colours, none of them a model colour's twin: gyro in blues, acc in reds.
 _CHANNEL_COLORS = ["#08306b", "#2171b5", "#6baed6", "#67000d", "#cb181d", "#fb6a4a"]
 CURSOR_COLOR = "#111111"
+PANEL_WIDTH_PX = 440  # floats over the canvas's right side: the camera frames the rest (app.viz.framing)
 _MIN_AMPLITUDE = 1e-6  # -120 dB: the floor of the spectrum plot
 
 
@@ -271,7 +272,7 @@ class Plots:
         with panel.add_tab("Error", viser.Icon.CHART_LINE):
             self.errors = ErrorPanel(gui)
         panel.dock_right()
-        panel.set_width(440)
+        panel.set_width(PANEL_WIDTH_PX)
         self.clear()
 
     def clear(self) -> None:

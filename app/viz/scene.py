@@ -40,6 +40,7 @@ from app.services.runs import Run, RunListener, RunState, RunStatus
 from app.viz.choices import choice_markdown
 from app.viz.controls import Controls
 from app.viz.draw_queue import DrawQueue
+from app.viz.framing import CONTROL_PANEL_PX
 from app.viz.live import LiveView
 from app.viz.overlay import Overlay
 from app.viz.panels import Plots, run_label
@@ -58,7 +59,7 @@ class DashboardScene(RunListener):
         # No share button: it would open a tunnel to an outside server.
         server.gui.configure_theme(show_share_button=False, control_width="large")
         server.gui.main_panel.dock_left()
-        server.gui.main_panel.set_width(400)
+        server.gui.main_panel.set_width(CONTROL_PANEL_PX)
         server.scene.set_up_direction("+z")
         gui = server.gui
         names = {name: entry.display_name for name, entry in services.models.entries.items()}

@@ -47,14 +47,12 @@ def legend_html(
         )
         rows.append(item(hex_color(GPS_COLOR), f"GPS fixes (aligned at the start{accuracy})"))
     rows.append(item(hex_color(WINDOW_COLOR), "current window"))
+    start = "start: green disc"
     if truth_shown:
-        start = (
-            "start: green sphere (the ground truth's); a prediction aligned away from it starts "
-            "at a small sphere in its colour"
-        )
-    else:
-        start = "start: sphere in the path's colour"
-    rows.append(item(hex_color(START_COLOR), f"{start} · end: cube in the path's colour"))
+        start += " (the ground truth's); a prediction aligned away from it"
+        start += " starts at a smaller disc in its colour"
+    markers = f"{start} · end: cube in the path's colour · now: sphere in the path's colour"
+    rows.append(item(hex_color(START_COLOR), markers))
     if grid_caption is not None:
         rows.append(f'<div style="font-size:0.85em;color:#444">{grid_caption}</div>')
     return "".join(rows)

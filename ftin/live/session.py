@@ -31,6 +31,12 @@ from ftin.live.orientation import CausalOrientation
 from ftin.metrics.steps import StepDetector
 
 LATENCIES_KEPT = 2048
+# The sensors of each kind, in the order the clock prefers them (ftin.live.grid).
+SENSOR_KINDS = {
+    "gyro": ("Gyroscope", "GyroscopeUncalibrated"),
+    "acc": ("TotalAcceleration", "Accelerometer", "AccelerometerUncalibrated"),
+    "mag": ("Magnetometer", "MagnetometerUncalibrated"),
+}
 
 
 class LiveSession:
@@ -153,6 +159,15 @@ class LiveSession:
         """The phone's gyroscope rate as it arrives."""
         rates = self.streams.sensor_rates_hz()
         return float(rates.get("Gyroscope", rates.get("GyroscopeUncalibrated", 0.0)))
+
+    def rates_by_kind(self) -> dict[str, float | None]:
+        """The rate of each kind of sensor as it arrives (Hz; None: not streamed): a phone may log its
+        gyroscope at 500 Hz and its accelerometer at 100 Hz."""
+        rates = self.streams.sensor_rates_hz()
+        return {
+            kind: next((rates[name] for name in names if name in rates), None)
+            for kind, names in SENSOR_KINDS.items()
+        }
 
     def latency_summary(self) -> dict[str, float | None]:
         if not self.latencies_s:

@@ -8,6 +8,7 @@ declared length, else while it streams in, so an oversized body is never read wh
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import socket
 import time
 from collections.abc import Awaitable, Callable
@@ -62,6 +63,9 @@ class LiveSessionInfo(BaseModel):
     samples: int = Field(description="Samples on the model's clock so far.")
     duration_s: float
     rate_hz: float = Field(description="The gyroscope's rate as it arrives.")
+    rates_hz: dict[str, float | None] = Field(
+        description="Each sensor's rate as it arrives: gyro, acc, mag (Hz; null: not streamed)."
+    )
     latency_s: float | None = Field(
         description="Median from a message's arrival to the trajectory covering it."
     )
@@ -80,7 +84,8 @@ class LiveInfoResponse(BaseModel):
     push_path: str
     local_url: str = Field(description="The push URL on this machine.")
     lan_url: str | None = Field(
-        description="The push URL for a phone on the LAN (token included when shown)."
+        description="The push URL for a phone on the LAN (token included when shown); null when the app "
+        "listens on this machine only (the note says how to make it listen on the LAN)."
     )
     token_required: bool
     token_shown: bool = Field(description="The token is shown only to a browser on this machine.")
@@ -175,40 +180,91 @@ async def sessions(services: ServicesDep) -> list[LiveSessionInfo]:
     return [LiveSessionInfo(**s) for s in services.live.sessions()]
 
 
-def lan_address() -> str | None:
-    """This machine's address on its LAN (the interface of the default route; nothing is sent)."""
+# Documentation-only ranges (RFC 5737, RFC 3849): never an address a phone can reach.
+NOT_REACHABLE = tuple(
+    ipaddress.ip_network(n) for n in ("192.0.2.0/24", "198.51.100.0/24", "203.0.113.0/24", "2001:db8::/32")
+)
+ROUTE_PROBES = ("10.255.255.255", "192.168.255.255", "172.31.255.255", "8.8.8.8")  # UDP: nothing is sent
+LISTEN_PROBE_S = 0.3
+
+
+def _usable(address: str) -> bool:
+    """An address a phone on the LAN could reach: not loopback, link-local, unspecified or documentation."""
     try:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-            probe.connect(("192.0.2.1", 9))  # TEST-NET-1: a UDP connect only picks the route
-            address = probe.getsockname()[0]
+        ip = ipaddress.ip_address(address)
+    except ValueError:
+        return False
+    unusable = ip.is_loopback or ip.is_link_local or ip.is_unspecified
+    return not (unusable or any(ip in n for n in NOT_REACHABLE))
+
+
+def lan_addresses() -> list[str]:
+    """This machine's IPv4 addresses on its networks, the default route's first: a UDP "connect" only
+    picks the interface that would route to a probe address (no packet leaves), then the host name's
+    addresses (``getaddrinfo``) for a machine without a route."""
+    found: list[str] = []
+    for probe_address in ROUTE_PROBES:
+        try:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+                probe.connect((probe_address, 9))
+                found.append(probe.getsockname()[0])
+        except OSError:
+            continue
+    try:
+        infos = socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET, socket.SOCK_STREAM)
+        found += [str(info[4][0]) for info in infos]
     except OSError:
-        return None
-    return None if address.startswith("127.") or address == "0.0.0.0" else address
+        pass
+    return list(dict.fromkeys(a for a in found if _usable(a)))
+
+
+def listens_on(address: str, port: int) -> bool:
+    """Whether this app answers on ``address`` (a connection to itself): false when it listens on
+    127.0.0.1 only, which no phone can reach."""
+    try:
+        with socket.create_connection((address, port), timeout=LISTEN_PROBE_S):
+            return True
+    except OSError:
+        return False
+
+
+def reachable_lan_address(port: int) -> str | None:
+    """The first LAN address this app answers on at ``port``, or None."""
+    return next((a for a in lan_addresses() if listens_on(a, port)), None)
+
+
+def _note(token: str | None, lan: str | None, port: int) -> str:
+    if lan is None:
+        return (
+            "The app listens on this machine only (127.0.0.1), so a phone cannot reach it: restart it "
+            f"with --host 0.0.0.0 (uvicorn app.main:app --host 0.0.0.0 --port {port}) and set "
+            "FTIN_LIVE_TOKEN; the push URL for the phone then shows here."
+        )
+    if token is None:
+        return (
+            "A phone on the same network reaches this URL once the app has a token: restart it with "
+            "FTIN_LIVE_TOKEN=<a secret of 8+ characters>; until then only pushes from this machine are taken."
+        )
+    return "Pushes must carry the token (it is in the URL above, shown only on this machine)."
 
 
 @router.get("/live/info", response_model=LiveInfoResponse)
 def info(request: Request, services: ServicesDep) -> LiveInfoResponse:
-    """The push URL to type into Sensor Logger (HTTP Push, behind the gear icon on its Logger page)."""
+    """The push URL to type into Sensor Logger (HTTP Push, behind the gear icon on its Logger page):
+    the machine's LAN address when the app listens on it, else a note saying how to make it listen."""
     settings = services.settings
     port = request.url.port or (443 if request.url.scheme == "https" else 80)
     local = is_local(request.client.host if request.client else None)
     token = settings.live_token
     query = "" if token is None else f"?token={token if local else '<FTIN_LIVE_TOKEN>'}"
-    lan = lan_address()
-    note = (
-        "The app listens on 127.0.0.1 unless started with --host 0.0.0.0 (uvicorn); a phone on the LAN "
-        "also needs FTIN_LIVE_TOKEN set, and the token in the URL."
-        if token is None
-        else "Pushes must carry the token; a phone on the LAN reaches the app when it was started with "
-        "--host 0.0.0.0."
-    )
+    lan = reachable_lan_address(port)
     body: dict[str, Any] = {
         "push_path": PUSH_PATH,
         "local_url": f"http://127.0.0.1:{port}{PUSH_PATH}{query}",
         "lan_url": None if lan is None else f"http://{lan}:{port}{PUSH_PATH}{query}",
         "token_required": token is not None,
         "token_shown": token is not None and local,
-        "note": note,
+        "note": _note(token, lan, port),
         "sessions": [LiveSessionInfo(**s) for s in services.live.sessions()],
     }
     return LiveInfoResponse(**body)
