@@ -58,6 +58,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     finally:
         if services is not None:
             services.live.stop()  # running live sessions end as runs
+            services.runs.flush()  # every finished run on disk before the app goes (written behind answers)
         if scene is not None:
             scene.stop()
         app.state.scene = None

@@ -22,6 +22,9 @@ Decisions:
   and deadline checks, large enough to cost nothing in speed.
 - A run keeps the model's input (``ModelInput``), not feature taps: the scene recomputes FTIN's
   spectra for the window it shows (see ``features``).
+- A recording's steps (``ftin.metrics.steps``, for the plausibility figures and the verdict) depend on
+  it alone: they are detected on a worker thread while the model runs, so that the answer does not
+  wait for them after the model (``Run.steps``).
 - Orientation (``ftin.data.orientation_option``): every door takes a choice (``auto`` by default); a
   listed sequence is read as the choice needs (the phone's attitude or the reference). The service
   only chooses: the library's one orientation step (``orient``) applies the choice, once, before the
@@ -34,6 +37,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import PurePath
 from typing import Any
@@ -56,11 +60,14 @@ from ftin.data.orientation_option import orient, parse_orientation
 from ftin.data.validate import validate
 from ftin.evaluate import score
 from ftin.metrics import Alignment
+from ftin.metrics.steps import detect_steps
 from ftin.precision import PrecisionChoice, choose
 
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
+# Work of a run that needs the recording but not the model (its steps), done while the model runs.
+_FIGURES = ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftin-figures")
 
 
 def _rows(field_name: str, value: Sequence[Any], width: int | None, n: int | None) -> np.ndarray:
@@ -278,6 +285,9 @@ class PredictionService:
             with self.slots.acquire(deadline):
                 deadline.check(what)
                 seq = orient(seq, orientation)  # applied once, here: the run keeps the oriented sequence
+                # The steps need the recording alone: detected on a spare core while the model runs
+                # (the model takes one thread, FTIN_TORCH_THREADS), not after it, in the answer.
+                steps = _FIGURES.submit(detect_steps, seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 prediction = infer.predict_trajectory(
                     entry.loaded,
@@ -299,7 +309,9 @@ class PredictionService:
         scored = score(prediction, align)  # beside the prediction and the sequence, both left as they are
         # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
         # the scene recomputes the spectra of the window it shows from it (a streaming model's too).
-        model_input = ModelInput(prediction.imu_world, prediction.starts, entry.loaded.window)
+        model_input = ModelInput(
+            prediction.imu_world, prediction.starts, entry.loaded.window, prediction.turn_stride
+        )
         run = Run(
             run_id,
             entry.name,
@@ -312,6 +324,7 @@ class PredictionService:
             model_choice=model_choice,
             align=align,
             group=group,
+            steps=steps,
         )
         self.runs.finish(run)
         return run

@@ -8,7 +8,8 @@ Layout::
     runs_dir/sequences/<hash>.npz    the recording, shared by every run made on the same content
 
 Decisions:
-- Every file is written whole or not at all (``ftin.files.atomic_write_bytes``), the recording first,
+- Every file is written whole or not at all (a temporary file moved into place, streamed from the
+  arrays without a copy of the file in memory), the recording first,
   then the run, then its index row: a crash leaves at worst a file without a row, which the next
   start indexes from the file itself (each run file carries its own row).
 - The budget counts the run and recording files. Storing a run evicts the oldest runs (by when they
@@ -24,7 +25,9 @@ Decisions:
 from __future__ import annotations
 
 import logging
+import os
 import sqlite3
+import tempfile
 import threading
 import time
 import zipfile
@@ -36,6 +39,7 @@ from typing import Any
 
 from app.services.errors import RunExpiredError, StartupError
 from app.services.run_codec import (
+    NpzContent,
     UnreadableRunError,
     decode_run,
     decode_sequence,
@@ -43,7 +47,6 @@ from app.services.run_codec import (
     encode_sequence,
     read_meta,
 )
-from ftin.files import atomic_write_bytes
 
 log = logging.getLogger(__name__)
 
@@ -212,15 +215,15 @@ class RunArchive:
     def store(self, run: Any, record: RunRecord) -> list[str]:
         """Write ``run`` (its index row ``record``) and evict the oldest runs beyond the budget; the ids
         evicted. ``OSError`` when the disk refuses (the caller keeps the run in memory)."""
-        seq_hash, seq_bytes = encode_sequence(run.sequence)
+        seq_hash, seq_file = encode_sequence(run.sequence)
         record = RunRecord(**{**record.as_row(), "seq_hash": seq_hash})
-        run_bytes = encode_run(run, record.as_row())
+        run_file = encode_run(run, record.as_row())
         with self._lock:
             seq_path = self.sequence_path(seq_hash)
             if not seq_path.exists():
-                atomic_write_bytes(seq_path, seq_bytes)
-            atomic_write_bytes(self.run_path(record.run_id), run_bytes)
-            row = {**record.as_row(), "bytes": len(run_bytes)}
+                _atomic_write(seq_path, seq_file)
+            run_bytes = _atomic_write(self.run_path(record.run_id), run_file)
+            row = {**record.as_row(), "bytes": run_bytes}
             with self._db() as db:
                 db.execute(
                     "INSERT OR REPLACE INTO sequences VALUES (?, ?)", (seq_hash, seq_path.stat().st_size)
@@ -362,6 +365,24 @@ class RunArchive:
             f"This run ({what}) cannot be read back: its stored file in the runs folder is missing or "
             "damaged, so it was set aside. Predict again to get it back."
         )
+
+
+def _atomic_write(path: Path, content: NpzContent) -> int:
+    """Write ``content`` to a temporary file beside ``path``, then move it into place (whole or not at
+    all, as ``ftin.files.atomic_write_bytes``, but streamed: no copy of the file in memory); its size."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            content.write(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+            size = handle.tell()
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return size
 
 
 def _zip_problem(path: Path) -> str | None:

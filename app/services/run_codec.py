@@ -24,7 +24,8 @@ import hashlib
 import io
 import json
 import logging
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -50,12 +51,27 @@ class UnreadableRunError(ValueError):
 # --- npz files ------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class NpzContent:
+    """One ``.npz`` file to be: the arrays and the JSON ``meta`` beside them. Written straight to a
+    file (``write``), never held whole in memory: an hour's run is tens of MB."""
+
+    meta: dict[str, Any]
+    arrays: dict[str, np.ndarray]
+
+    def write(self, handle: BinaryIO) -> None:
+        text = json.dumps(to_json_safe({"format": FORMAT, **self.meta}), allow_nan=False)
+        np.savez(handle, **{META_KEY: np.frombuffer(text.encode("utf-8"), dtype=np.uint8)}, **self.arrays)
+
+    def to_bytes(self) -> bytes:
+        buffer = io.BytesIO()
+        self.write(buffer)
+        return buffer.getvalue()
+
+
 def to_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
     """One ``.npz`` file's bytes: the arrays and the JSON ``meta`` beside them."""
-    text = json.dumps(to_json_safe({"format": FORMAT, **meta}), allow_nan=False)
-    buffer = io.BytesIO()
-    np.savez(buffer, **{META_KEY: np.frombuffer(text.encode("utf-8"), dtype=np.uint8)}, **arrays)
-    return buffer.getvalue()
+    return NpzContent(meta, arrays).to_bytes()
 
 
 def from_npz(data: bytes | Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -154,8 +170,8 @@ def _trajectory_back(keys: dict[str, Any] | None, arrays: dict[str, np.ndarray])
 _SEQ_ARRAYS = ("t_s", "gyro_rad_s", "acc_m_s2", "q_world_device_wxyz", "mag_uT")
 
 
-def encode_sequence(seq: ImuSequence) -> tuple[str, bytes]:
-    """The sequence's content hash (its file's name) and its ``.npz`` bytes."""
+def encode_sequence(seq: ImuSequence) -> tuple[str, NpzContent]:
+    """The sequence's content hash (its file's name) and its ``.npz`` file."""
     w = _Writer()
     meta = {
         "name": seq.name,
@@ -167,8 +183,8 @@ def encode_sequence(seq: ImuSequence) -> tuple[str, bytes]:
     for key in sorted(w.arrays):
         array = np.ascontiguousarray(w.arrays[key])
         digest.update(f"{key}:{array.dtype.str}:{array.shape}".encode())
-        digest.update(array.tobytes())
-    return digest.hexdigest()[:32], to_npz(meta, w.arrays)
+        digest.update(array)  # its bytes in C order, as ``tobytes`` gives them, without a copy
+    return digest.hexdigest()[:32], NpzContent(meta, w.arrays)
 
 
 def decode_sequence(data: bytes | Any) -> ImuSequence:
@@ -194,7 +210,7 @@ _PRED_FIELDS = (
 )  # fmt: skip
 
 
-def encode_run(run: Any, record: dict[str, Any]) -> bytes:
+def encode_run(run: Any, record: dict[str, Any]) -> NpzContent:
     """A ``app.services.runs.Run``'s own file (its sequence is stored apart, see ``encode_sequence``);
     ``record`` (its index row) is kept inside too, so that a lost index can be rebuilt from the files."""
     w = _Writer()
@@ -216,12 +232,13 @@ def encode_run(run: Any, record: dict[str, Any]) -> bytes:
         if mi is None
         else {
             "window": int(mi.window),
+            "turn_stride": mi.turn_stride,
             "shared": shared,
             "imu_world": None if shared else w.array("mi.imu_world", mi.imu_world),
             "starts": None if shared else w.array("mi.starts", mi.starts),
         },
     }
-    return to_npz(meta, w.arrays)
+    return NpzContent(meta, w.arrays)
 
 
 def decode_run(data: bytes | Any, sequence: ImuSequence, run_type: type) -> Any:
@@ -244,7 +261,7 @@ def decode_run(data: bytes | Any, sequence: ImuSequence, run_type: type) -> Any:
                 if mi["shared"]
                 else (arrays[mi["imu_world"]], arrays[mi["starts"]])
             )
-            model_input = ModelInput(imu, starts, int(mi["window"]))
+            model_input = ModelInput(imu, starts, int(mi["window"]), mi.get("turn_stride"))
         choice = meta["model_choice"]
         r = meta["record"]
         return run_type(

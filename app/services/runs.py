@@ -8,6 +8,13 @@ announced: the live service tells its own listeners about the walk they follow.
 
 Without an archive (``RunStore()`` in tests) the store is memory only: a run dropped from memory
 answers 410 ("expired").
+
+A finished run is written to the archive behind its answer, by one writer thread (an hour's run is
+tens of MB: the request does not wait for the disk). Whatever reads the archive (a run no longer
+in memory, the lists, the count) first waits for the writes before it (``flush``), so that it sees
+them and the runs their writing evicted; a run in memory (the newest always is) is served at once.
+The app calls ``flush`` at shutdown, so that a run whose answer was sent survives a restart (the
+writer thread is no daemon: a plain interpreter exit waits for it too).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -60,6 +68,9 @@ class Run:
     model_choice: Any = None  # app.services.model_choice.ModelChoice: which rule chose the model
     align: str | None = None  # the alignment asked for (None: the default rule), to score it again on load
     group: str | None = None  # the run_id a compare-all started from (its runs are listed beneath it)
+    # The recording's steps (ftin.metrics.steps), detected beside the model (a Future) or None: then
+    # detected when the plausibility figures are first asked for. They depend on the sequence alone.
+    steps: Any = field(default=None, compare=False, repr=False)
 
     @property
     def n_samples(self) -> int:
@@ -77,7 +88,8 @@ class Run:
 
     @cached_property
     def plausibility(self) -> Plausibility:  # figures without ground truth, GPS when the export has it
-        return assess(self.prediction.trajectory, self.sequence)
+        steps = self.steps.result() if isinstance(self.steps, Future) else self.steps
+        return assess(self.prediction.trajectory, self.sequence, steps)
 
     @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures
@@ -149,6 +161,10 @@ class RunStore:
         self._expired: OrderedDict[str, str] = OrderedDict()
         self._listeners: Listeners[RunListener] = Listeners("run")
         self._lock = threading.Lock()
+        # Finished runs not yet written to the archive (module docstring): served from here meanwhile.
+        self._pending: OrderedDict[str, tuple[Run, int]] = OrderedDict()
+        self._writer: threading.Thread | None = None
+        self._written = threading.Condition(self._lock)
 
     def subscribe(self, listener: RunListener) -> None:
         self._listeners.add(listener)
@@ -165,7 +181,7 @@ class RunStore:
                 f"run_id {requested!r} must be 6-64 characters of letters, digits, '-' or '_'"
             )
         with self._lock:
-            taken = requested in self._status
+            taken = requested in self._status or requested in self._pending
         if taken or (self.archive is not None and self.archive.has(requested)):
             raise ConflictError(f"run_id {requested!r} is already in use; choose another")
         return requested
@@ -204,9 +220,35 @@ class RunStore:
             if status is not None:
                 status.state = RunState.DONE
                 status.done = status.total = max(status.total, status.done)
-        if self.archive is not None:
-            self._store(run, 0 if status is None else status.total)
+            if self.archive is not None:  # written behind the answer (module docstring)
+                self._pending[run.run_id] = (run, 0 if status is None else status.total)
+                if self._writer is None:
+                    self._writer = threading.Thread(target=self._write_pending, name="ftin-run-archive")
+                    self._writer.start()
         self._notify("run_finished", run)
+
+    def _write_pending(self) -> None:
+        """The writer thread: store the pending runs oldest first, then end (a new one starts with the
+        next run). Not a daemon: the interpreter waits for it, so a clean exit loses no run."""
+        while True:
+            with self._lock:
+                if not self._pending:
+                    self._writer = None
+                    self._written.notify_all()
+                    return
+                run_id, (run, windows) = next(iter(self._pending.items()))
+            try:
+                self._store(run, windows)
+            except Exception:  # a bug must not stop the writer: the run stays in memory only
+                log.exception("run %s could not be stored", run_id)
+            with self._lock:
+                self._pending.pop(run_id, None)
+
+    def flush(self, timeout_s: float | None = None) -> bool:
+        """Wait until every finished run is written to the archive (at shutdown: a run whose answer
+        was sent survives a restart); False when ``timeout_s`` passed first."""
+        with self._lock:
+            return self._written.wait_for(lambda: self._writer is None, timeout_s)
 
     def _store(self, run: Run, windows: int) -> None:
         """Write ``run`` to the archive; the runs the budget evicted leave memory too (they answer 410)."""
@@ -259,6 +301,8 @@ class RunStore:
             status = self._status.get(run_id)
         if status is not None:
             return status
+        if self.archive is not None:
+            self.flush()
         record = None if self.archive is None else self.archive.record(run_id)  # 410 when gone
         if record is None:
             raise NotFoundError(f"unknown run id {run_id!r}")
@@ -278,7 +322,10 @@ class RunStore:
                 f"(at most {self.max_runs}, FTIN_MAX_RUNS, and FTIN_MAX_KEPT_SAMPLES samples in all). "
                 "Predict again to get it back."
             )
-        run = None if self.archive is None else self.archive.load(run_id, Run)  # 410 when gone
+        if self.archive is None:
+            raise NotFoundError(f"unknown run id {run_id!r}")
+        self.flush()  # a read sees every write before it: a run being written, one its writing evicts
+        run = self.archive.load(run_id, Run)  # 410 when gone
         if run is None:
             raise NotFoundError(f"unknown run id {run_id!r}")
         with self._lock:
@@ -301,6 +348,7 @@ class RunStore:
             memory = [] if self.archive is not None else list(reversed(self._runs.values()))
         growing = [record_of(run) for run in live if source in (None, run.source)]
         if self.archive is not None:
+            self.flush()  # the runs still being written, and the runs their writing evicts
             stored = self.archive.records(None if limit is None else limit + offset, 0, source)
         else:
             stored = [record_of(run) for run in memory if source in (None, run.source)]
@@ -310,6 +358,7 @@ class RunStore:
     def count(self) -> int:
         """How many finished runs are kept (stored, or in memory without an archive)."""
         if self.archive is not None:
+            self.flush()
             return self.archive.count()
         with self._lock:
             return len(self._runs)

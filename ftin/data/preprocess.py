@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from ahrs.filters import Madgwick, Mahony
 from scipy.signal import butter, sosfiltfilt
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 from vqf import offlineVQF
 
 from ftin.data import frames
@@ -43,9 +43,46 @@ def _require_increasing_time(seq: ImuSequence) -> None:
         )
 
 
+def _quat_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products ``a b`` of wxyz quaternions given as ``(4, N)`` rows (w, x, y, z)."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ]
+    )
+
+
+def _unit_rows(q: np.ndarray) -> np.ndarray:
+    """``(4, N)`` unit quaternions of the ``(N, 4)`` ``q``."""
+    q = np.ascontiguousarray(q.T)
+    return q / np.sqrt(np.einsum("ij,ij->j", q, q))
+
+
 def _slerp(t_s: np.ndarray, q_wxyz: np.ndarray, t_new_s: np.ndarray) -> np.ndarray:
-    slerp = Slerp(t_s, frames.rotation_from_wxyz(q_wxyz))
-    return frames.make_continuous(frames.wxyz_from_rotation(slerp(t_new_s)))
+    """Orientations at ``t_new_s`` (inside ``t_s``'s span), interpolated along the shortest arc
+    between the samples around each, as ``scipy.spatial.transform.Slerp`` does (the same rotations to
+    rounding), in plain numpy over the intervals used only: scipy's took seconds for an hour at
+    200 Hz, this a fraction of one. Signs made continuous (``make_continuous``)."""
+    t_new = np.asarray(t_new_s, dtype=np.float64)
+    if t_new.size and (t_new[0] < t_s[0] or t_new[-1] > t_s[-1]):
+        raise ValueError(f"interpolation times must be within [{t_s[0]}, {t_s[-1]}]")
+    i = np.clip(np.searchsorted(t_s, t_new) - 1, 0, len(t_s) - 2)  # the interval [t_i, t_i+1] of each
+    alpha = (t_new - t_s[i]) / (t_s[i + 1] - t_s[i])
+    q = np.asarray(q_wxyz, dtype=np.float64)
+    start, end = _unit_rows(q[i]), _unit_rows(q[i + 1])
+    rel = _quat_product(start * np.array([[1.0], [-1.0], [-1.0], [-1.0]]), end)  # the interval's turn
+    rel *= np.where(rel[0] < 0, -1.0, 1.0)  # the shortest arc (angle <= pi)
+    sin_half = np.sqrt(rel[1] * rel[1] + rel[2] * rel[2] + rel[3] * rel[3])
+    part = alpha * np.arctan2(sin_half, rel[0])  # half the angle turned by t_new
+    tiny = sin_half < 1e-12  # no turn: sin(part) / sin_half -> alpha
+    scale = np.where(tiny, alpha, np.sin(part) / np.where(tiny, 1.0, sin_half))
+    turned = np.concatenate([np.cos(part)[None], rel[1:] * scale])
+    return frames.make_continuous(np.ascontiguousarray(_quat_product(start, turned).T))
 
 
 def _interp_columns(t_s: np.ndarray, values: np.ndarray, t_new_s: np.ndarray) -> np.ndarray:

@@ -77,9 +77,12 @@ class Walk:
 
     trajectory: Trajectory
     seq: ImuSequence
+    known_steps: Steps | None = None  # ``seq``'s steps when already detected (``assess``)
 
     @cached_property
     def steps(self) -> Steps:
+        if self.known_steps is not None:
+            return self.known_steps
         return detect_steps(self.seq.t_s, self.seq.acc_m_s2, self.seq.gyro_rad_s)
 
     @cached_property
@@ -289,9 +292,10 @@ def _values(figures: tuple[Figure, ...], walk: Walk) -> list[FigureValue]:
     return [FigureValue(f.name, f.unit, _finite(f.compute(walk)), f.description) for f in figures]
 
 
-def assess(trajectory: Trajectory, seq: ImuSequence) -> Plausibility:
-    """The figures of ``trajectory`` (predicted from ``seq``) and the warnings they raise."""
-    walk = Walk(trajectory, seq)
+def assess(trajectory: Trajectory, seq: ImuSequence, steps: Steps | None = None) -> Plausibility:
+    """The figures of ``trajectory`` (predicted from ``seq``) and the warnings they raise; ``steps``:
+    ``detect_steps`` of ``seq`` when the caller has it (the app detects them while the model runs)."""
+    walk = Walk(trajectory, seq, steps)
     values = _values(FIGURES, walk)
     gps_values = _values(GPS_FIGURES, walk) if walk.gps is not None else []
     warnings = plausibility_warnings(Plausibility(values))

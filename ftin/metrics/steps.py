@@ -46,6 +46,7 @@ import copy
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
 BAND_HZ = (0.6, 3.5)
@@ -67,6 +68,8 @@ MAX_FILL = 3
 BOUT_GAP_SHARE = MAX_FILL + 0.5
 MIN_SAMPLES = 32
 MIN_RATE_HZ = 10.0  # below it the band cannot be filtered (and a step is a sample or two)
+BATCH_CHUNK = 1 << 16  # samples fed at a time by ``detect_steps`` (5.5 min at 200 Hz)
+WINDOW_BATCH = 256  # windows judged together: fast, and a bounded temporary (~10 MB at 200 Hz)
 
 
 @dataclass(frozen=True)
@@ -96,54 +99,82 @@ class _Window:
 
 
 def _autocorrelation(x: np.ndarray) -> np.ndarray:
-    """Unbiased, normalised autocorrelation of the columns of ``x`` ``(n, c)``, summed over columns."""
-    x = x - x.mean(axis=0)
-    energy = float(np.sum(x * x))
-    n = len(x)
-    if energy <= 0.0:
-        return np.zeros(n)
-    spectrum = np.fft.rfft(x, 2 * n, axis=0)
-    ac = np.fft.irfft(spectrum * np.conj(spectrum), axis=0)[:n].sum(axis=1)
-    return ac / energy * n / np.maximum(n - np.arange(n), 1)  # unbiased: long lags are not shrunk
+    """Unbiased, normalised autocorrelation of the rows of ``x`` ``(B, c, n)`` (c signals of n samples
+    per window), summed over the c signals: ``(B, n)``.
+
+    The power spectrum is ``re² + im²`` (two real products), not ``X * conj(X)``: numpy's complex
+    product takes another rounding path for large arrays than for small ones, and a window's figures
+    must not depend on how many windows are computed together (a live phone's chunks against an
+    upload's whole recording); the real ufuncs and the FFT give each row the same bits either way.
+    """
+    x = x - x.mean(axis=2, keepdims=True)
+    energy = np.sum(np.sum(x * x, axis=2), axis=1)  # (B,)
+    n = x.shape[2]
+    spectrum = np.fft.rfft(x, 2 * n, axis=2)
+    power = spectrum.real * spectrum.real + spectrum.imag * spectrum.imag
+    ac = np.fft.irfft(power, 2 * n, axis=2)[:, :, :n].sum(axis=1)
+    quiet = energy <= 0.0
+    safe = np.where(quiet, 1.0, energy)
+    ac = ac / safe[:, None] * n / np.maximum(n - np.arange(n), 1)  # unbiased: long lags are not shrunk
+    ac[quiet] = 0.0
+    return ac
 
 
-def _peak_lags(ac: np.ndarray, lo: int, hi: int) -> np.ndarray:
-    """Local maxima of ``ac`` at lags ``lo..hi``."""
-    hi = min(hi, len(ac) - 2)
+def _peaks(ac: np.ndarray, lo: int, hi: int) -> tuple[np.ndarray, int]:
+    """``(mask (B, hi' - lo + 1), lo)``: local maxima of each row of ``ac`` at lags ``lo..hi'``
+    (``hi'``: ``hi`` clipped to the rows' length); an empty mask when the range is too short."""
+    hi = min(hi, ac.shape[1] - 2)
     if hi <= lo + 2:
-        return np.zeros(0, dtype=int)
-    mid = ac[lo : hi + 1]
-    left, right = ac[lo - 1 : hi], ac[lo + 1 : hi + 2]
-    return np.flatnonzero((mid > left) & (mid >= right)) + lo
+        return np.zeros((len(ac), 0), dtype=bool), lo
+    mid = ac[:, lo : hi + 1]
+    return (mid > ac[:, lo - 1 : hi]) & (mid >= ac[:, lo + 1 : hi + 2]), lo
 
 
-def _step_period(signal: np.ndarray, rate_hz: float) -> tuple[float, float]:
-    """``(step period in samples, autocorrelation at it)`` of one window of the filtered norm."""
-    ac = _autocorrelation(signal[:, None])
-    lags = _peak_lags(ac, max(int(MIN_PERIOD_S * rate_hz), 1), int(MAX_STRIDE_S * rate_hz) + 1)
-    if len(lags) == 0:
-        return 0.0, 0.0
-    best = lags[np.argmax(ac[lags] >= MULTIPLE_SHARE * ac[lags].max())]  # a step, not two
+def _first_strong(ac: np.ndarray, mask: np.ndarray, lo: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the first peak nearly as strong as the strongest (``MULTIPLE_SHARE``: two steps or
+    strides correlate as well as one) and whether the row has a peak at all."""
+    values = ac[:, lo : lo + mask.shape[1]]
+    best_value = np.where(mask, values, -np.inf).max(axis=1, initial=-np.inf)
+    strong = mask & (values >= MULTIPLE_SHARE * best_value[:, None])
+    # no peak strong enough (a negative best): the first peak
+    pick = np.where(strong.any(axis=1), strong.argmax(axis=1), mask.argmax(axis=1))
+    return lo + pick, mask.any(axis=1)
+
+
+def _step_periods(ac: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(step period in samples, autocorrelation at it)`` of windows of the filtered norm (rows of
+    ``ac``); 0, 0 where there is no peak."""
+    mask, lo = _peaks(ac, max(int(MIN_PERIOD_S * rate_hz), 1), int(MAX_STRIDE_S * rate_hz) + 1)
+    rows = np.arange(len(ac))
+    best, found = _first_strong(ac, mask, lo)
     # A stride (two steps) may correlate more than a step: prefer half of it when it is nearly as strong.
-    half = [lag for lag in lags if abs(lag - best / 2) <= 0.15 * best]
-    if half:
-        candidate = max(half, key=lambda lag: ac[lag])
-        if ac[candidate] >= max(HALF_LAG_SHARE * ac[best], MIN_PERIODICITY):
-            best = candidate
-    if best > MAX_PERIOD_S * rate_hz:  # too slow for a step: a stride whose steps differ (a pocket)
-        return best / 2.0, float(ac[best])
-    return float(best), float(ac[best])
+    lags = lo + np.arange(mask.shape[1])
+    near_half = mask & (np.abs(lags[None, :] - best[:, None] / 2) <= 0.15 * best[:, None])
+    values = np.where(near_half, ac[:, lo : lo + mask.shape[1]], -np.inf)
+    candidate = lo + values.argmax(axis=1)  # the strongest, the first of equals
+    take = near_half.any(axis=1) & (
+        ac[rows, candidate] >= np.maximum(HALF_LAG_SHARE * ac[rows, best], MIN_PERIODICITY)
+    )
+    best = np.where(take, candidate, best)
+    strength = ac[rows, best]
+    # too slow for a step: a stride whose steps differ (a pocket)
+    period = np.where(best > MAX_PERIOD_S * rate_hz, best / 2.0, best.astype(np.float64))
+    return np.where(found, period, 0.0), np.where(found, strength, 0.0)
 
 
-def _stride_period(gyro: np.ndarray, rate_hz: float) -> tuple[float, float]:
-    """``(stride period in samples, autocorrelation at it)`` of one window of the filtered gyroscope."""
-    ac = _autocorrelation(gyro)
-    lags = _peak_lags(ac, int(STRIDE_RANGE_S[0] * rate_hz), int(STRIDE_RANGE_S[1] * rate_hz) + 1)
-    if len(lags) == 0:
-        return 0.0, 0.0
-    # two or three strides correlate as well as one: the first lag nearly as strong as the best
-    best = lags[np.argmax(ac[lags] >= MULTIPLE_SHARE * ac[lags].max())]
-    return float(best), float(ac[best])
+def _stride_periods(ac: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(stride period in samples, autocorrelation at it)`` of windows of the filtered gyroscope."""
+    mask, lo = _peaks(ac, int(STRIDE_RANGE_S[0] * rate_hz), int(STRIDE_RANGE_S[1] * rate_hz) + 1)
+    best, found = _first_strong(ac, mask, lo)
+    strength = ac[np.arange(len(ac)), best]
+    return np.where(found, best.astype(np.float64), 0.0), np.where(found, strength, 0.0)
+
+
+def _median(values: list[float]) -> float:
+    """The median of a few numbers (as ``np.median``: the mean of the middle two of an even count)."""
+    ordered = sorted(values)
+    mid = len(ordered) // 2
+    return ordered[mid] if len(ordered) % 2 else (ordered[mid - 1] + ordered[mid]) / 2.0
 
 
 class StepDetector:
@@ -234,22 +265,35 @@ class StepDetector:
         return self._start + len(self._x)
 
     def _add_windows(self) -> None:
-        while (k := self._first_window + len(self._windows)) * self._hop + self._width <= self._end:
+        """Judge every window whose samples have all arrived, ``WINDOW_BATCH`` at a time (numpy over
+        many windows at once: an hour's 7,200 windows take a fraction of a second)."""
+        first = self._first_window + len(self._windows)
+        count = (self._end - self._width) // self._hop - first + 1
+        for k in range(first, first + max(count, 0), WINDOW_BATCH):
             a = k * self._hop - self._start
-            self._windows.append(self._window(a, a + self._width))
+            n = min(WINDOW_BATCH, first + count - k)
+            self._windows.extend(self._judge_windows(a, n, self._width, self._hop))
 
-    def _window(self, a: int, b: int) -> _Window:
-        x = self._x[a:b]
-        std = float(x.std())
-        if std < MIN_STD_M_S2:
-            return _Window(0.0, std)
-        g = self._g[a:b]
-        if self._has_gyro and np.sqrt(np.mean(np.sum(g * g, axis=1))) >= LIMB_GYRO_RAD_S:
-            stride, strength = _stride_period(g, self.rate_hz)
-            period = stride / 2.0
-        else:
-            period, strength = _step_period(x, self.rate_hz)
-        return _Window(period if strength >= MIN_PERIODICITY else 0.0, std)
+    def _judge_windows(self, a: int, count: int, width: int, hop: int) -> list[_Window]:
+        """The ``count`` windows of ``width`` kept samples starting at kept index ``a``, ``hop`` apart."""
+        span = slice(a, a + (count - 1) * hop + width)
+        x = sliding_window_view(self._x[span], width)[::hop]  # (count, width), views
+        std = x.std(axis=1)
+        period = np.zeros(count)
+        moving = np.flatnonzero(std >= MIN_STD_M_S2)
+        if len(moving):
+            limb = np.zeros(len(moving), dtype=bool)
+            if self._has_gyro:
+                g = sliding_window_view(self._g[span], width, axis=0)[::hop][moving]  # (m, 3, width)
+                limb = np.sqrt(np.mean(np.sum(g * g, axis=1), axis=1)) >= LIMB_GYRO_RAD_S
+            if limb.any():
+                stride, strength = _stride_periods(_autocorrelation(g[limb]), self.rate_hz)
+                period[moving[limb]] = np.where(strength >= MIN_PERIODICITY, stride / 2.0, 0.0)
+            if not limb.all():
+                steps = moving[~limb]
+                step, strength = _step_periods(_autocorrelation(x[steps][:, None, :]), self.rate_hz)
+                period[steps] = np.where(strength >= MIN_PERIODICITY, step, 0.0)
+        return [_Window(float(p), float(s)) for p, s in zip(period, std, strict=True)]
 
     def _window_of(self, i: int, final: bool) -> _Window | None:
         """The window centred nearest to sample ``i``, its period the median of its walking
@@ -263,12 +307,12 @@ class StepDetector:
         if window.period == 0:
             return window
         near = self._windows[max(k - 1 - self._first_window, 0) : k + 2 - self._first_window]
-        return _Window(float(np.median([w.period for w in near if w.period > 0])), window.std)
+        return _Window(_median([w.period for w in near if w.period > 0]), window.std)
 
     def _judge(self, final: bool) -> None:
         """Find the steps among the samples whose look-ahead has arrived (all of them at the end)."""
         if final and not self._windows and len(self._x) >= MIN_SAMPLES:
-            self._windows.append(self._window(0, len(self._x)))  # shorter than one window
+            self._windows.extend(self._judge_windows(0, 1, len(self._x), 1))  # shorter than one window
         x, start, end = self._x, self._start, self._end
         reach = int(REFRACTORY_SHARE * MAX_PERIOD_S * self.rate_hz) + 1
         lo = max(self._scan, start + 1)
@@ -350,5 +394,9 @@ def detect_steps(t_s: np.ndarray, acc_m_s2: np.ndarray, gyro_rad_s: np.ndarray |
     if len(t) < MIN_SAMPLES or not np.all(np.diff(t) > 0):
         return Steps(np.empty(0), 0.0, None)  # too short or unordered
     detector = StepDetector(sample_rate_hz(t))
-    detector.update(t, acc_m_s2, gyro_rad_s)
+    # In chunks (any chunking gives the same steps): the filtered copies of an hour at 200 Hz would
+    # be ~80 MB at once, a chunk's are a few.
+    for a in range(0, len(t), BATCH_CHUNK):
+        b = a + BATCH_CHUNK
+        detector.update(t[a:b], acc_m_s2[a:b], None if gyro_rad_s is None else gyro_rad_s[a:b])
     return detector.finish()

@@ -7,6 +7,7 @@ from __future__ import annotations
 import logging
 import math
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -268,3 +269,31 @@ def test_a_live_session_is_stored_when_it_ends(
         before = files_of(client, run_id), client.get(f"/runs/{run_id}/result").content
     with app_on(settings) as client:
         assert (files_of(client, run_id), client.get(f"/runs/{run_id}/result").content) == before
+
+
+def test_a_run_is_written_behind_its_answer_served_meanwhile_and_flushed_at_shutdown(
+    make_settings: Callable[..., Settings], short_csv: bytes, tmp_path: Path
+) -> None:
+    """The archive write is held: the answer still comes, the run's downloads answer from memory, and
+    the app's shutdown waits for the write, so that the run is there after a restart."""
+    settings = make_settings(runs_dir=tmp_path / "runs")
+    release = threading.Event()
+    with app_on(settings) as client:
+        runs = client.app.state.services.runs
+        store = runs.archive.store
+
+        def held_store(run, record):  # the disk is slow
+            assert release.wait(60.0)
+            return store(run, record)
+
+        runs.archive.store = held_store
+        answer = upload(client, short_csv, model=DEFAULT_MODEL)
+        assert answer.status_code == 200  # not waiting for the disk
+        run_id = answer.json()["run_id"]
+        assert not (tmp_path / "runs" / "runs" / f"{run_id}.npz").exists()
+        before = files_of(client, run_id)  # from memory meanwhile
+        assert client.get(f"/runs/{run_id}").json()["state"] == "done"
+        threading.Timer(0.5, release.set).start()  # written while the app shuts down
+    assert release.is_set() and (tmp_path / "runs" / "runs" / f"{run_id}.npz").exists()
+    with app_on(settings) as client:
+        assert files_of(client, run_id) == before

@@ -196,3 +196,28 @@ def test_resample_and_slice_keep_the_magnetometer_and_the_tracked_mask():
         seq.with_(mag_uT=mag[:-1])
     with pytest.raises(ValueError, match="tracked"):
         Trajectory(seq.t_s, seq.gt.p_world_m, None, tracked[:-1])
+
+
+def test_slerp_gives_scipys_rotations_downsampling_and_upsampling():
+    """The numpy Slerp (``preprocess._slerp``) against scipy's on a turning device, with sign flips,
+    a repeated sample, a half turn and quaternions that are not unit length."""
+    from scipy.spatial.transform import Slerp
+
+    rng = np.random.default_rng(3)
+    n = 5000
+    t = np.cumsum(rng.uniform(0.004, 0.006, n))
+    rotvec = np.cumsum(rng.normal(0.0, 0.05, (n, 3)), axis=0)
+    q = frames.wxyz_from_rotation(Rotation.from_rotvec(rotvec)) * rng.uniform(0.5, 2.0, (n, 1))
+    q[::7] *= -1.0
+    q[11] = q[10]
+    q[100], q[101] = [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]  # a half turn in one interval
+    for t_new in (t[0] + np.arange(int((t[-1] - t[0]) * 100)) / 100, np.linspace(t[0], t[-1], 3 * n)):
+        expected = Slerp(t, frames.rotation_from_wxyz(q))(t_new)
+        got = preprocess._slerp(t, q, t_new)
+        assert got.shape == (len(t_new), 4) and got.flags.c_contiguous
+        assert np.allclose(np.linalg.norm(got, axis=1), 1.0, atol=1e-12)
+        angle = (frames.rotation_from_wxyz(got).inv() * expected).magnitude()
+        assert angle.max() < 1e-9
+        assert np.all(np.sum(got[1:] * got[:-1], axis=1) >= 0.0)  # signs continuous
+    with pytest.raises(ValueError, match="within"):
+        preprocess._slerp(t, q, np.array([t[0] - 1.0]))

@@ -175,3 +175,24 @@ def test_inria_walks_in_every_carry_within_10_percent_of_the_motion_capture(
     reference = _height_cycles(seq, (2.0, 3.6) if "Running" in name else (1.0, 2.4))
     steps = detect_steps(seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
     assert abs(steps.count - reference) <= 0.1 * reference, (steps.count, reference)
+
+
+@pytest.mark.parametrize("carry", ["hand", "pocket"])
+def test_windows_judged_together_are_judged_as_one_at_a_time(carry: str) -> None:
+    """The windows are analysed many at once (numpy over a batch); a window's period and spread must
+    not depend on which others share its batch (a live phone's chunks against an upload's whole
+    recording): the same periods and spreads, in the norm's path (hand) and the gyroscope's (pocket)."""
+    from ftin.metrics.steps import StepDetector
+
+    t, acc, gyro, _ = gait(105.0, 60.0) if carry == "hand" else pocket_gait(110.0, 60.0)
+    together = StepDetector(RATE_HZ)
+    together._trim = lambda: None  # keep every filtered sample, to judge the windows again below
+    together.update(t, acc, gyro)
+    one_by_one = StepDetector(RATE_HZ)
+    one_by_one._x, one_by_one._g = together._x.copy(), together._g.copy()
+    hop, width = together._hop, together._width
+    count = (len(t) - width) // hop + 1
+    batch = together._judge_windows(0, count, width, hop)
+    single = [w for k in range(count) for w in one_by_one._judge_windows(k * hop, 1, width, hop)]
+    assert batch == single
+    assert sum(w.period > 0 for w in batch) > count // 2  # most windows are walking: the test bites
