@@ -43,7 +43,6 @@ from ftin.metrics import (
     mean_metrics,
     stand_still,
 )
-from ftin.yaw_average import YAW_COPIES
 
 
 @dataclass(frozen=True)
@@ -177,7 +176,8 @@ def evaluate_checkpoint(
     on_sequence: Callable[[str], None] | None = None,
     alignment: Alignment | str | None = None,
     orientation: str | None = None,
-    yaw_copies: int = YAW_COPIES,
+    yaw_copies: int | None = None,
+    cyclic_turns: bool | None = None,
     precision: str = "fp32",
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
@@ -206,6 +206,7 @@ def evaluate_checkpoint(
             keep_prepared=False,
             orientation=orientation,
             yaw_copies=yaw_copies,
+            cyclic_turns=cyclic_turns,
         )
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:

@@ -25,12 +25,15 @@ call. Steps and decisions:
      state between chunks: the same per-frame velocities as the reference's single pass over the
      whole sequence, in bounded memory. Progress is reported (and a caller may cancel) per chunk, in
      frames; there are no windows, so no feature taps.
-   Every velocity is the mean over ``yaw_copies`` (default ``ftin.yaw_average.YAW_COPIES``, 4) copies of
-   the input turned by quarter turns about the vertical, each velocity turned back (``ftin.yaw_average``:
-   the mean keeps the part of the output that turns with the walk; 1 is the network alone). Feature
-   taps are those of the input as it is. ``precision`` (``ftin.precision``): ``bf16`` runs the model's
-   forward alone under bf16 autocast, its outputs cast back to float64 before the average; ``fp32``
-   (the default) runs it as trained.
+   The networks are not yaw-equivariant, so they are made so at inference (``ftin.yaw_average``):
+   a window model of the families in ``CYCLIC_FAMILIES`` sees window k turned by k mod 4 quarter turns
+   (``cyclic_turns``: one look per window) and its velocity is turned back; the other families, and
+   every streaming model, average over
+   ``yaw_copies`` (default ``YAW_COPIES``, 4) copies of the input turned by quarter turns, each turned
+   back (``yaw_copies`` averages turned copies of a cycled window too; 1 without cyclic turns is the
+   network alone). Feature taps are those of the input the model saw. ``precision``
+   (``ftin.precision``): ``bf16`` runs the model's forward alone under bf16 autocast, its outputs
+   cast back to float64 before the average; ``fp32`` (the default) runs it as trained.
    What grows with the recording is linear in the number of samples and small per sample: the
    resampled, rotated IMU, the velocities and the trajectory (``ftin bench memory`` measures
    the peak RSS of a 1-hour 200 Hz recording).
@@ -70,7 +73,17 @@ from ftin.data.prepare import PreparedSequence, prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.windows import window_starts, window_view
 from ftin.precision import Precision, forward_context
-from ftin.yaw_average import YAW_COPIES, mean_turned_back, turned_copies
+from ftin.yaw_average import (
+    YAW_COPIES,
+    cyclic_angles,
+    default_copies,
+    mean_turned_back,
+    turn_log_std,
+    turn_velocities,
+    turn_windows,
+    turned_copies,
+    uses_cyclic_turns,
+)
 
 FRAME_GROUND_TRUTH = "ground_truth"
 FRAME_DEVICE_WORLD = "device_world"
@@ -99,6 +112,7 @@ class Prediction:
     notes: list[str] = field(default_factory=list)  # how the input was read (gaps bridged, ...)
     # The orientation asked for, the source that ran and why (ftin.data.orientation_option), when asked.
     orientation_choice: dict[str, str] | None = None
+    turn_stride: int | None = None  # windows turned by (start // turn_stride) mod 4 quarter turns
 
 
 def predict_trajectory(
@@ -111,8 +125,9 @@ def predict_trajectory(
     return_features: bool = False,
     keep_prepared: bool = True,
     orientation: str | None = None,
-    yaw_copies: int = YAW_COPIES,
+    yaw_copies: int | None = None,
     precision: Precision | str = Precision.FP32,
+    cyclic_turns: bool | None = None,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
     carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
@@ -123,6 +138,13 @@ def predict_trajectory(
     if stride < 1:
         raise ValueError(f"stride must be >= 1 sample, got {stride}")
     prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, stride, orientation)
+    streams = loaded.model.streams  # a stream has no window to turn
+    cyclic = (
+        uses_cyclic_turns(loaded.model_name, streams)
+        if cyclic_turns is None
+        else cyclic_turns and not streams
+    )
+    yaw_copies = default_copies(cyclic) if yaw_copies is None else yaw_copies
     notes = list(prepared.notes)  # what preparing did (resampled): information
     short: list[str] = []  # a model run on less than its window: a warning
     n, t_s = len(prepared), prepared.seq.t_s
@@ -147,6 +169,7 @@ def predict_trajectory(
             return_features,
             yaw_copies,
             precision,
+            stride if cyclic else None,
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
     gt = prepared.seq.gt
@@ -171,6 +194,7 @@ def predict_trajectory(
         starts=prepared.starts,
         notes=[*prepared.seq.meta.get("notes", []), *notes],
         orientation_choice=choice_of(prepared.seq),
+        turn_stride=stride if cyclic else None,
     )
 
 
@@ -297,15 +321,19 @@ def run_windows(
     batch_size: int,
     progress: Callable[[int, int], None] | None,
     return_features: bool,
-    yaw_copies: int = YAW_COPIES,
+    yaw_copies: int = 1,
     precision: Precision | str = Precision.FP32,
+    turn_stride: int | None = None,
 ) -> tuple[np.ndarray, dict | None]:
     """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps.
 
     K = 1 models go through ``forward`` (their taps and log-std exactly as ever), others through
-    ``forward_parts``. Velocities are the mean over ``yaw_copies`` turned copies of each window
-    (``ftin.yaw_average``); taps are those of the window as it is (copy 0). Under ``precision`` bf16
-    the forward alone runs in autocast; velocities and taps come back as float32 or wider.
+    ``forward_parts``. With ``turn_stride`` each window is first turned by ``start // turn_stride mod 4``
+    quarter turns and its velocity (and log-std) turned back (``ftin.yaw_average.cyclic_angles``);
+    velocities are the mean over ``yaw_copies`` turned copies of that window; taps are those of the
+    window the model saw (copy 0). Under
+    ``precision`` bf16 the forward alone runs in autocast; velocities and taps come back as float32 or
+    wider.
     """
     model = loaded.model
     device = next(model.parameters()).device
@@ -328,12 +356,19 @@ def run_windows(
         for first in range(0, total, batch_size):
             batch_starts = starts[first : first + batch_size]
             x = torch.from_numpy(np.ascontiguousarray(view[batch_starts])).to(device)  # (B, 6, L)
+            yaw = None if turn_stride is None else torch.from_numpy(cyclic_angles(batch_starts, turn_stride))
+            if yaw is not None:
+                x = turn_windows(x, yaw)
             features: dict | None = {} if return_features else None
-            output = call(x, features)  # the window as it is, with its taps
+            output = call(x, features)  # the window as the model saw it, with its taps
             batch_velocity = output.velocity.double().cpu().numpy()  # (B, D) or (B, K, D)
             if yaw_copies > 1:
                 turned = call(turned_copies(x, yaw_copies)[len(x) :], None).velocity.double().cpu().numpy()
                 batch_velocity = mean_turned_back(np.concatenate([batch_velocity, turned]), yaw_copies)
+            if yaw is not None:  # turned back
+                batch_velocity = turn_velocities(batch_velocity, -yaw.numpy())
+                if output.log_std is not None:
+                    output = output._replace(log_std=turn_log_std(output.log_std, -yaw))
             velocity[first : first + len(batch_starts)] = batch_velocity.reshape(len(batch_starts), parts, -1)
             if taps is not None:
                 if output.log_std is not None:

@@ -15,6 +15,7 @@ from ftin.infer import integrate_spans, integrate_windows, predict_trajectory, s
 from ftin.models import VelocityModel, VelocityOutput
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from ftin.sim import SimConfig, simulate
+from ftin.yaw_average import cyclic_angles, turn_windows
 from tests.utils.checkpoints import tiny_model_kwargs
 
 RATE_HZ = 50.0
@@ -143,8 +144,10 @@ def _turn(values: np.ndarray, angle: float, axis: int) -> np.ndarray:
 
 
 def test_velocities_are_the_model_on_training_windows(tiny_checkpoint, walk):
-    """One copy: the model on the training windows; by default the mean over the four quarter-turned
-    copies of each window, each velocity turned back (ftin.yaw_average), computed here by hand."""
+    """The network alone: the model on the training windows; four copies: the mean over the four
+    quarter-turned copies of each window, each velocity turned back; by default (this family cycles)
+    window k turned by k mod 4 quarter turns, its velocity turned back (ftin.yaw_average): each
+    computed here by hand."""
     windows = make_windows(walk, WINDOW, 5)
     with torch.inference_mode():
 
@@ -154,18 +157,38 @@ def test_velocities_are_the_model_on_training_windows(tiny_checkpoint, walk):
         alone = model(windows.x)
         turns = [k * np.pi / 2 for k in range(4)]
         averaged = np.mean([_turn(model(_turn(windows.x, a, axis=1)), -a, axis=1) for a in turns], axis=0)
-    single = predict_trajectory(tiny_checkpoint, walk, batch_size=7, yaw_copies=1)
+        cycled = np.stack(
+            [
+                _turn(model(_turn(windows.x[k : k + 1], turns[k % 4], axis=1)), -turns[k % 4], axis=1)[0]
+                for k in range(len(alone))
+            ]
+        )
+    single = predict_trajectory(tiny_checkpoint, walk, batch_size=7, yaw_copies=1, cyclic_turns=False)
     np.testing.assert_allclose(single.velocity_m_s, alone, rtol=1e-5, atol=1e-7)
+    four = predict_trajectory(tiny_checkpoint, walk, batch_size=7, yaw_copies=4, cyclic_turns=False)
+    np.testing.assert_allclose(four.velocity_m_s, averaged, rtol=1e-5, atol=1e-6)
     pred = predict_trajectory(tiny_checkpoint, walk, batch_size=7)
-    np.testing.assert_allclose(pred.velocity_m_s, averaged, rtol=1e-5, atol=1e-6)
+    assert pred.turn_stride == tiny_checkpoint.stride == 5
+    np.testing.assert_allclose(pred.velocity_m_s, cycled, rtol=1e-5, atol=1e-6)
     assert np.abs(averaged - alone).max() > 1e-4  # an untrained model is far from equivariant
     assert pred.features is None
     assert len(pred.trajectory) == len(walk)
 
 
-def _quarter_turn_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
-    """The same attitudes in a world turned a quarter turn about the vertical."""
-    turned = Rotation.from_euler("z", 90, degrees=True) * Rotation.from_quat(q_wxyz, scalar_first=True)
+def test_cycled_turns_cancel_in_the_path_as_the_four_copies_do(tiny_checkpoint, walk):
+    """Over every four neighbouring windows the cycled turns are the four quarter turns, so the part of
+    an untrained model's output fixed to the input's axes cancels in the path: the path lies far closer
+    to the four-copy path than the network alone does."""
+    four = predict_trajectory(tiny_checkpoint, walk, yaw_copies=4, cyclic_turns=False).trajectory.p_world_m
+    cycled = predict_trajectory(tiny_checkpoint, walk).trajectory.p_world_m
+    alone = predict_trajectory(tiny_checkpoint, walk, yaw_copies=1, cyclic_turns=False).trajectory.p_world_m
+    gap = np.abs(cycled - four)[:, :2].max()
+    assert gap < 0.5 * np.abs(alone - four)[:, :2].max()
+
+
+def _turned_world(q_wxyz: np.ndarray, degrees: float) -> np.ndarray:
+    """The same attitudes in a world turned by ``degrees`` about the vertical."""
+    turned = Rotation.from_euler("z", degrees, degrees=True) * Rotation.from_quat(q_wxyz, scalar_first=True)
     return turned.as_quat(scalar_first=True)
 
 
@@ -173,9 +196,10 @@ def _quarter_turn_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
 def test_turning_the_world_a_quarter_turn_turns_the_walk(tiny_checkpoint, walk, copies):
     """With four copies inference is equivariant to quarter turns by construction, for any model
     (this one is untrained); the network alone is not."""
-    turned = walk.with_(q_world_device_wxyz=_quarter_turn_wxyz(walk.q_world_device_wxyz), gt=None)
-    plain = predict_trajectory(tiny_checkpoint, walk.with_(gt=None), yaw_copies=copies)
-    quarter = predict_trajectory(tiny_checkpoint, turned, yaw_copies=copies)
+    turned = walk.with_(q_world_device_wxyz=_turned_world(walk.q_world_device_wxyz, 90), gt=None)
+    options = {"yaw_copies": copies, "cyclic_turns": False}
+    plain = predict_trajectory(tiny_checkpoint, walk.with_(gt=None), **options)
+    quarter = predict_trajectory(tiny_checkpoint, turned, **options)
     expected = _turn(plain.velocity_m_s, np.pi / 2, axis=1)
     gap = np.abs(quarter.velocity_m_s - expected).max()
     assert (gap < 1e-5) if copies == 4 else (gap > 1e-4)
@@ -193,11 +217,12 @@ def test_streaming_progress_and_features(tiny_checkpoint, walk):
     np.testing.assert_allclose(big.velocity_m_s, pred.velocity_m_s, rtol=1e-6, atol=1e-9)
     assert big.features and all(len(tap) == total for tap in big.features.values())  # one row per window
     assert big.features["resnet"].dtype == np.float32
-    with torch.inference_mode():  # the taps of the one pass equal the model's own on one window
+    with torch.inference_mode():  # the taps of the one pass are the model's own on the window it saw
         features: dict = {}
         x = torch.from_numpy(make_windows(walk, WINDOW, 5).x[7:8])
-        tiny_checkpoint.model(x, features=features)
-    np.testing.assert_allclose(big.features["resnet"][7], features["resnet"][0].numpy(), rtol=1e-5, atol=1e-6)
+        angle = torch.from_numpy(cyclic_angles(np.array([7 * 5]), 5))  # window 7 of stride 5: 3 quarter turns
+        tiny_checkpoint.model(turn_windows(x, angle), features=features)
+    np.testing.assert_allclose(big.features["resnet"][7], features["resnet"][0].numpy(), rtol=1e-5, atol=1e-5)
 
 
 def test_missing_orientation_is_estimated_with_a_warning(tiny_checkpoint, walk):
@@ -241,14 +266,17 @@ def test_streamed_equals_unstreamed(tiny_checkpoint, walk):
     """Batches of 4 give the trajectory of one pass over all windows, and never more than 4 at once
     (the network alone; with the turned copies, the batch as it is, then its 3 turned copies at once)."""
     streamed_model = _recording(tiny_checkpoint)
-    streamed = predict_trajectory(streamed_model, walk, batch_size=4, yaw_copies=1)
+    streamed = predict_trajectory(streamed_model, walk, batch_size=4, yaw_copies=1, cyclic_turns=False)
     total = len(streamed.velocity_m_s)
     assert total > 40
     batches = [4] * (total // 4) + ([total % 4] if total % 4 else [])
     assert streamed_model.model.batch_sizes == batches
     averaged_model = _recording(tiny_checkpoint)
-    predict_trajectory(averaged_model, walk, batch_size=4)
+    predict_trajectory(averaged_model, walk, batch_size=4, yaw_copies=4, cyclic_turns=False)
     assert averaged_model.model.batch_sizes == [n for b in batches for n in (b, 3 * b)]
+    cycled_model = _recording(tiny_checkpoint)
+    predict_trajectory(cycled_model, walk, batch_size=4)  # the default: one look per window
+    assert cycled_model.model.batch_sizes == batches
 
     # The unstreamed reference: every window materialised, one forward pass, then integration.
     windows = make_windows(walk, WINDOW, tiny_checkpoint.stride)
@@ -398,7 +426,7 @@ def test_streaming_model_equals_one_pass_over_the_sequence(tiny_streaming, walk)
 
 def test_rnin_velocities_are_its_parts(make_checkpoint, walk):
     loaded = _tiny(make_checkpoint, "rnin", sub_window=5, out_dim=2)  # 5 parts of 0.1 s per window
-    pred = predict_trajectory(loaded, walk, batch_size=16, yaw_copies=1)
+    pred = predict_trajectory(loaded, walk, batch_size=16, yaw_copies=1, cyclic_turns=False)
     windows = make_windows(walk, WINDOW, 5)
     with torch.inference_mode():
         parts = loaded.model.forward_parts(torch.from_numpy(windows.x)).velocity.double().numpy()
@@ -412,11 +440,12 @@ def test_turning_the_world_turns_the_walk_for_every_kind_of_model(tiny_streaming
     """Streaming models (turned copies as one batch, one state each) and multi-part models (RNIN) are
     averaged the same way: equivariant to quarter turns with four copies, not alone."""
     rnin = _tiny(make_checkpoint, "rnin", sub_window=5, out_dim=2)
-    turned = walk.with_(q_world_device_wxyz=_quarter_turn_wxyz(walk.q_world_device_wxyz), gt=None)
+    turned = walk.with_(q_world_device_wxyz=_turned_world(walk.q_world_device_wxyz, 90), gt=None)
     for loaded in (tiny_streaming, rnin):
         for copies in (1, 4):
-            plain = predict_trajectory(loaded, walk.with_(gt=None), batch_size=3, yaw_copies=copies)
-            quarter = predict_trajectory(loaded, turned, batch_size=3, yaw_copies=copies)
+            options = {"batch_size": 3, "yaw_copies": copies, "cyclic_turns": False}
+            plain = predict_trajectory(loaded, walk.with_(gt=None), **options)
+            quarter = predict_trajectory(loaded, turned, **options)
             gap = np.abs(quarter.velocity_m_s - _turn(plain.velocity_m_s, np.pi / 2, axis=1)).max()
             assert (gap < 1e-5) if copies == 4 else (gap > 1e-5), (loaded.model_name, copies, gap)
 

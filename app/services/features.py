@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from ftin.yaw_average import cyclic_angles, turn_windows
+
 CHANNEL_SPECTRUM = "fdl_channel_spectrum"  # one window: (C_res // 2 + 1, L_res)
 TEMPORAL_SPECTRUM = "fdl_temporal_spectrum"  # one window: (C_res, L_res // 2 + 1)
 DASHBOARD_TAPS = (CHANNEL_SPECTRUM, TEMPORAL_SPECTRUM)
@@ -31,12 +33,16 @@ class ModelInput:
     imu_world: np.ndarray  # (N, 6) float32, gyro xyz then acc xyz, gravity-aligned world frame
     starts: np.ndarray  # (M,) int64 first sample of each window
     window: int
+    turn_stride: int | None = None  # windows turned as the model saw them (Prediction.turn_stride)
 
     def window_batch(self, index: int) -> torch.Tensor:
-        """Window ``index`` as a ``(1, 6, L)`` batch."""
+        """Window ``index`` as a ``(1, 6, L)`` batch, as the model saw it."""
         start = int(self.starts[index])
-        x = np.ascontiguousarray(self.imu_world[start : start + self.window].T)  # (6, L)
-        return torch.from_numpy(x)[None]
+        x = torch.from_numpy(np.ascontiguousarray(self.imu_world[start : start + self.window].T))[None]
+        if self.turn_stride is None:
+            return x
+        angle = cyclic_angles(self.starts[index : index + 1], self.turn_stride)
+        return turn_windows(x, torch.from_numpy(angle))
 
 
 def window_taps(loaded: Any, model_input: ModelInput, index: int) -> dict[str, np.ndarray] | None:

@@ -123,8 +123,12 @@ def csv_bytes(seq: ImuSequence) -> bytes:
 
 
 @contextmanager
-def running_server(env: dict[str, str], startup_timeout_s: float, log_path: Path) -> Iterator[str]:
-    """``uvicorn app.main:app`` in a subprocess; yields its base URL once /health answers."""
+def running_server(
+    env: dict[str, str], startup_timeout_s: float, log_path: Path
+) -> Iterator[tuple[str, int]]:
+    """``uvicorn app.main:app`` in a subprocess; yields its base URL and process id once /health answers.
+    Its runs go beside ``log_path`` unless ``env`` names a runs folder."""
+    env = {"FTIN_RUNS_DIR": str(log_path.parent / "runs"), **env}
     port = free_port()
     command = [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1", "--port", str(port)]
     command += ["--log-level", "warning", "--no-access-log"]
@@ -144,7 +148,7 @@ def running_server(env: dict[str, str], startup_timeout_s: float, log_path: Path
                 if time.monotonic() > deadline:
                     raise RuntimeError(f"the server did not answer /health within {startup_timeout_s:g} s")
                 time.sleep(0.25)
-            yield base_url
+            yield base_url, process.pid
             if process.poll() is not None:
                 raise RuntimeError(f"the server died during the load (exit {process.returncode})")
         finally:
@@ -282,7 +286,7 @@ def load_test(options: LoadOptions, echo=print) -> Report:
         body = csv_bytes(simulated_walk(options.walk_s, options.rate_hz, options.seed))
         log_path = tmp_dir / "server.log"
         try:
-            with running_server(env, options.startup_timeout_s, log_path) as base_url:
+            with running_server(env, options.startup_timeout_s, log_path) as (base_url, _):
                 model = httpx.get(f"{base_url}/health", timeout=10).json().get("default_model") or "?"
                 walk = f"{options.walk_s:g} s at {options.rate_hz:g} Hz"
                 echo(

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ftin.data.preprocess import AhrsMethod
-from ftin.files import DEFAULT_DATA_ROOT
+from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
 
 DEFAULT_EXPORT = DEFAULT_DATA_ROOT / "phone" / "sensorlogger" / "inhand-20-steps-Zyf"
 
@@ -133,3 +133,18 @@ class LiveDrawingOptions:
             or self.every_s <= 0
         ):
             raise ValueError("--minutes must be > 0, --updates >= 1, --warmup >= 0 and --every-s > 0")
+
+
+@dataclass(frozen=True)
+class HourOptions:
+    """An hour of phone data through POST /predict beside one plain forward pass of the default model over
+    its windows: the upload's stages, looks per sample, bf16 against fp32, the server's peak memory."""
+
+    minutes: float = option(60.0, "Length of the uploaded walk (min).")
+    rate_hz: float = option(200.0, "IMU rate of the uploaded walk (Hz).")
+    seed: int = option(7, "Seed of the simulated walk.")
+    checkpoint_dir: Path = option(DEFAULT_CHECKPOINT_DIR, "Where the default checkpoint is read from.")
+
+    def __post_init__(self) -> None:
+        if self.minutes <= 0 or self.rate_hz <= 0:
+            raise ValueError("--minutes and --rate-hz must be > 0")

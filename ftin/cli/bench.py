@@ -20,7 +20,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from ftin.bench import memory, yaw_copies
-from ftin.bench.options import LiveDrawingOptions, LiveOptions, LoadOptions, PredictOptions, SceneOptions
+from ftin.bench.options import (
+    HourOptions,
+    LiveDrawingOptions,
+    LiveOptions,
+    LoadOptions,
+    PredictOptions,
+    SceneOptions,
+)
 from ftin.bench.side_by_side import MEMORY_METHOD, BenchConfig, bench_json, bench_models
 from ftin.cli.common import (
     REPORT_ERRORS,
@@ -222,5 +229,6 @@ def _product_command(name: str, options_type: type, run: str) -> None:
 _product_command("predict", PredictOptions, "run_predict")
 _product_command("live", LiveOptions, "run_live")
 _product_command("scene", SceneOptions, "run_scene")
+_product_command("hour", HourOptions, "run_hour")
 _product_command("live-drawing", LiveDrawingOptions, "run_live_drawing")
 _product_command("load", LoadOptions, "run_load")

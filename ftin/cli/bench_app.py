@@ -10,9 +10,11 @@ from __future__ import annotations
 import json
 import os
 import sys
+import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, replace
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -27,15 +29,17 @@ from app.services.features import ModelInput
 from app.services.live import LiveUpdate
 from app.services.runs import Run
 from app.settings import Settings
-from ftin.bench import live, live_drawing, load, predict, scene
+from ftin.bench import hour, live, live_drawing, load, predict, scene
 from ftin.bench.options import (
     SCENE_SETTINGS,
+    HourOptions,
     LiveDrawingOptions,
     LiveOptions,
     LoadOptions,
     PredictOptions,
     SceneOptions,
 )
+from ftin.checkpoint import DEFAULT_MODEL, load_model, read_default_choice
 from ftin.data.types import Trajectory
 from ftin.infer import predict_trajectory
 from ftin.sim.config import SimConfig
@@ -47,22 +51,31 @@ Echo = Callable[[str], None]
 @contextmanager
 def served(settings: Settings) -> Iterator[tuple[str, FastAPI]]:
     """The app of ``settings`` under uvicorn on a free 127.0.0.1 port, in this process: its URL and app
-    (``ServerStartError`` when it does not start)."""
-    app = create_app(settings)
-    server = serve_in_thread(app, name="bench-uvicorn")
-    try:
-        yield server.base_url, app
-    finally:
-        server.stop()
+    (``ServerStartError`` when it does not start). Its runs go to a folder of its own, removed after."""
+    with _runs_elsewhere(settings) as settings:
+        app = create_app(settings)
+        server = serve_in_thread(app, name="bench-uvicorn")
+        try:
+            yield server.base_url, app
+        finally:
+            server.stop()
+
+
+@contextmanager
+def _runs_elsewhere(settings: Settings) -> Iterator[Settings]:
+    """``settings`` with a temporary runs folder: a benchmark's runs never fill the user's."""
+    with tempfile.TemporaryDirectory(prefix="ftin-bench-runs-") as runs:
+        yield settings.model_copy(update={"runs_dir": Path(runs)})
 
 
 @contextmanager
 def _client(settings: Settings, testclient: bool) -> Iterator[tuple[httpx.Client, FastAPI]]:
     """A client of the app: FastAPI's TestClient, or an HTTP client of it served by uvicorn."""
     if testclient:
-        app = create_app(settings)
-        with TestClient(app) as client:
-            yield client, app
+        with _runs_elsewhere(settings) as settings:
+            app = create_app(settings)
+            with TestClient(app) as client:
+                yield client, app
         return
     with served(settings) as (base_url, app), httpx.Client(base_url=base_url, timeout=600) as client:
         yield client, app
@@ -119,6 +132,15 @@ def run_scene(options: SceneOptions, echo: Echo) -> None:
         scene.time_scene(base_url, app.state.scene, options, echo)
 
 
+def run_hour(options: HourOptions, echo: Echo) -> None:
+    choice = read_default_choice(options.checkpoint_dir)
+    name = DEFAULT_MODEL if choice is None else choice[0]
+    loaded = load_model(options.checkpoint_dir / f"{name}.safetensors")
+    report = hour.measure(loaded, options.minutes, options.rate_hz, options.seed, echo)
+    for line in hour.describe(report):
+        echo(line)
+
+
 def run_live_drawing(options: LiveDrawingOptions, echo: Echo) -> None:
     """A simulated walk as long as the last minute mark, predicted once by the live model; each
     update is that prediction cut where the walk has got to, as the live service publishes it."""
@@ -154,7 +176,7 @@ def _live_update(run_id: str, model_name: str, whole: Any, window: int, t_s: flo
         imu_world=whole.imu_world[:n],
         starts=whole.starts[:m],
     )
-    model_input = ModelInput(whole.imu_world[:n], whole.starts[:m], window)
+    model_input = ModelInput(whole.imu_world[:n], whole.starts[:m], window, whole.turn_stride)
     sequence = whole.prepared.seq.slice(0, n).with_(gt=None)  # a phone streaming: no ground truth
     run = Run(run_id, model_name, sequence, prediction, "live", None, model_input)
     session = {

@@ -88,12 +88,22 @@ OrientationOption = Annotated[
     ),
 ]
 YawCopiesOption = Annotated[
-    int,
+    int | None,
     typer.Option(
         "--yaw-copies",
         min=1,
         help="Average the model over this many copies of the input turned about the vertical "
-        "(ftin/yaw_average.py); 1: the network alone.",
+        "(ftin/yaw_average.py). Default: 1 where windows cycle through the quarter turns, else 4; "
+        "1 with --no-cyclic-turns: the network alone.",
+    ),
+]
+CyclicTurnsOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--cyclic-turns/--no-cyclic-turns",
+        help="Turn window k by k mod 4 quarter turns before the model and its velocity back (window "
+        "models; ftin/yaw_average.py). Default: the model family's choice (CYCLIC_FAMILIES).",
+        show_default=False,
     ),
 ]
 StrideOption = Annotated[

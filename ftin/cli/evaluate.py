@@ -19,6 +19,7 @@ from ftin.cli.common import (
     AlignOption,
     CheckpointOption,
     ConventionOption,
+    CyclicTurnsOption,
     OrientationOption,
     RteWindowOption,
     WorkersOption,
@@ -36,7 +37,6 @@ from ftin.evaluate import evaluate_checkpoint
 from ftin.files import atomic_write_text
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
 from ftin.precision import PrecisionSetting, choose
-from ftin.yaw_average import YAW_COPIES
 
 
 @app.command("evaluate")
@@ -52,7 +52,8 @@ def evaluate_command(
     workers: WorkersOption = None,
     address: AddressOption = None,
     orientation: OrientationOption = Orientation.AUTO,
-    yaw_copies: YawCopiesOption = YAW_COPIES,
+    yaw_copies: YawCopiesOption = None,
+    cyclic_turns: CyclicTurnsOption = None,
     precision: PrecisionOption = PrecisionSetting.FP32,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
@@ -74,6 +75,7 @@ def evaluate_command(
                 "alignment": align,
                 "orientation": orientation.value,
                 "yaw_copies": yaw_copies,
+                "cyclic_turns": cyclic_turns,
                 "precision": chosen.precision.value,
             }
             if workers is not None or address is not None:  # one Ray task per recording

@@ -4,7 +4,7 @@ TUM (and its ground truth in the same frame)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -15,6 +15,7 @@ from ftin.cli.common import (
     MODEL_ERRORS,
     AlignOption,
     CheckpointOption,
+    CyclicTurnsOption,
     OrientationOption,
     StrideOption,
     YawCopiesOption,
@@ -33,9 +34,10 @@ from ftin.files import atomic_write_text
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
+from ftin.metrics.reasons import WalkVerdict
 from ftin.metrics.verdicts import confinement_note, still_verdict
+from ftin.metrics.walk_verdict import judge_walk, truth_reasons
 from ftin.precision import PrecisionSetting, choose
-from ftin.yaw_average import YAW_COPIES
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 PrecisionOption = Annotated[
@@ -71,7 +73,8 @@ def predict_command(
         typer.Option("--gt-out", help="Also write the ground truth (TUM, in the trajectory's frame)."),
     ] = None,
     orientation: OrientationOption = Orientation.AUTO,
-    yaw_copies: YawCopiesOption = YAW_COPIES,
+    yaw_copies: YawCopiesOption = None,
+    cyclic_turns: CyclicTurnsOption = None,
     precision: PrecisionOption = PrecisionSetting.AUTO,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
@@ -100,6 +103,7 @@ def predict_command(
                 progress=report,
                 orientation=None,  # applied above, once
                 yaw_copies=yaw_copies,
+                cyclic_turns=cyclic_turns,
                 precision=chosen.precision,
             )
         scored = score(prediction, align)
@@ -131,6 +135,7 @@ def predict_command(
         err_console.print(f"[dim]note:[/] {escape(note)}", highlight=False)
     for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
+    typer.echo(f"verdict: {walk_verdict(prediction, scored, shown_gt, plausibility).says}")
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")
     typer.echo(f"precision: {chosen.precision.value} ({chosen.reason})")
@@ -147,6 +152,19 @@ def predict_command(
     typer.echo("plausibility: " + "; ".join(figure_text(f) for f in plausibility.figures))
     if plausibility.gps is not None:
         typer.echo("GPS: " + "; ".join(figure_text(f) for f in plausibility.gps_figures))
+
+
+def walk_verdict(prediction: Any, scored: Any, truth: Any, plausibility: Any) -> WalkVerdict:
+    """The verdict the API gives (``ftin.metrics.walk_verdict``): the walk's checks, and what the
+    ground truth adds where the prediction was scored against it."""
+    more = []
+    if scored is not None and scored.metrics is not None and truth is not None:
+        m = scored.metrics
+        still = still_verdict(m, scored.stand_still)
+        lengths = (m.path_length_ratio, m.predicted_path_m, m.true_path_m)
+        worse, text = (None, None) if still is None else (still.worse_than_standing_still, still.text)
+        more = truth_reasons(prediction.trajectory, truth, lengths, worse, text)
+    return judge_walk(plausibility, prediction.trajectory, more)
 
 
 def figure_text(figure: FigureValue) -> str:

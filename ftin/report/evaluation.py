@@ -35,7 +35,6 @@ from ftin.report.results import (
     ReportError,
     ReportResults,
 )
-from ftin.yaw_average import YAW_COPIES
 
 
 def load_datasets(specs: Sequence[DatasetSpec], orientation: str | None = None) -> list[LoadedDataset]:
@@ -124,7 +123,8 @@ def evaluate_checkpoints(
     stride: int | None = None,
     on_evaluation: Callable[[str, str, str], None] | None = None,
     orientation: str | None = None,
-    yaw_copies: int = YAW_COPIES,
+    yaw_copies: int | None = None,
+    cyclic_turns: bool | None = None,
 ) -> ReportResults:
     """Score every checkpoint on every sequence of every dataset, once each, with the ``orientation``
     choice applied (``ftin.data.orientation_option``; ``None``: each sequence's own).
@@ -153,6 +153,7 @@ def evaluate_checkpoints(
                     keep_prepared=False,
                     orientation=orientation,
                     yaw_copies=yaw_copies,
+                    cyclic_turns=cyclic_turns,
                 )
                 scored = score(prediction, None, convention, rte_window_s, default_alignment_rule=False)
                 if scored.metrics is None:

@@ -82,7 +82,7 @@ def test_window_taps_equal_those_of_the_full_inference_pass(
     seq = read_csv(io.StringIO(sample_frame.head(400).to_csv(index=False)), name="walk")
     prediction = predict_trajectory(loaded, seq, return_features=True)
     starts = prediction.prepared.starts
-    model_input = ModelInput(prediction.prepared.imu_world, starts, loaded.window)
+    model_input = ModelInput(prediction.prepared.imu_world, starts, loaded.window, prediction.turn_stride)
     assert len(starts) == len(prediction.window_t_s) == 14
     for index in (0, 6, 13):
         taps = window_taps(loaded, model_input, index)

@@ -45,3 +45,6 @@ def test_predict_on_a_phone_export_with_gps(trained, shared_data: Path, tmp_path
     [plausible] = [line for line in result.stdout.splitlines() if line.startswith("plausibility: ")]
     steps = int(plausible.split("step count ")[1].split()[0])
     assert 18 <= steps <= 22  # 20 steps recorded
+    [verdict] = [line for line in result.stdout.splitlines() if line.startswith("verdict: ")]  # as the API's
+    assert verdict.startswith(("verdict: Looks like a walk", "verdict: Check", "verdict: Implausible"))
+    assert "gps" in verdict.lower() or "steps" in verdict.lower()  # it judged the walk by what the export has

@@ -34,10 +34,11 @@ def results(table_checkpoints, table_data):
     checkpoints = load_checkpoints(find_checkpoints(table_checkpoints))
     datasets = load_datasets(parse_dataset_options(dataset_options(table_data)))
     calls = []
-    # The networks alone: averaged over turned copies, these untrained models score alike (ties in
-    # the bold column), and a table of ties would not test its layout.
+    # The networks alone: made equivariant (turned copies, cycled turns), these untrained models
+    # score alike (ties in the bold column), and a table of ties would not test its layout.
+    alone = {"yaw_copies": 1, "cyclic_turns": False}
     results = evaluate_checkpoints(
-        checkpoints, datasets, on_evaluation=lambda *args: calls.append(args), yaw_copies=1
+        checkpoints, datasets, on_evaluation=lambda *args: calls.append(args), **alone
     )
     results.calls = calls  # the progress callback's record, for the test below
     return results
