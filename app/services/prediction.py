@@ -127,6 +127,20 @@ class RunOptions:
     group: str | None = None  # the run_id a compare-all started from (app.services.runs.Run.group)
 
 
+class HandedBytes:
+    """An upload's body handed to the service, which takes it once: the route keeps no reference, so the
+    bytes are freed as soon as they are read and never sit beside the recording while the model runs."""
+
+    def __init__(self, data: bytes) -> None:
+        self._data: bytes | None = data
+
+    def take(self) -> bytes:
+        data, self._data = self._data, None
+        if data is None:
+            raise RuntimeError("the upload's bytes were already taken")
+        return data
+
+
 class PredictionService:
     def __init__(
         self, models: ModelStore, catalog: SequenceCatalog, runs: RunStore, settings: Settings
@@ -159,10 +173,17 @@ class PredictionService:
         )
 
     def predict_csv(
-        self, data: bytes, filename: str, options: RunOptions = RunOptions(), source: str = "upload"
+        self,
+        data: bytes | HandedBytes,
+        filename: str,
+        options: RunOptions = RunOptions(),
+        source: str = "upload",
     ) -> Run:
         """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
-        Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content)."""
+        Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content). Bytes
+        handed over (``HandedBytes``) are let go once read."""
+        if isinstance(data, HandedBytes):
+            data = data.take()
         run_id = self._new_run_id(options)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
         # separators), and nothing is ever read or written under it.
@@ -175,6 +196,7 @@ class PredictionService:
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
         seq = self.read_upload(data, filename)
+        del data  # the body (86 MB for an hour of 200 Hz CSV) is not needed while the model runs
         return self._run_chosen(
             seq,
             run_id,

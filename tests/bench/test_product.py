@@ -52,7 +52,7 @@ def test_hour_puts_the_upload_beside_the_plain_forward_pass():
     result = runner.invoke(app, ["bench", "hour", "--minutes", "0.2"])
     assert result.exit_code == 0, result.output
     out = result.output
-    assert "| reference: one fp32 forward pass, one copy, one thread |" in out and "| 1.00 |" in out
+    assert "| reference: one fp32 forward pass, one copy, one thread (mean of" in out and "| 1.00 |" in out
     assert "POST /predict, whole round trip" in out and "stage: read the CSV" in out
     assert "looks per sample" in out and "server peak memory growth during the upload:" in out
 

@@ -29,7 +29,7 @@ from app.api.deps import AlignQuery, ModelQuery, OrientationQuery, RunIdQuery, S
 from app.api.errors import BadRequestError, UnsupportedMediaError
 from app.schemas import ArraysPredictRequest, ErrorResponse, PredictionResponse
 from app.services.errors import InvalidInputError
-from app.services.prediction import PredictionService, RunOptions, sequence_from_arrays
+from app.services.prediction import HandedBytes, PredictionService, RunOptions, sequence_from_arrays
 from app.services.runs import Run
 from ftin.data.orientation_option import Orientation
 
@@ -171,16 +171,16 @@ async def predict(
                     "multipart body needs a file in the field 'file' (a CSV, a gzip-compressed CSV, or a "
                     "Sensor Logger / phyphox ZIP)"
                 )
-            data = await upload.read()
+            body = HandedBytes(await upload.read())  # taken by the service: no reference stays here
             filename = name or upload.filename or "upload.csv"
         _body_in(options)
-        run = await run_in_threadpool(predictor.predict_csv, data, filename, options)
+        run = await run_in_threadpool(predictor.predict_csv, body, filename, options)
     elif content_type in _RAW_BODY_TYPES:
-        data = await request.body()
+        body = HandedBytes(b"".join([chunk async for chunk in request.stream()]))  # not kept by the request
         _body_in(options)
         # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
         # recording is named "upload"): never a name the user did not give.
-        run = await run_in_threadpool(predictor.predict_csv, data, name or RAW_BODY_LABEL, options)
+        run = await run_in_threadpool(predictor.predict_csv, body, name or RAW_BODY_LABEL, options)
     elif content_type == "application/json":
         data = await request.body()
         _body_in(options)
