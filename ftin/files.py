@@ -17,9 +17,10 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -30,20 +31,28 @@ DEFAULT_DATA_ROOT = REPO_ROOT.parent / "shared" / "data"
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path`` and ``os.replace`` it into place."""
+    atomic_write_stream(path, lambda handle: handle.write(data))
+
+
+def atomic_write_stream(path: Path, write: Callable[[BinaryIO], object]) -> int:
+    """``write(handle)`` into a temporary file beside ``path``, then ``os.replace`` it into place (whole
+    or not at all, with no copy of the content in memory); the file's size."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
+            write(handle)
             handle.flush()
             os.fsync(handle.fileno())
+            size = handle.tell()
         # mkstemp creates 0600; keep a replaced file's mode, else the usual 0644 of a new file.
         os.chmod(tmp, path.stat().st_mode & 0o777 if path.exists() else 0o644)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return size
 
 
 def atomic_write_text(path: Path, text: str) -> None:

@@ -25,9 +25,7 @@ Decisions:
 from __future__ import annotations
 
 import logging
-import os
 import sqlite3
-import tempfile
 import threading
 import time
 import zipfile
@@ -39,7 +37,6 @@ from typing import Any
 
 from app.services.errors import RunExpiredError, StartupError
 from app.services.run_codec import (
-    NpzContent,
     UnreadableRunError,
     decode_run,
     decode_sequence,
@@ -47,6 +44,7 @@ from app.services.run_codec import (
     encode_sequence,
     read_meta,
 )
+from ftin.files import atomic_write_stream
 
 log = logging.getLogger(__name__)
 
@@ -221,8 +219,8 @@ class RunArchive:
         with self._lock:
             seq_path = self.sequence_path(seq_hash)
             if not seq_path.exists():
-                _atomic_write(seq_path, seq_file)
-            run_bytes = _atomic_write(self.run_path(record.run_id), run_file)
+                atomic_write_stream(seq_path, seq_file.write)
+            run_bytes = atomic_write_stream(self.run_path(record.run_id), run_file.write)
             row = {**record.as_row(), "bytes": run_bytes}
             with self._db() as db:
                 db.execute(
@@ -365,24 +363,6 @@ class RunArchive:
             f"This run ({what}) cannot be read back: its stored file in the runs folder is missing or "
             "damaged, so it was set aside. Predict again to get it back."
         )
-
-
-def _atomic_write(path: Path, content: NpzContent) -> int:
-    """Write ``content`` to a temporary file beside ``path``, then move it into place (whole or not at
-    all, as ``ftin.files.atomic_write_bytes``, but streamed: no copy of the file in memory); its size."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            content.write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-            size = handle.tell()
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return size
 
 
 def _zip_problem(path: Path) -> str | None:
