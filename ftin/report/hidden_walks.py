@@ -35,22 +35,23 @@ LABELS = {protocol.OXIOD: "OxIOD", protocol.RIDI: "RIDI", protocol.INRIA: "Inria
 STILL_LIMIT = {protocol.OXIOD: 0.5, protocol.RIDI: 0.5, protocol.INRIA: 1.0}  # mean ATE / stand still
 
 
-def hidden_walks(model: LoadedModel, data: Path) -> dict[str, dict[str, Any]]:
-    """Every dataset's summary and per-recording rows, by dataset (``DATASETS``), under ``data``."""
+def hidden_walks(model: LoadedModel, data: Path, **options: Any) -> dict[str, dict[str, Any]]:
+    """Every dataset's summary and per-recording rows, by dataset (``DATASETS``), under ``data``;
+    ``options`` go to ``predict_trajectory`` (the app's way by default)."""
     torch.set_num_threads(1)  # as a campaign worker scores its job
     results = {}
     for dataset in DATASETS:
-        rows = score_dataset(model, data, dataset)
+        rows = score_dataset(model, data, dataset, **options)
         results[dataset] = {"summary": summary(dataset, rows), "rows": rows}
     return results
 
 
-def score_dataset(model: LoadedModel, data: Path, dataset: str) -> list[dict[str, Any]]:
+def score_dataset(model: LoadedModel, data: Path, dataset: str, **options: Any) -> list[dict[str, Any]]:
     """One row per recording of the dataset's test part, oriented and scored phone only."""
     rows = []
     paths = protocol.split_paths(data, dataset, "test")
     for seq in tqdm(load_phone_only(paths, f"{dataset} test"), desc=LABELS[dataset], unit="walk"):
-        prediction = predict_trajectory(model, seq, keep_prepared=False)
+        prediction = predict_trajectory(model, seq, keep_prepared=False, **options)
         scored = score(prediction)
         carry = str(seq.meta.get("carry", "unknown"))
         if "motion" in seq.meta:  # Inria: the motion says more (running, phoning, texting) and Dist
