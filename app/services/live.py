@@ -22,7 +22,9 @@ Decisions:
   tolerates). The route parses in at most ``PARSERS`` worker threads at a time, so a flood cannot
   take the threads uploads run in, and ``/health`` stays on the event loop.
 - The worker uses every message queued before it publishes, so a backlog costs one publication, not
-  one per message; a publication costs O(1) (views of the growing arrays).
+  one per message; a publication costs O(1) (views of the growing arrays). It gives up on a missing
+  message (after ``hold_s``, ``ftin.live.ordering``) only once its queue is empty: a message that
+  arrived in time but waits behind a backlog is used, not counted late.
 - Live inference does not take an inference slot (``InferenceSlots``): a long upload would stall
   the walk for its whole duration; both share the CPU instead.
 - Followed session: the first live session, until it ends; then the next one that grows. Several
@@ -366,6 +368,9 @@ class LiveService:
 
     def _housekeeping(self, touched: set[Key]) -> None:
         now = time.monotonic()
+        # Missing messages are given up on (``tick``) only when every message that arrived is used: a
+        # worker behind its queue would otherwise give up on one that waits in it, arrived in time.
+        caught_up = self._queue.empty()
         with self._lock:
             lives = dict(self._sessions)
         for key, live in lives.items():
@@ -377,7 +382,7 @@ class LiveService:
                 with self._lock:  # ``_end`` (another thread: end_all, stop) may finish it meanwhile
                     if self._sessions.get(key) is not live:
                         continue
-                    grew = s.tick(now)
+                    grew = s.tick(now) if caught_up else False
                 if grew:
                     touched.add(key)
             except DataFormatError as exc:
@@ -399,7 +404,11 @@ class LiveService:
             self.runs.start(live.run_id, live.model_name, live.name)
         with self._lock:
             s, p = live.session, live.session.predictor
-            model_input = ModelInput(p.imu_world(), p.window_starts(), p.window) if not p.streams else None
+            model_input = (
+                ModelInput(p.imu_world(), p.window_starts(), p.window, p.turn_stride)
+                if not p.streams
+                else None
+            )
             return Run(
                 live.run_id, live.model_name, s.sequence(live.name), s.prediction(), "live", None, model_input
             )

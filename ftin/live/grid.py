@@ -20,11 +20,13 @@ Decisions:
   convention is assumed with a warning.
 - Samples at or before a sensor's latest time are dropped (a duplicate or late message); the
   history kept per sensor is ``HISTORY_S``, so memory does not grow with the session.
-- A gap (a lost message) in a motion sensor is filled with a copy of the sensor's stretch before it
-  (from ``FILL_PERIOD_S`` back, about one gait cycle), not bridged by a straight line: a model reads
-  a straight line as standing still, and a walk is periodic, so the walker keeps walking through the
-  gap (up to ``STALL_MAX_S``; the orientation is interpolated). The warnings count
-  the filled gaps.
+- A gap (a lost message) is filled when the message after it arrives, with the earlier stretch of the
+  recording that fits it best (``ftin.live.gapfill``: the lag whose surroundings match the samples on
+  both sides of the gap, one lag for every sensor), and the attitude that went with that stretch,
+  turned to meet both sides; not bridged by a straight line: a model reads a straight line as
+  standing still (up to ``STALL_MAX_S``). The filled samples are handed out only once the message
+  after the gap is in, so a message that arrives later still is counted late and dropped
+  (``ftin.live.ordering``), never added twice. The warnings count the filled gaps.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io.sensor_clock import SensorSeries
 from ftin.data.readers.sensorlogger import acceleration_keys
+from ftin.live import gapfill
 from ftin.live.formats.base import PushFormat
 from ftin.live.messages import PushMessage
 
@@ -49,8 +52,10 @@ STALL_MAX_S = 5.0
 MAX_WARNINGS = 20
 GIVE_UP_S = 10.0  # data without the sensors odometry needs: an error, not an ever-growing buffer
 FILL_GAP_FACTOR, MIN_FILLED_GAP_S = 3.0, 0.05  # a gap: several sample intervals and 50 ms at least
-FILL_PERIOD_S = 1.0  # a gap is filled from this far back: about a walk's cycle of two steps
+FILL_PERIOD_S = 1.0  # without history enough to search: the stretch this far back (about two steps)
 GYRO_KEYS = ("Gyroscope", "GyroscopeUncalibrated")
+ACC_KEYS = ("TotalAcceleration", "Accelerometer", "AccelerometerUncalibrated")
+MATCHED_SENSORS = (*GYRO_KEYS, *ACC_KEYS)
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,7 @@ class SensorStreams:
     # --- input -----------------------------------------------------------------------------------
 
     def add(self, message: PushMessage) -> None:
+        kept: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         for sensor, batch in message.sensors.items():
             if not len(batch.t_ns):
                 continue
@@ -116,32 +122,82 @@ class SensorStreams:
             keep[1:] &= np.diff(t) > 0  # repeated stamps inside one message
             self.samples_in += len(t)
             self.samples_dropped += int((~keep).sum())
-            if not keep.any():
-                continue
+            if keep.any():
+                kept[sensor] = (t[keep], batch.values[keep])
+        holes = [
+            sensor
+            for sensor, (t, _) in kept.items()
+            if sensor != "Orientation" and self._has_hole(sensor, float(t[0]))
+        ]
+        if holes:
+            self._fill_holes(holes, kept)
+        for sensor, (t, v) in kept.items():
             if sensor in self._t:
-                t_new, v_new = self._fill_gap(sensor, t[keep], batch.values[keep])
-                self._t[sensor] = np.concatenate([self._t[sensor], t_new])
-                self._v[sensor] = np.concatenate([self._v[sensor], v_new])
+                self._t[sensor] = np.concatenate([self._t[sensor], t])
+                self._v[sensor] = np.concatenate([self._v[sensor], v])
             else:
-                self._t[sensor], self._v[sensor] = t[keep], batch.values[keep]
-                self._first_t[sensor] = float(t[keep][0])
+                self._t[sensor], self._v[sensor] = t, v
+                self._first_t[sensor] = float(t[0])
 
-    def _fill_gap(self, sensor: str, t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """New samples, preceded by a copy of the sensor's previous stretch when they follow a gap."""
-        history_t, history_v = self._t[sensor], self._v[sensor]
-        if sensor == "Orientation" or len(history_t) < 8:
-            return t, v  # an attitude is interpolated across a gap, not repeated
+    def _has_hole(self, sensor: str, next_t: float) -> bool:
+        """Whether ``sensor``'s samples resume at ``next_t`` after a gap that is filled."""
+        history_t = self._t.get(sensor)
+        if history_t is None or len(history_t) < 8:
+            return False
+        dt = float(np.median(np.diff(history_t[-64:])))
+        return max(FILL_GAP_FACTOR * dt, MIN_FILLED_GAP_S) < next_t - float(history_t[-1]) <= STALL_MAX_S
+
+    def _fill_holes(self, holes: list[str], kept: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
+        """Put a filled stretch before the new samples of every sensor in ``holes``
+        (``ftin.live.gapfill``: one source lag for all, the earlier stretch that fits both sides best)."""
+        hole = (min(float(self._t[k][-1]) for k in holes), max(float(kept[k][0][0]) for k in holes))
+        # The lag is matched on what moves with the gait (rates and accelerations), not on the slow
+        # gravity and magnetic field, which would pick a stretch of the same heading instead.
+        matched = [k for k in holes if k in MATCHED_SENSORS] or holes
+        lag = gapfill.choose_lag(
+            [(self._t[k], self._v[k]) for k in matched], [kept[k] for k in matched], *hole
+        )
+        q_next = kept.get("Orientation")
+        if lag is not None and self.calibration is not None and q_next is not None:
+            if self._has_hole("Orientation", float(q_next[0][0])):
+                # Else the attitude is interpolated across the hole (before the calibration has said
+                # which way the phone's quaternions turn).
+                fill_t = self._fill_times("Orientation", float(q_next[0][0]))
+                fill_q = gapfill.filled_attitude(
+                    self._t["Orientation"],
+                    self._v["Orientation"],
+                    fill_t,
+                    lag,
+                    float(q_next[0][0]),
+                    q_next[1][0],
+                    self.calibration.invert_orientation,
+                )
+                if fill_q is not None:
+                    kept["Orientation"] = (
+                        np.concatenate([fill_t, q_next[0]]),
+                        np.concatenate([fill_q, q_next[1]]),
+                    )
+        for sensor in holes:
+            history_t, history_v = self._t[sensor], self._v[sensor]
+            t, v = kept[sensor]
+            fill_t = self._fill_times(sensor, float(t[0]))
+            if lag is None:  # too little history to search: repeat the stretch before the gap
+                last = float(history_t[-1])
+                period = min(max(float(t[0]) - last, FILL_PERIOD_S), last - float(history_t[0]))
+                fill_v = gapfill.copied(
+                    history_t, history_v, last - period + np.mod(fill_t - last, period), 0.0
+                )
+            else:
+                fill_v = gapfill.copied(history_t, history_v, fill_t, lag)
+            kept[sensor] = (np.concatenate([fill_t, t]), np.concatenate([fill_v, v]))
+        self.gaps_filled += 1
+
+    def _fill_times(self, sensor: str, next_t: float) -> np.ndarray:
+        """The sample times of the filled stretch, at ``sensor``'s own rate, up to ``next_t``."""
+        history_t = self._t[sensor]
         dt = float(np.median(np.diff(history_t[-64:])))
         last = float(history_t[-1])
-        gap = float(t[0]) - last
-        if not max(FILL_GAP_FACTOR * dt, MIN_FILLED_GAP_S) < gap <= STALL_MAX_S:
-            return t, v
-        fill_t = last + dt * np.arange(1, int(np.floor((gap - 0.5 * dt) / dt)) + 1)
-        period = min(max(gap, FILL_PERIOD_S), last - float(history_t[0]))
-        source_t = last - period + np.mod(fill_t - last, period)
-        fill_v = np.column_stack([np.interp(source_t, history_t, history_v[:, c]) for c in range(v.shape[1])])
-        self.gaps_filled += 1
-        return np.concatenate([fill_t, t]), np.concatenate([fill_v, v])
+        return last + dt * np.arange(1, int(np.floor((next_t - last - 0.5 * dt) / dt)) + 1)
 
     def sensor_rates_hz(self) -> dict[str, float]:
         return {

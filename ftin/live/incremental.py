@@ -9,8 +9,8 @@ the one it computes on the same samples):
 - Window models: every window whose end sample exists runs once (``ftin.infer.run_windows``); the
   first window gives all its parts, later ones their last ``ceil(stride / part)`` (``select_parts``).
   Streaming models (RoNIN LSTM, TCN): new frames go through ``forward_stream`` with the state carried
-  over, exactly as offline chunks do (``ftin.infer.stream_step``). Both average the model over turned
-  copies of its input as offline (``ftin.yaw_average``).
+  over, exactly as offline chunks do (``ftin.infer.stream_step``). Both are made yaw-equivariant as
+  offline (``ftin.yaw_average``: a window turned into its own yaw, a stream's turned copies averaged).
 - Integration (``ftin.infer.integrate_spans``) incrementally: an interval's velocity is the mean of the
   spans that cover it, and no later span starts before the latest span's start, so every interval
   before it is final and integrated once; the intervals after it (at most a window) are recomputed on
@@ -26,6 +26,7 @@ import numpy as np
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
 from ftin.infer import run_windows, select_parts, stream_step
+from ftin.yaw_average import default_copies, uses_cyclic_turns
 
 BATCH_WINDOWS = 64
 
@@ -61,6 +62,8 @@ class Growing:
 class IncrementalPredictor:
     def __init__(self, loaded: LoadedModel, stride: int | None = None) -> None:
         self.loaded = loaded
+        cyclic = uses_cyclic_turns(loaded.model_name, loaded.model.streams)  # as offline
+        self.turn_stride = loaded.stride if cyclic else None
         self.window = loaded.window
         self.stride = stride or loaded.stride
         self.dim = loaded.out_dim
@@ -134,7 +137,16 @@ class IncrementalPredictor:
         starts = np.arange(self._next_start, last + 1, self.stride, dtype=np.int64)
         self._next_start = int(starts[-1]) + self.stride
         part_velocity, _ = run_windows(
-            self.loaded, self._imu.view(), starts, self.window, self.parts, BATCH_WINDOWS, None, False
+            self.loaded,
+            self._imu.view(),
+            starts,
+            self.window,
+            self.parts,
+            BATCH_WINDOWS,
+            None,
+            False,
+            default_copies(self.turn_stride is not None),
+            turn_stride=self.turn_stride,
         )
         if len(self._window_starts) == 0:  # the first window gives all its parts
             span_start, span_end, velocity = select_parts(starts, self.window, self.stride, part_velocity)

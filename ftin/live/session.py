@@ -189,7 +189,7 @@ class LiveSession:
         if self.dropped_messages:
             notes.append(
                 f"{self.dropped_messages} push message(s) lost or too late; "
-                f"{self.streams.gaps_filled} sensor gap(s) filled with the stretch before them"
+                f"{self.streams.gaps_filled} gap(s) filled with the earlier stretch that fits them best"
             )
         return notes
 

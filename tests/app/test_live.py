@@ -239,16 +239,39 @@ def test_a_replayed_export_ends_near_the_offline_prediction(
         assert 17 <= session["steps"] <= 23, session["steps"]
 
 
+# The shaken, hardly walked export (4.6 m of path, 0.5 m from start to end, bursts of 10 m/s^2): a
+# message lost in a burst takes motion no earlier stretch repeats, and one such message moves the
+# path by up to 9 % (docs/results/probes/live_loss.md). The promise holds for walks; this is known.
+NOT_A_WALK = pytest.mark.xfail(
+    strict=True, reason="a lost burst of a shaken phone cannot be filled from its past (docs/live.md)"
+)
+
+
+@pytest.fixture(scope="module")
+def shipped_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    """The shipped checkpoints and their default (``default.json``): what a phone streams into."""
+    with TestClient(create_app(make_settings(checkpoint_dir=CHECKPOINTS))) as client:
+        yield client
+
+
+@pytest.mark.parametrize("batch_s", [0.2, 0.5])
+@pytest.mark.parametrize("export", [EXPORTS[0], pytest.param(EXPORTS[1], marks=NOT_A_WALK)])
 def test_loss_duplicates_and_reordering_change_the_path_by_less_than_5_percent(
-    real_client: TestClient, shared_data: Path
+    shipped_client: TestClient, shared_data: Path, export: str, batch_s: float
 ) -> None:
-    path = shared_data / "phone" / EXPORTS[0]
-    clean = _path_m(_replay(real_client, export_messages(path, 0.2, session_id="clean"))[1])
-    for seed in range(3):
-        messages = perturb(export_messages(path, 0.2, session_id=f"lossy-{seed}"), 0.1, 0.05, 0.05, seed)
-        session, tum = _replay(real_client, messages)
+    """10 % of messages lost, 5 % duplicated, 5 % a batch late, on the default model (as docs/live.md
+    promises; the probe's five seeds, experiments/probe_live_loss.py)."""
+    real_client = shipped_client
+    path = shared_data / "phone" / export
+    tag = f"{path.stem}-{batch_s}"
+    clean = _path_m(_replay(real_client, export_messages(path, batch_s, session_id=f"clean-{tag}"))[1])
+    ratios = []
+    for seed in range(5):
+        messages = export_messages(path, batch_s, session_id=f"lossy-{tag}-{seed}")
+        session, tum = _replay(real_client, perturb(messages, 0.1, 0.05, 0.05, seed))
         assert session["dropped_messages"] > 0 and session["duplicate_messages"] > 0
-        assert _path_m(tum) == pytest.approx(clean, rel=0.05), seed
+        ratios.append(_path_m(tum) / clean)
+    assert max(abs(r - 1.0) for r in ratios) < 0.05, ratios
 
 
 def test_a_flood_of_pushes_starves_neither_health_nor_uploads(
