@@ -1,0 +1,247 @@
+"""Probe: does the network inside an EKF (``ftin.filter``, after TLIO) lower what a phone alone costs?
+
+    .venv/bin/python -m experiments.probe_ekf [--checkpoint checkpoints/ronin_resnet-walking] \
+        [--sets oxiod-test oxiod-val ridi-val inria-val] [--arm NAME KEY=VALUE ...] \
+        [--cache runs/probes/ekf] [--out docs/results/probes/ekf.md]
+
+Issue 36: on the OxIOD test walks the default's phone-only ATE is 2.43x its motion-capture ATE and
+VQF levels the phone to 1.68 deg of the truth. Each recording is read phone only (``auto``, as an
+upload gets it; ``ftin.data.loading.load_phone_only``) and with the motion-capture orientation, and
+scored start-aligned (RoNIN convention) four ways: the network on motion capture (the ground-truth
+row), on ``auto`` (today's phone-only row), the EKF's own trajectory (started from ``auto``'s first
+orientation, zero biases), and the network re-run on the EKF's orientation, integrated as inference
+integrates. Tilt error: mean angle between the estimate's and motion capture's gravity directions over
+the tracked samples. Consistency: the mean NIS of the updates (3 dof) and the mean tilt NEES (2 dof)
+against motion capture, with the share of single values inside their 95 % chi-square bounds.
+
+``--fit`` first prints the network's velocity residuals against motion capture on the OxIOD and RIDI
+validation walks (the fixed measurement covariance of a model without a variance head). ``--arm``
+runs a named ``FilterConfig`` (repeatable; ``default`` is ``FilterConfig()``); results are cached per
+arm and recording under ``--cache`` so that the report lists every arm tried. Test parts are read
+only for the OxIOD test set the issue scores.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from experiments.common import argument_parser, parse, write_report
+from ftin import protocol
+from ftin.checkpoint import load_model
+from ftin.data import frames
+from ftin.data.loading import load_phone_only, load_sequences
+from ftin.evaluate import score
+from ftin.files import DEFAULT_DATA_ROOT
+from ftin.filter import FilterConfig, filter_prediction
+from ftin.filter.consistency import chi2_bounds, fraction_within, tilt_error_deg, tilt_nees
+from ftin.infer import predict_trajectory
+
+SETS = {
+    "oxiod-test": (protocol.OXIOD, "test"),
+    "oxiod-val": (protocol.OXIOD, "val"),
+    "ridi-val": (protocol.RIDI, "val"),
+    "inria-val": (protocol.INRIA, "val"),
+}
+WAYS = ("truth", "auto", "ekf", "net_on_ekf", "net_on_ekf_tilt")
+
+
+def parse_arm(items: list[str]) -> tuple[str, dict]:
+    """``NAME KEY=VALUE ...`` -> the arm's name and its ``FilterConfig`` overrides."""
+    name, overrides = items[0], {}
+    for item in items[1:]:
+        key, value = item.split("=", 1)
+        if value == "none":
+            overrides[key] = None
+        elif key == "heading_reference":
+            overrides[key] = value
+        else:
+            overrides[key] = int(value) if key == "update_every" else float(value)
+    return name, overrides
+
+
+def fit_residuals(model, data_root: Path) -> list[str]:
+    """Per dataset: the per-axis RMS of the network's window velocity minus motion capture's."""
+    lines = []
+    for dataset in (protocol.OXIOD, protocol.RIDI):
+        residuals = []
+        for path in protocol.split_paths(data_root, dataset, "val"):
+            prediction = predict_trajectory(model, load_sequences([path], orientation="ground_truth")[0])
+            t, gt = prediction.prepared.seq.t_s, prediction.truth
+            a = np.searchsorted(t, prediction.span_t_s[:, 0])
+            b = np.searchsorted(t, prediction.span_t_s[:, 1])
+            ok = gt.tracked_mask[a] & gt.tracked_mask[b]
+            v = (gt.p_world_m[b] - gt.p_world_m[a])[:, :2] / (t[b] - t[a])[:, None]
+            residuals.append((prediction.velocity_m_s[:, :2] - v)[ok])
+        r = np.concatenate(residuals)
+        rms = np.sqrt(np.mean(r**2, axis=0))
+        lines.append(f"{dataset}: {len(r)} windows, residual RMS x {rms[0]:.3f}, y {rms[1]:.3f} m/s")
+    return lines
+
+
+def baseline(model, path: Path) -> dict:
+    """The network without the filter: motion capture and ``auto``, and VQF's tilt error."""
+    phone = load_phone_only([path])[0]
+    truth = load_sequences([path], orientation="ground_truth")[0]
+    auto = predict_trajectory(model, phone)
+    seq = auto.prepared.seq
+    tracked = seq.gt.tracked_mask
+    return {
+        "name": phone.name,
+        "minutes": round(phone.duration_s / 60.0, 2),
+        "truth": score(predict_trajectory(model, truth), "start").metrics.ate,
+        "auto": score(auto, "start").metrics.ate,
+        "tilt_auto": float(
+            tilt_error_deg(seq.q_world_device_wxyz[tracked], seq.gt.q_world_body_wxyz[tracked]).mean()
+        ),
+        "source": (seq.meta.get("orientation_choice") or {}).get("source", "?"),
+    }
+
+
+def with_filter(model, path: Path, config: FilterConfig) -> dict:
+    """The EKF over the phone-only recording: its ATE, the network on its orientation, tilt, NIS, NEES."""
+    phone = load_phone_only([path])[0]
+    began = time.perf_counter()
+    prediction, run = filter_prediction(model, phone, config)
+    seconds = time.perf_counter() - began
+    seq = prediction.prepared.seq
+    tracked = seq.gt.tracked_mask
+    q_true = seq.gt.q_world_body_wxyz[tracked]
+    q_ekf = run.q_world_device_wxyz[tracked]
+    rerun = predict_trajectory(model, seq.with_(q_world_device_wxyz=run.q_world_device_wxyz))
+    # The EKF's tilt under auto's heading: how much of a difference is heading (gyro-only in the EKF).
+    tilt_only = heading_of(seq.q_world_device_wxyz, run.q_world_device_wxyz)
+    rerun_tilt = predict_trajectory(model, seq.with_(q_world_device_wxyz=tilt_only))
+    nees = tilt_nees(q_ekf, q_true, run.tilt_cov[tracked])
+    return {
+        "ekf": score(prediction, "start").metrics.ate,
+        "net_on_ekf": score(rerun, "start").metrics.ate,
+        "net_on_ekf_tilt": score(rerun_tilt, "start").metrics.ate,
+        "tilt_ekf": float(tilt_error_deg(q_ekf, q_true).mean()),
+        "nis": float(run.nis.mean()),
+        "nis_within": fraction_within(run.nis, 3),
+        "nees": float(nees.mean()),
+        "nees_within": fraction_within(nees, 2),
+        "rejected": int((~run.applied).sum()),
+        "seconds": round(seconds, 1),
+        "bias_end": {"gyro": run.gyro_bias_rad_s[-1].tolist(), "acc": run.acc_bias_m_s2[-1].tolist()},
+    }
+
+
+def heading_of(heading_from: np.ndarray, tilt_from: np.ndarray) -> np.ndarray:
+    """Orientations with the heading (twist about world z) of ``heading_from`` and the tilt of
+    ``tilt_from`` (``ftin.data.frames.yaw_rad``'s split)."""
+    turn = frames.yaw_rad(heading_from) - frames.yaw_rad(tilt_from)
+    return frames.wxyz_from_rotation(frames.yaw_rotation(turn) * frames.rotation_from_wxyz(tilt_from))
+
+
+def cached(cache: Path, key: str, make) -> dict:
+    path = cache / f"{key}.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    value = make()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(value))
+    return value
+
+
+def main() -> None:
+    parser = argument_parser(__doc__)
+    parser.add_argument("--checkpoint", default="checkpoints/ronin_resnet-walking")
+    parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
+    parser.add_argument("--sets", nargs="+", default=list(SETS), choices=list(SETS))
+    parser.add_argument("--arm", nargs="+", action="append", help="NAME KEY=VALUE ... (FilterConfig fields)")
+    parser.add_argument("--limit", type=int, default=None, help="at most this many recordings per set")
+    parser.add_argument("--fit", action="store_true", help="print the network's validation residuals first")
+    parser.add_argument("--cache", type=Path, default=Path("runs/probes/ekf"))
+    parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument(
+        "--report-arms", nargs="*", default=None, help="arms in the report (default: all run)"
+    )
+    parser.add_argument("--cached-only", action="store_true", help="report only what the cache holds")
+    args = parse(parser)
+    model = load_model(args.checkpoint)
+    if args.fit:
+        print("\n".join(fit_residuals(model, args.data_root)))
+    arms = dict(parse_arm(a) for a in (args.arm or [["default"]]))
+    rows: dict[str, dict[str, list[dict]]] = {}
+    for set_name in args.sets:
+        dataset, part = SETS[set_name]
+        paths = protocol.split_paths(args.data_root, dataset, part)[: args.limit]
+        for path in tqdm(paths, desc=set_name, unit="walk"):
+            key = f"{set_name}/{path.relative_to(args.data_root)}".replace("/", "__").replace(" ", "_")
+            base = cached(args.cache / "baseline", key, lambda p=path: baseline(model, p))
+            for arm, overrides in arms.items():
+                if args.cached_only and not (args.cache / arm / f"{key}.json").exists():
+                    continue
+                config = FilterConfig(**overrides)
+                result = cached(args.cache / arm, key, lambda p=path, c=config: with_filter(model, p, c))
+                result["overrides"] = overrides
+                rows.setdefault(arm, {}).setdefault(set_name, []).append({**base, **result})
+    write_report(args.out, render(args, rows, arms))
+
+
+def summary(records: list[dict]) -> dict:
+    keys = (*WAYS, "tilt_auto", "tilt_ekf", "nis", "nees")  # arms run before a column lack it: nan
+    mean = {k: float(np.mean([r.get(k, np.nan) for r in records])) for k in keys}
+    mean["nis_within"] = float(np.mean([r["nis_within"] for r in records]))
+    mean["nees_within"] = float(np.mean([r["nees_within"] for r in records]))
+    return mean
+
+
+def render(args, rows: dict, arms: dict) -> list[str]:
+    low3, high3 = chi2_bounds(3)
+    low2, high2 = chi2_bounds(2)
+    command = f"python -m experiments.probe_ekf --checkpoint {args.checkpoint} --sets {' '.join(args.sets)}"
+    lines = [
+        "# The network inside an EKF, phone only (a probe)",
+        "",
+        f"Made by `{command}` with the arms below (its docstring: method).",
+        "",
+        "ATE in metres (RoNIN convention, start-aligned), mean over recordings: the network on motion",
+        "capture (`truth`), on `auto` (today's phone only), the EKF's own trajectory (`ekf`), the network",
+        "re-run on the EKF's orientation (`net/ekf`) and on the EKF's tilt under `auto`'s heading",
+        "(`net/ekf tilt`); the ratios are over `truth`. Tilt: mean angle (deg) between the estimate's and",
+        "motion capture's gravity direction. NIS (3 dof, expected 3, single-value 95 % bounds",
+        f"{low3:.2f}-{high3:.2f}) and tilt NEES against motion capture (2 dof, expected 2, bounds",
+        f"{low2:.2f}-{high2:.2f}): mean, and the share of values inside the bounds.",
+        "",
+        "| arm | set | n | truth | auto | ekf | net/ekf | net/ekf tilt | over truth: auto / ekf / net/ekf /"
+        " net/ekf tilt | tilt VQF / EKF | NIS (in) | tilt NEES (in) |",
+        "|---|---|--:|--:|--:|--:|--:|--:|---|---|---|---|",
+    ]
+    for arm in args.report_arms or list(rows):
+        for set_name, records in rows.get(arm, {}).items():
+            m = summary(records)
+            ratios = " / ".join(f"{m[w] / m['truth']:.2f}x" for w in WAYS[1:])
+            ates = " | ".join(f"{m[w]:.3f}" for w in WAYS)
+            lines.append(
+                f"| {arm} | {set_name} | {len(records)} | {ates} | {ratios} |"
+                f" {m['tilt_auto']:.2f} / {m['tilt_ekf']:.2f} |"
+                f" {m['nis']:.2f} ({m['nis_within']:.0%}) | {m['nees']:.1f} ({m['nees_within']:.0%}) |"
+            )
+    lines += ["", "Arms (`FilterConfig` overrides of the defaults):", ""]
+    for arm in args.report_arms or list(rows):
+        lines.append(f"- `{arm}`: {arms.get(arm) or 'the defaults'}")
+    lines += [
+        "",
+        "Per recording (ATE truth / auto / ekf / net/ekf / net/ekf tilt; tilt VQF / EKF; auto's source):",
+        "",
+    ]
+    for arm in args.report_arms or list(rows):
+        for set_name, records in rows.get(arm, {}).items():
+            for r in records:
+                ates = " / ".join(f"{r.get(w, np.nan):.2f}" for w in WAYS)
+                lines.append(
+                    f"- {arm}, {set_name}, {r['name']} ({r['minutes']} min): {ates};"
+                    f" tilt {r['tilt_auto']:.2f} / {r['tilt_ekf']:.2f}; {r['source']}"
+                )
+    return lines
+
+
+if __name__ == "__main__":
+    main()

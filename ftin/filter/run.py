@@ -1,0 +1,260 @@
+"""The network inside the EKF: one recording through ``ErrorStateEkf``, causally, with a window
+model's mean velocity as the measurement (``docs/filter.md``).
+
+Per sample k (on the model's rate grid): first the update of any window ending at k (the network
+reads the world-frame rows of that window, each built with the filter's orientation and biases at
+its own sample, so only samples before k); then the outputs at k are recorded; then a clone is taken
+if a window starts at k; then row k of the network's input is built and the state is propagated to
+k + 1 with sample k. The estimate at a time therefore never depends on a later sample.
+
+``filter_prediction`` wraps it as inference does (``ftin.infer.predict_trajectory``): the same
+preparation, a ``Prediction`` whose trajectory is the filter's (positions at every sample, its
+orientation), beside the ``FilterRun`` with biases, covariances and the NIS of every update.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+from vqf import VQF
+
+from ftin.checkpoint import LoadedModel
+from ftin.data import frames
+from ftin.data.prepare import prepare
+from ftin.data.types import ImuSequence, Trajectory
+from ftin.filter.ekf import ErrorStateEkf
+from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
+from ftin.infer import FRAME_DEVICE_WORLD, FRAME_GROUND_TRUTH, Prediction, run_windows
+from ftin.yaw_average import YAW_COPIES
+
+
+@dataclass
+class FilterRun:
+    """What the filter estimated, per sample ``(N, ...)`` and per update ``(M, ...)``."""
+
+    t_s: np.ndarray  # (N,)
+    p_world_m: np.ndarray  # (N, 3) position after any update at that sample
+    velocity_state_m_s: np.ndarray  # (N, 3) the filter's own velocity
+    q_world_device_wxyz: np.ndarray  # (N, 4) the filter's orientation
+    gyro_bias_rad_s: np.ndarray  # (N, 3)
+    acc_bias_m_s2: np.ndarray  # (N, 3)
+    position_cov_xy: np.ndarray  # (N, 2, 2) horizontal position covariance
+    tilt_cov: np.ndarray  # (N, 2, 2) covariance of the tilt error (world x, y rotation)
+    imu_world: np.ndarray  # (N, 6) float32: the rows the network read
+    update_span: np.ndarray  # (M, 2) first and end sample of each update's window
+    velocity_m_s: np.ndarray  # (M, D) the network's world-frame velocity of each window
+    nis: np.ndarray  # (M,) normalised innovation squared (3 dof)
+    applied: np.ndarray  # (M,) bool: False where the gate refused the update
+    covariance: np.ndarray  # (M, 15, 15) evolving-state covariance after each update
+
+
+class NetworkVelocity:
+    """A window model as the filter calls it: one window of world-frame rows in, its mean velocity
+    ``(3,)`` (z = 0 for a 2-D model) and the covariance ``(3, 3)`` of its horizontal part out."""
+
+    def __init__(self, loaded: LoadedModel, config: FilterConfig) -> None:
+        if loaded.model.streams:
+            raise ValueError(f"{loaded.name!r} is a streaming model: the EKF needs a window model")
+        self.loaded, self.config = loaded, config
+        # One window at a time, so no cycling through the turns across windows: the four copies.
+        self.copies = YAW_COPIES
+        self.parts = loaded.model.target_parts(loaded.window)
+        self.has_head = bool(getattr(loaded.model, "has_uncertainty", False))
+
+    def __call__(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        window = len(rows)
+        velocity, taps = run_windows(
+            self.loaded,
+            rows,
+            np.zeros(1, dtype=np.int64),
+            window,
+            self.parts,
+            1,
+            None,
+            self.has_head,
+            self.copies,
+            "fp32",
+        )
+        v = velocity[0].mean(axis=0)  # (D,): the window's mean over its parts
+        out = np.zeros(3)
+        out[: min(3, len(v))] = v[:3]
+        var = np.full(2, self.config.velocity_std_m_s**2)
+        if self.has_head and taps is not None and "log_std" in taps:
+            # The head's per-axis variance; over K parts the mean's variance is their mean / K.
+            part_var = np.exp(2.0 * taps["log_std"].astype(np.float64)[0].reshape(self.parts, -1))
+            var = part_var.mean(axis=0)[:2] / self.parts
+        return out, np.diag(var)
+
+
+def run_filter(
+    network: NetworkVelocity | None,
+    seq: ImuSequence,
+    window: int,
+    config: FilterConfig | None = None,
+    *,
+    start_position_m: np.ndarray | None = None,
+    measure=None,
+    heading_ref_rad: np.ndarray | None = None,
+) -> FilterRun:
+    """The filter over ``seq`` (oriented: its first orientation is the start; on a uniform grid).
+
+    ``measure(rows, start, end, R_start) -> (velocity (3,), covariance (2, 2))`` replaces the network
+    where given (tests feed the truth through it; ``R_start`` is the filter's orientation the window's
+    first row was built with, whose heading is the measurement's world); otherwise ``network``
+    measures each window. ``heading_ref_rad`` ``(N,)``: a causal heading reference in the start's world
+    (``reference_heading``), taken at every update when ``config.heading_std_rad`` is set.
+    """
+    config = config or FilterConfig()
+    if seq.q_world_device_wxyz is None:
+        raise ValueError(f"{seq.name!r} has no orientation to start the filter from")
+    n, t = len(seq), seq.t_s
+    if n < window + 1:
+        raise ValueError(
+            f"{seq.name!r} is too short for the filter: {n} samples, a window needs {window + 1}"
+        )
+    every = config.update_every or window
+    if measure is None:
+        if network is None:
+            raise ValueError("run_filter needs a network or a measure function")
+
+        def measure(rows: np.ndarray, start: int, end: int, _: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return network(rows[start:end])
+
+    ekf = ErrorStateEkf(
+        config,
+        frames.rotation_from_wxyz(seq.q_world_device_wxyz[0]).as_matrix(),
+        np.zeros(3) if start_position_m is None else start_position_m,
+    )
+    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
+    rows = np.zeros((n, 6), dtype=np.float32)
+    p_out, v_out, R_out = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
+    bg_out, ba_out = np.zeros((n, 3)), np.zeros((n, 3))
+    pos_cov, tilt_cov = np.zeros((n, 2, 2)), np.zeros((n, 2, 2))
+    yaw_at = np.zeros(n)  # the heading each row was built with: the network's frame for its window
+    spans, velocities, nis, applied, covariances = [], [], [], [], []
+    sigma_z2 = config.vertical_std_m_s**2
+    for k in range(n):
+        start = k - window
+        if start >= 0 and start % every == 0:
+            v_world, cov_xy = measure(rows, start, k, R_out[start])
+            Rz = rot_z(yaw_at[start])
+            z = Rz.T @ v_world  # into the frame of the clone's heading (the measurement's frame)
+            R_meas = np.zeros((3, 3))
+            R_meas[:2, :2] = Rz[:2, :2].T @ cov_xy @ Rz[:2, :2]
+            R_meas[2, 2] = sigma_z2
+            result = ekf.update(start, z, R_meas, t[k] - t[start])
+            ekf.drop_clone(start)
+            if heading_ref_rad is not None and config.heading_std_rad is not None:
+                ekf.update_heading(float(heading_ref_rad[k]), config.heading_std_rad)
+            spans.append((start, k))
+            velocities.append(v_world)
+            nis.append(result.nis)
+            applied.append(result.applied)
+            covariances.append(ekf.evolving_covariance.copy())
+        s = ekf.state
+        p_out[k], v_out[k], R_out[k], bg_out[k], ba_out[k] = s.p, s.v, s.R, s.bg, s.ba
+        P = ekf.evolving_covariance
+        pos_cov[k] = P[POS, POS][:2, :2]
+        tilt_cov[k] = P[THETA, THETA][:2, :2]
+        if k % every == 0 and k + window < n:
+            yaw_at[k] = yaw_of(s.R)
+            ekf.clone(k)
+        w, f = (gyro[k] - s.bg, acc[k] - s.ba) if config.correct_network_input else (gyro[k], acc[k])
+        rows[k, :3], rows[k, 3:] = s.R @ w, s.R @ f
+        if k + 1 < n:
+            ekf.propagate(gyro[k], acc[k], t[k + 1] - t[k], gyro[k + 1], acc[k + 1])
+    q = frames.wxyz_from_rotation(Rotation.from_matrix(R_out))
+    return FilterRun(
+        t_s=t.copy(),
+        p_world_m=p_out,
+        velocity_state_m_s=v_out,
+        q_world_device_wxyz=frames.make_continuous(q),
+        gyro_bias_rad_s=bg_out,
+        acc_bias_m_s2=ba_out,
+        position_cov_xy=pos_cov,
+        tilt_cov=tilt_cov,
+        imu_world=rows,
+        update_span=np.array(spans, dtype=np.int64).reshape(-1, 2),
+        velocity_m_s=np.array(velocities).reshape(-1, 3),
+        nis=np.array(nis),
+        applied=np.array(applied, dtype=bool),
+        covariance=np.array(covariances).reshape(-1, 15, 15),
+    )
+
+
+def reference_heading(seq: ImuSequence, causal: bool = False) -> np.ndarray | None:
+    """``(N,)`` a heading reference in the world of ``seq``'s orientation, or None for the ground truth.
+
+    Offline (the default): the heading of ``seq``'s own orientation, what the network reads without
+    the filter. ``auto``'s VQF runs offline (forwards and backwards), so its heading at a time knows
+    the future; ``causal`` takes VQF run forwards only (``vqf.VQF``) instead, 9-D where ``auto`` chose
+    the magnetometer, else 6-D, turned to start at the start orientation's heading. A phone's own
+    attitude (``device``) is causal already and is its own reference either way."""
+    choice = (seq.meta.get("orientation_choice") or {}).get("source")
+    source = seq.meta.get("orientation_source")
+    if source == "ground_truth" or choice == "ground_truth":
+        return None
+    own = frames.yaw_rad(seq.q_world_device_wxyz)
+    if not causal or choice == "device" or (choice is None and source == "device"):
+        return np.unwrap(own)
+    if choice not in ("vqf", "vqf6d"):
+        return None
+    online = VQF(float(np.median(np.diff(seq.t_s))))
+    gyr = np.ascontiguousarray(seq.gyro_rad_s)
+    acc = np.ascontiguousarray(seq.acc_m_s2)
+    use_mag = choice == "vqf" and seq.mag_uT is not None and np.isfinite(seq.mag_uT).all()
+    if use_mag:
+        q = online.updateBatch(gyr, acc, np.ascontiguousarray(seq.mag_uT))["quat9D"]
+    else:
+        q = online.updateBatch(gyr, acc)["quat6D"]
+    psi = np.unwrap(frames.yaw_rad(np.asarray(q, dtype=np.float64)))
+    return psi - psi[0] + own[0]
+
+
+def filter_prediction(
+    loaded: LoadedModel, seq: ImuSequence, config: FilterConfig | None = None, orientation: str | None = None
+) -> tuple[Prediction, FilterRun]:
+    """``seq`` prepared as inference prepares it (``orientation``: its choice; the filter starts from
+    that orientation's first sample), run through the filter with ``loaded`` as its measurement; the
+    ``Prediction`` carries the filter's trajectory and orientation for scoring."""
+    config = config or FilterConfig()
+    prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, loaded.stride, orientation)
+    pseq = prepared.seq
+    gt = pseq.gt
+    start = gt.p_world_m[0] if gt is not None else np.zeros(3)
+    causal = config.heading_reference == "causal"
+    heading = reference_heading(pseq, causal) if config.heading_std_rad is not None else None
+    run = run_filter(
+        NetworkVelocity(loaded, config),
+        pseq,
+        loaded.window,
+        config,
+        start_position_m=start,
+        heading_ref_rad=heading,
+    )
+    p = run.p_world_m.copy()
+    if loaded.out_dim < 3:
+        p[:, 2] = start[2]  # as inference does for a 2-D model: the height is not estimated
+    spans = run.update_span
+    t = run.t_s
+    prediction = Prediction(
+        trajectory=Trajectory(t.copy(), p, run.q_world_device_wxyz),
+        window_t_s=0.5 * (t[spans[:, 0]] + t[spans[:, 1]]),
+        velocity_m_s=run.velocity_m_s[:, : loaded.out_dim],
+        orientation_source=str(pseq.meta.get("orientation_source", "device")),
+        frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
+        warnings=list(pseq.meta.get("warnings", [])),
+        features=None,
+        span_t_s=np.column_stack([t[spans[:, 0]], t[spans[:, 1]]]),
+        prepared=prepared,
+        truth=gt,
+        truth_frame=pseq.meta.get("gt_frame"),
+        window_s=loaded.window / float(loaded.imu_rate_hz),
+        orientation_filter="ekf",
+        imu_world=run.imu_world,
+        starts=spans[:, 0].copy(),
+        notes=[*pseq.meta.get("notes", []), *prepared.notes, "trajectory and orientation from the EKF"],
+    )
+    return prediction, run
