@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from app.schemas_uncertainty import UncertainTrajectoryPayload, UncertaintyPayload
 from app.schemas_verdict import VerdictPayload
 from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
@@ -302,7 +303,7 @@ class PredictionResponse(BaseModel):
     model: str
     sequence: str
     source: str
-    trajectory: TrajectoryPayload
+    trajectory: UncertainTrajectoryPayload
     ground_truth: TrajectoryPayload | None
     velocity: VelocityPayload
     orientation_source: str
@@ -336,6 +337,7 @@ class PredictionResponse(BaseModel):
     verdict: VerdictPayload | None = Field(
         None, description="Does it look like a walk, read right? (ok/check/implausible)"
     )
+    uncertainty: UncertaintyPayload | None = Field(None, description="How sure: the 95 % end radius.")
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
@@ -347,7 +349,7 @@ class PredictionResponse(BaseModel):
             model=run.model_name,
             sequence=run.sequence.name,
             source=run.source,
-            trajectory=TrajectoryPayload.from_trajectory(pred.trajectory),
+            trajectory=UncertainTrajectoryPayload.from_run(run),
             ground_truth=None if run.truth is None else TrajectoryPayload.from_trajectory(run.truth),
             velocity=VelocityPayload(
                 t=np.asarray(pred.window_t_s).tolist(),
@@ -370,6 +372,7 @@ class PredictionResponse(BaseModel):
             scene_url=scene_url,
             z_note=z_note(run),
             verdict=VerdictPayload.from_run(run),
+            uncertainty=UncertaintyPayload.from_run(run),
         )
 
 

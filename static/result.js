@@ -141,12 +141,30 @@ function convention(m, duration) {
   return [aligned ? alignmentText(m) : "", text].filter(Boolean).join(" ");
 }
 
+// How sure: the radius around the predicted end that holds the true end with 95 % (docs/metrics.md,
+// "How sure is it"), under the verdict; how it was calibrated in its tooltip. Made here, as the verdict.
+function showUncertainty(uncertainty) {
+  let line = $("end-radius");
+  if (!line) {
+    line = document.createElement("p");
+    line.id = "end-radius";
+    line.className = "end-radius";
+    (document.getElementById("walk-verdict") || $("result-title")).after(line);
+  }
+  line.hidden = !uncertainty;
+  if (!uncertainty) return;
+  const r = uncertainty.end_radius_95_m;
+  line.textContent = `Ends within ${r >= 10 ? r.toFixed(0) : r.toFixed(1)} m of here (95 %)`;
+  line.title = uncertainty.calibration;
+}
+
 function showResult(result, label) {
   state.result = result;
   $("result").hidden = false;
   $("expired").hidden = true;
   $("result-caption").textContent = `${label || result.sequence} · ${displayName(result.model)}`;
   showWalkVerdict(result.verdict);
+  showUncertainty(result.uncertainty);
   renderPlot();
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];

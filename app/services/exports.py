@@ -16,7 +16,8 @@ Decisions:
 - A model that predicts horizontal velocity only holds z at its start: the ground truth's start
   height, else 0. Both files say so in a ``#`` comment first (``z_note``), as the page does.
 - ``metrics.json`` carries what ``POST /predict`` answers about the scores (its ``metrics`` object,
-  field for field, ``plausibility``, ``warnings``, ``notes`` and ``verdict``), plus the metric definitions.
+  field for field, ``plausibility``, ``warnings``, ``notes``, ``verdict`` and ``uncertainty``), plus the
+  metric definitions.
 """
 
 from __future__ import annotations
@@ -74,16 +75,23 @@ def trajectory_at(
 def trajectory_csv(
     run: Run, timestamps: Timestamps | str = Timestamps.MODEL, clock: Clock | str = Clock.START
 ) -> str:
-    """``t_s,x_m,y_m,z_m`` (``t_unix_s,...`` on the epoch clock) in the prediction's world frame, after a
-    ``#`` line when z is constant."""
+    """``t_s,x_m,y_m,z_m,sigma_x_m,sigma_y_m`` (``t_unix_s,...`` on the epoch clock) in the prediction's
+    world frame, after a ``#`` line when z is constant; the sigmas (``ftin.uncertainty``) where the run
+    has them."""
     traj = trajectory_at(run, timestamps, clock)
     buffer = io.StringIO()
     note = z_note(run)
     if note is not None:
         buffer.write(f"# {note}\n")
-    table = np.column_stack([traj.t_s, traj.p_world_m])
+    columns, header = [traj.t_s, traj.p_world_m], "x_m,y_m,z_m"
+    if run.uncertainty is not None:  # on the exported times: the model's, or the input's interpolated
+        model_t, sigma = run.prediction.trajectory.t_s, run.uncertainty.sigma_m()
+        at = traj.t_s - (recording_start(run) if Clock(clock) is Clock.EPOCH else 0.0)
+        columns += [np.interp(at, model_t, sigma[:, 0]), np.interp(at, model_t, sigma[:, 1])]
+        header += ",sigma_x_m,sigma_y_m"
+    table = np.column_stack(columns)
     time = "t_unix_s" if Clock(clock) is Clock.EPOCH else "t_s"
-    np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header=f"{time},x_m,y_m,z_m", comments="")
+    np.savetxt(buffer, table, delimiter=",", fmt="%.6f", header=f"{time},{header}", comments="")
     return buffer.getvalue()
 
 
@@ -131,6 +139,7 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "warnings": run.verdict.warnings,
         "notes": [*run.verdict.notes, *run.plausibility.notes],  # as POST /predict: GPS fixes left out
         "verdict": VerdictPayload.from_run(run).model_dump(),  # ok / check / implausible, as POST /predict
+        "uncertainty": None if run.uncertainty is None else run.uncertainty.summary(),  # as POST /predict
         "z_note": z_note(run),
         "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
     }

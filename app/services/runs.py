@@ -38,6 +38,7 @@ from app.services.run_archive import RunArchive, RunRecord
 from app.services.verdict import judge
 from ftin.data import ImuSequence
 from ftin.metrics.plausibility import Plausibility, assess
+from ftin.uncertainty import path_uncertainty
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +91,10 @@ class Run:
     def plausibility(self) -> Plausibility:  # figures without ground truth, GPS when the export has it
         steps = self.steps.result() if isinstance(self.steps, Future) else self.steps
         return assess(self.prediction.trajectory, self.sequence, steps)
+
+    @cached_property
+    def uncertainty(self) -> Any:  # ftin.uncertainty.PathUncertainty | None: how sure the path is
+        return path_uncertainty(self.prediction, self.model_name, self.sequence.meta.get("carry"))
 
     @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures

@@ -136,8 +136,10 @@ def judge(
 
 def walk_verdict(run: Any) -> WalkVerdict:
     """The verdict on ``run`` (an ``app.services.runs.Run``): its plausibility's checks and what its
-    ground truth adds (``Run.verdict.reasons``)."""
-    return judge_walk(run.plausibility, run.prediction.trajectory, run.verdict.reasons)
+    ground truth adds (``Run.verdict.reasons``); without ground truth, where the walk ends (95 %)."""
+    found = None if run.sequence.gt is not None else run.uncertainty
+    radius = None if found is None else found.end_radius_95_m
+    return judge_walk(run.plausibility, run.prediction.trajectory, run.verdict.reasons, radius)
 
 
 def _finite(value: float | None) -> float | None:

@@ -38,6 +38,7 @@ from ftin.metrics.reasons import WalkVerdict
 from ftin.metrics.verdicts import confinement_note, still_verdict
 from ftin.metrics.walk_verdict import judge_walk, truth_reasons
 from ftin.precision import PrecisionSetting, choose
+from ftin.uncertainty import path_uncertainty
 
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
 PrecisionOption = Annotated[
@@ -135,7 +136,12 @@ def predict_command(
         err_console.print(f"[dim]note:[/] {escape(note)}", highlight=False)
     for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
-    typer.echo(f"verdict: {walk_verdict(prediction, scored, shown_gt, plausibility).says}")
+    found = path_uncertainty(prediction, loaded.name, seq.meta.get("carry"))
+    radius = None if found is None or seq.gt is not None else found.end_radius_95_m
+    typer.echo(f"verdict: {walk_verdict(prediction, scored, shown_gt, plausibility, radius).says}")
+    if found is not None:
+        radius_text = f"ends within {found.end_radius_95_m:.1f} m of here (95 %)"
+        typer.echo(f"uncertainty: {radius_text}; {found.calibration}")
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")
     typer.echo(f"precision: {chosen.precision.value} ({chosen.reason})")
@@ -154,7 +160,9 @@ def predict_command(
         typer.echo("GPS: " + "; ".join(figure_text(f) for f in plausibility.gps_figures))
 
 
-def walk_verdict(prediction: Any, scored: Any, truth: Any, plausibility: Any) -> WalkVerdict:
+def walk_verdict(
+    prediction: Any, scored: Any, truth: Any, plausibility: Any, end_radius_m: float | None = None
+) -> WalkVerdict:
     """The verdict the API gives (``ftin.metrics.walk_verdict``): the walk's checks, and what the
     ground truth adds where the prediction was scored against it."""
     more = []
@@ -164,7 +172,7 @@ def walk_verdict(prediction: Any, scored: Any, truth: Any, plausibility: Any) ->
         lengths = (m.path_length_ratio, m.predicted_path_m, m.true_path_m)
         worse, text = (None, None) if still is None else (still.worse_than_standing_still, still.text)
         more = truth_reasons(prediction.trajectory, truth, lengths, worse, text)
-    return judge_walk(plausibility, prediction.trajectory, more)
+    return judge_walk(plausibility, prediction.trajectory, more, end_radius_m)
 
 
 def figure_text(figure: FigureValue) -> str:

@@ -23,6 +23,8 @@ as ``more``. The GPS reasons are ``ftin.metrics.walk_gps``'s. The reasons' codes
   predicted end-to-start gap over the path walked: above ``LOOP_CHECK`` a check, above
   ``LOOP_GROSS`` implausible. Without either, a prediction that itself closes (within
   ``LOOP_CLOSED_SHARE`` of a path of ``LOOP_MIN_PATH_M`` or more) says so as information.
+- ``end_radius`` (no ground truth, where the uncertainty is known: ``ftin.uncertainty``): "ends within
+  R m of here (95 %)", information, also added to the verdict's line.
 - ``gps_speed``, ``gps_step_length``, ``gps_path``, ``gps_distance``, ``gps_poor``, ``gps_short``,
   ``gps_outside_recording``: ``ftin.metrics.walk_gps``.
 
@@ -50,7 +52,7 @@ from ftin.metrics.reasons import Level, Reason, WalkVerdict, level_of, rounded
 from ftin.metrics.trajectory import horizontal_path_length
 from ftin.metrics.walk_gps import LOOP_RADIUS_M, PATH_GROSS, gps_loop_path, gps_reasons
 
-__all__ = ["Level", "Reason", "WalkVerdict", "judge_walk", "truth_reasons"]
+__all__ = ["Level", "Reason", "WalkVerdict", "end_radius_reason", "judge_walk", "truth_reasons"]
 
 MIN_RHYTHM_S = 10.0
 RHYTHM_SHARE = 0.25
@@ -135,9 +137,30 @@ def _own_loop(p: Plausibility, estimate: Trajectory) -> Reason | None:
     return Reason("loop_closure", Level.OK, says, figures)
 
 
-def judge_walk(p: Plausibility, trajectory: Trajectory, more: Iterable[Reason] = ()) -> WalkVerdict:
+def end_radius_reason(radius_m: float) -> Reason:
+    """How far the true end may lie from the predicted one (95 %; ``ftin.uncertainty``): information."""
+    r = f"{radius_m:.0f}" if radius_m >= 10 else f"{radius_m:.1f}"
+    figures = {"end_radius_95_m": rounded(radius_m)}
+    return Reason("end_radius", Level.OK, f"ends within {r} m of here (95 %)", figures)
+
+
+def judge_walk(
+    p: Plausibility, trajectory: Trajectory, more: Iterable[Reason] = (), end_radius_m: float | None = None
+) -> WalkVerdict:
     """The verdict on ``trajectory`` from its plausibility ``p`` and the reasons ``more`` (ground
-    truth's: ``truth_reasons``); a loop closure in ``more`` replaces the one judged here."""
+    truth's: ``truth_reasons``); a loop closure in ``more`` replaces the one judged here. With
+    ``end_radius_m`` (a walk without ground truth) the line also says where the walk ends, 95 %."""
+    verdict = _judge(p, trajectory, more)
+    if end_radius_m is None or not np.isfinite(end_radius_m):
+        return verdict
+    radius = end_radius_reason(end_radius_m)
+    verdict = WalkVerdict.of([*verdict.reasons, radius])
+    if radius.says in verdict.says:
+        return verdict
+    return replace(verdict, says=f"{verdict.says[:-1]}; {radius.says}.")
+
+
+def _judge(p: Plausibility, trajectory: Trajectory, more: Iterable[Reason]) -> WalkVerdict:
     more = list(more)
     reasons = [r for r in (_rhythm(p), _step_distance(p)) if r is not None]
     if any(r.code == "path_ratio" and r.level is Level.OK for r in more):  # the truth overrules (docstring)

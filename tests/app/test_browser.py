@@ -151,7 +151,8 @@ def test_upload_shows_the_trajectory_plot(live_server, page, sample_csv_path: Pa
     run_id = page.get_attribute("#scene-link", "data-run-id")
     assert page.get_attribute("#download-link", "href") == f"/runs/{run_id}/trajectory.csv"
     download = httpx.get(f"{live_server.base_url}/runs/{run_id}/trajectory.csv", timeout=10)
-    assert download.text.startswith("# z is constant") and "\nt_s,x_m,y_m,z_m\n" in download.text
+    header = "\nt_s,x_m,y_m,z_m,sigma_x_m,sigma_y_m\n"
+    assert download.text.startswith("# z is constant") and header in download.text
     scene_href = page.get_attribute("#scene-link", "href")
     assert scene_href.rstrip("/") == live_server.scene.url
     live_server.scene.flush()

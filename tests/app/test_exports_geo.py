@@ -148,8 +148,9 @@ def test_csv_and_tum_on_the_phones_clock(client: TestClient, plain: dict, start_
     run = f"/runs/{plain['run_id']}"
     relative = client.get(f"{run}/trajectory.csv").text.splitlines()
     epoch = client.get(f"{run}/trajectory.csv", params={"clock": "epoch"}).text.splitlines()
-    first_rel = [float(v) for v in relative[relative.index("t_s,x_m,y_m,z_m") + 1].split(",")]
-    first_abs = [float(v) for v in epoch[epoch.index("t_unix_s,x_m,y_m,z_m") + 1].split(",")]
+    columns = "x_m,y_m,z_m,sigma_x_m,sigma_y_m"
+    first_rel = [float(v) for v in relative[relative.index(f"t_s,{columns}") + 1].split(",")]
+    first_abs = [float(v) for v in epoch[epoch.index(f"t_unix_s,{columns}") + 1].split(",")]
     assert first_abs[0] == pytest.approx(start_epoch_s + first_rel[0], abs=2e-6)
     assert first_abs[1:] == first_rel[1:]
     tum = client.get(f"{run}/trajectory.tum", params={"clock": "epoch", "timestamps": "input"}).text

@@ -121,8 +121,10 @@ def test_the_disk_budget_removes_the_oldest_runs_with_a_notice(
     with app_on(make_settings(runs_dir=tmp_path / "probe")) as client:
         upload(client, short_csv, model=DEFAULT_MODEL)
         services = client.app.state.services
+        services.runs.flush()  # runs are written after the answer: measure once they are on disk
         one_run = services.runs.archive.used_bytes()
         upload(client, short_csv, model=DEFAULT_MODEL)
+        services.runs.flush()
         per_run = services.runs.archive.used_bytes() - one_run
     budget_mb = (one_run + 2.5 * per_run) / 2**20  # room for three runs of the recording
     with app_on(
@@ -153,6 +155,7 @@ def test_a_damaged_or_missing_file_is_skipped_and_the_others_listed(
     settings = make_settings(runs_dir=tmp_path / "runs", max_runs=1)
     with app_on(settings) as client:
         ids = [upload(client, short_csv, model=DEFAULT_MODEL).json()["run_id"] for _ in range(4)]
+        client.app.state.services.runs.flush()  # written after the answer: delete it once it is there
         # While the app runs: a file deleted under it (its run no longer in memory: max_runs=1).
         (tmp_path / "runs" / "runs" / f"{ids[1]}.npz").unlink()
         with caplog.at_level(logging.WARNING):

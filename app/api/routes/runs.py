@@ -69,8 +69,9 @@ def trajectory_csv(
     timestamps: TimestampsQuery = Timestamps.MODEL,
     clock: ClockQuery = Clock.START,
 ) -> Response:
-    """The predicted trajectory: ``t_s,x_m,y_m,z_m`` in the prediction's world frame (``timestamps=input``:
-    at the recording's own timestamps; ``clock=epoch``: ``t_unix_s``, on the phone's clock)."""
+    """The predicted trajectory: ``t_s,x_m,y_m,z_m,sigma_x_m,sigma_y_m`` in the prediction's world frame
+    (sigma: the position's standard deviation, ``ftin.uncertainty``; ``timestamps=input``: at the
+    recording's own timestamps; ``clock=epoch``: ``t_unix_s``, on the phone's clock)."""
     run = services.runs.get(run_id)
     name = f"{run.sequence.name}_{run.model_name}_trajectory.csv"
     return attachment(trajectory_csv_text(run, timestamps, clock), "text/csv", name)

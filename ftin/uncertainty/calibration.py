@@ -1,0 +1,79 @@
+"""The few constants of the uncertainty model per checkpoint, read from ``calibration.json`` beside this
+module (keyed by checkpoint name) and written only by ``experiments/probe_uncertainty.py``, which
+fits them on walker-held-out validation and so can always remake them.
+
+A checkpoint with no entry of its own borrows the default model's constants, and says so in
+``describe``: its uncertainty is then an estimate, not a calibrated one.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from ftin.files import atomic_write_text
+
+CALIBRATION_FILE = Path(__file__).with_name("calibration.json")
+FALLBACK = "ronin_resnet-walking"  # the default model's constants serve a checkpoint without its own
+
+
+@dataclass(frozen=True)
+class Calibration:
+    model: str  # the checkpoint these constants were fitted for
+    sigma_a: float  # per-window sigma = sigma_a + sigma_b * |v|  (m/s, per horizontal axis)
+    sigma_b: float
+    scale_sigma: float  # spread of the distance ratio around 1 (RMS of ratio - 1), all carries
+    gyro_drift_rad_s: float  # sigma of the yaw drift rate with a gyroscope-only heading (VQF 6-D)
+    heading_sigma_rad: float  # sigma of the yaw error with a magnetometer (VQF 9-D)
+    position_scale: float = 1.0  # one factor on the whole position covariance, fitted on coverage
+    log_std_scale: float | None = None  # for a model with a log-std head: its sigma times this
+    scale_sigma_by_carry: dict[str, float] = field(default_factory=dict)  # where a carry had enough walks
+    fitted_on: str = ""  # what the constants were fitted on, in words
+
+    def scale_sigma_for(self, carry: str | None) -> float:
+        """The distance ratio's spread for ``carry`` where it was measured, else all carries'."""
+        return self.scale_sigma_by_carry.get(carry or "", self.scale_sigma)
+
+    def describe(self, checkpoint: str) -> str:
+        """How this uncertainty was calibrated, in one line (the API's ``calibration``)."""
+        own = checkpoint == self.model
+        head = (
+            f"fitted for {self.model} on {self.fitted_on}"
+            if own
+            else f"not calibrated for {checkpoint}: the constants of {self.model} ({self.fitted_on}) applied"
+        )
+        drift = math.degrees(self.gyro_drift_rad_s) * 60
+        return (
+            f"{head}; window sigma {self.sigma_a:.2f} + {self.sigma_b:.2f}|v| m/s, speed scale "
+            f"+-{self.scale_sigma:.0%}, heading drift {drift:.1f} deg/min (6-D) or "
+            f"+-{math.degrees(self.heading_sigma_rad):.0f} deg (9-D), covariance x{self.position_scale:.2f} "
+            "(experiments/probe_uncertainty.py)"
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@lru_cache(maxsize=4)
+def _table(path: Path = CALIBRATION_FILE) -> dict[str, dict[str, Any]]:
+    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
+
+
+def calibration_for(checkpoint: str) -> Calibration:
+    """The constants fitted for ``checkpoint`` (its stem, e.g. ``ronin_resnet-walking``), else the default
+    model's; ``KeyError`` only when the file holds neither."""
+    table = _table()
+    entry = table.get(checkpoint) or table[FALLBACK]
+    return Calibration(**entry)
+
+
+def save_calibration(calibration: Calibration, path: Path = CALIBRATION_FILE) -> None:
+    """Write (or replace) ``calibration``'s entry; the probe's only way in."""
+    table = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
+    table[calibration.model] = calibration.to_json()
+    atomic_write_text(path, json.dumps(table, indent=1, sort_keys=True) + "\n")
+    _table.cache_clear()
