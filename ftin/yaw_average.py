@@ -49,15 +49,7 @@ def turned_copies(x: torch.Tensor, copies: int) -> torch.Tensor:
     """``(copies * B, 6, L)``: ``x`` turned about the vertical by each copy's angle (copy 0 is ``x``)."""
     if copies == 1:
         return x
-    turned = []
-    for angle in _angles(copies):
-        c, s = math.cos(angle), math.sin(angle)
-        y = x.clone()
-        for i, j in _TURNED_CHANNELS:
-            y[:, i] = c * x[:, i] - s * x[:, j]
-            y[:, j] = s * x[:, i] + c * x[:, j]
-        turned.append(y)
-    return torch.cat(turned, dim=0)
+    return torch.cat([turn_windows(x, torch.full((len(x),), angle)) for angle in _angles(copies)], dim=0)
 
 
 def mean_turned_back(velocity: np.ndarray, copies: int) -> np.ndarray:
@@ -66,14 +58,11 @@ def mean_turned_back(velocity: np.ndarray, copies: int) -> np.ndarray:
     if copies == 1:
         return velocity
     per_copy = np.asarray(velocity, dtype=np.float64).reshape(copies, -1, *velocity.shape[1:])
-    total = np.zeros_like(per_copy[0])
-    for k, angle in enumerate(_angles(copies)):
-        c, s = math.cos(angle), math.sin(angle)
-        v = per_copy[k]
-        total[..., 0] += c * v[..., 0] + s * v[..., 1]  # turned by -angle
-        total[..., 1] += -s * v[..., 0] + c * v[..., 1]
-        total[..., 2:] += v[..., 2:]
-    return total / copies
+    back = [
+        turn_velocities(v, np.full(len(v), -angle))
+        for v, angle in zip(per_copy, _angles(copies), strict=True)
+    ]
+    return np.mean(back, axis=0)
 
 
 def turn_windows(x: torch.Tensor, angles: torch.Tensor) -> torch.Tensor:
