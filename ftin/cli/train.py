@@ -183,6 +183,17 @@ def train_command(
         Path | None,
         typer.Option("--init-from", help="Start from this checkpoint's weights (same model and kwargs)."),
     ] = None,
+    train_only: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--train-only",
+            help=(
+                "Train only parameters whose names start with this (repeatable), the rest frozen: e.g. "
+                "--train-only log_std_head with --model-kwargs '{\"uncertainty_head\": true}' and "
+                "--init-from gives a shipped RoNIN ResNet a variance head, its velocities unchanged."
+            ),
+        ),
+    ] = None,
     config_file: Annotated[
         Path | None,
         typer.Option("--config", help="Training options as a JSON object (config.json keys); flags win."),

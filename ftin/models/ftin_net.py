@@ -56,7 +56,9 @@ Decisions (paper Sec. 2 leaves them open; all are ``FTINConfig`` fields, kept in
   4/3, sigmoid forget gate, residuals on, ``slstm_dropout`` 0. The final state is dropped: each
   window is independent, as for every other model behind the same interface.
 * Head: RoNIN's FC layout ``(L_seq x C_seq) -> 512 -> 512 -> D``, dropout 0.5, RoNIN's init.
-* No uncertainty head (``log_std`` is None): the paper trains FTIN with MSE on velocity.
+* No uncertainty head by default (``log_std`` is None): the paper trains FTIN with MSE on velocity.
+  ``uncertainty_head`` adds a second MLP head on the same sequence (log-std per axis, TLIO's), which a
+  shipped checkpoint gains on its frozen network (``TrainConfig.train_only``).
 
 Speed target: at least half of ``ronin_resnet``'s windows/s (``torch.inference_mode``, eval, batch
 512, window 100, 2 threads). Measured with these defaults: 0.77-0.81 (FDL ~ +25%, sLSTM ~ +10% on
@@ -129,6 +131,7 @@ class FTINConfig:
     slstm_dropout: float = 0.0
     head_hidden: tuple[int, ...] = (512, 512)
     head_dropout: float = 0.5
+    uncertainty_head: bool = False  # a log-std head beside the velocity head (module docstring)
 
     def __post_init__(self) -> None:
         # JSON checkpoints hand back lists; keep tuples so configs compare equal and stay immutable.
@@ -226,6 +229,12 @@ class FTIN(VelocityModel):
             )
         self.head = MLPHead(seq_channels * seq_length, cfg.out_dim, cfg.head_hidden, cfg.head_dropout)
         init_resnet_weights(self.head)
+        self.has_uncertainty = cfg.uncertainty_head
+        if cfg.uncertainty_head:
+            self.log_std_head = MLPHead(
+                seq_channels * seq_length, cfg.out_dim, cfg.head_hidden, cfg.head_dropout
+            )
+            init_resnet_weights(self.log_std_head)
 
     def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
         if x.dim() != 3 or x.shape[1] != 6:
@@ -250,7 +259,8 @@ class FTIN(VelocityModel):
             seq, _ = self.slstm(seq)  # (B, steps, features); one window, so a fresh state each call
             if features is not None:
                 features["slstm"] = seq.detach()
-        return VelocityOutput(self.head(seq), None)  # head flattens (B, ...) -> (B, D)
+        log_std = self.log_std_head(seq) if self.has_uncertainty else None
+        return VelocityOutput(self.head(seq), log_std)  # heads flatten (B, ...) -> (B, D)
 
 
 @register_model("resnet_fdl", FTIN_CFG, label="ResNet + FDL")

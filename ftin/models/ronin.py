@@ -65,6 +65,7 @@ class RoninResNetConfig:
     trans_channels: int = 128  # 1x1 transition conv before the flatten
     fc_dim: int = 512
     dropout: float = 0.5
+    uncertainty_head: bool = False  # a log-std head beside the velocity head, TLIO's (its docstring)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "blocks_per_group", tuple(int(n) for n in self.blocks_per_group))
@@ -113,17 +114,25 @@ class FixedWindowResNet(VelocityModel):
 
 
 class RoninResNet(FixedWindowResNet):
-    """RoNIN ResNet-1D: ``(B, 6, window) -> velocity (B, out_dim)``."""
+    """RoNIN ResNet-1D: ``(B, 6, window) -> velocity (B, out_dim)``; with ``uncertainty_head`` also a
+    log-std per axis from a second head on the same backbone output (as TLIO's), so a shipped RoNIN
+    checkpoint can gain a variance head trained on its frozen backbone (``TrainConfig.train_only``)."""
 
     model_name = "ronin_resnet"
 
     def __init__(self, config: RoninResNetConfig) -> None:
         super().__init__(config, config.blocks_per_group)
         self.head = self._head(config)
+        self.has_uncertainty = config.uncertainty_head
+        if config.uncertainty_head:
+            self.log_std_head = self._head(config)
         init_resnet_weights(self)
 
     def forward(self, x: torch.Tensor, features: dict | None = None) -> VelocityOutput:
-        return VelocityOutput(self.head(self._encode(x, features)))  # (B, D)
+        h = self._encode(x, features)
+        if self.has_uncertainty:
+            return VelocityOutput(self.head(h), self.log_std_head(h))  # (B, D), (B, D)
+        return VelocityOutput(self.head(h))  # (B, D)
 
 
 @register_model("ronin_resnet", ModelCfg(RoninResNetConfig, window=200, rate_hz=200.0), label="RoNIN ResNet")

@@ -7,7 +7,8 @@ report (``ftin table --campaign``) and the model cards, as ``from ftin import pr
 - ``datasets``: the datasets, their folders and rates, the fixed splits and the walker-wise folds;
 - ``jobs``: the training settings, the ``Job`` of a campaign and each campaign's jobs;
 - ``policy``: which FTIN variant, which run may ship, which checkpoint is the app's default;
-- ``stages``: the generalisation campaign's stage two (stage one's choices, the retraining jobs).
+- ``stages``: the generalisation campaign's stage two (stage one's choices, the retraining jobs);
+- ``stage_three``: the fold of the walkers the shared data gained, and stage three's jobs.
 """
 
 from ftin.protocol.datasets import (
@@ -62,6 +63,7 @@ from ftin.protocol.policy import (
     path_ratio_bounds,
     validation_gate,
 )
+from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_TRAIN, NEW_VAL, stage_three_jobs
 from ftin.protocol.stages import (
     FTIN_FAMILY,
     STAGE_TWO_AUGMENT_ARMS,
@@ -75,6 +77,10 @@ from ftin.protocol.stages import (
 )
 
 __all__ = [
+    "FLOOR_DRIFT",
+    "NEW_TRAIN",
+    "NEW_VAL",
+    "stage_three_jobs",
     "ABLATIONS",
     "CAMPAIGNS",
     "COMBINED",

@@ -263,10 +263,19 @@ def tilt_question_jobs(_variant: str | None = None) -> list[Job]:
     ]
 
 
+def _stage_three(_variant: str | None = None) -> list[Job]:
+    """Stage three's jobs (``ftin.protocol.stage_three``) on the default data and checkpoints."""
+    from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
+    from ftin.protocol.stage_three import stage_three_jobs
+
+    return stage_three_jobs(DEFAULT_DATA_ROOT, DEFAULT_CHECKPOINT_DIR)
+
+
 CAMPAIGNS = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
     "tilt": tilt_question_jobs,
+    "stage-three": _stage_three,
 }
 
 

@@ -33,6 +33,11 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
 - ``init_from`` (``None``: a fresh, seeded initialisation): a checkpoint (``ftin.checkpoint``) whose
   weights start the run, for fine-tuning; its model, kwargs and rate must be the run's, else the run
   refuses to start. A resumed run starts from its resume state instead.
+- ``train_only`` (empty: every parameter trains): parameter-name prefixes (``log_std_head``); every
+  other parameter is frozen and its modules kept in evaluation mode (batch-norm statistics unchanged),
+  so a shipped checkpoint can gain a variance head while its velocities stay bit for bit. The run
+  then monitors (plateau, best epoch, early stop) the validation Gaussian NLL, since the validation
+  MSE of a frozen velocity cannot move; ``init_from`` may then lack the new head's weights.
 - Without ``val`` paths a seeded ``val_fraction`` of the training sequences (at least one, when
   there are two or more) is held out whole, so no validation window overlaps a training window.
 """
@@ -101,8 +106,10 @@ class TrainConfig:
     save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
     weights_dtype: str = "float32"  # storage of the best checkpoint: float32 or float16
     init_from: str | None = None  # checkpoint whose weights start the run (fine-tuning); None: seeded init
+    train_only: tuple[str, ...] = ()  # parameter-name prefixes that train; empty: all (module docstring)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "train_only", tuple(str(p) for p in self.train_only))
         object.__setattr__(self, "data", tuple(str(p) for p in self.data))
         object.__setattr__(self, "val", tuple(str(p) for p in self.val))
         object.__setattr__(self, "log_std_range", tuple(float(v) for v in self.log_std_range))
@@ -181,6 +188,7 @@ class TrainConfig:
         data["data"] = list(self.data)
         data["val"] = list(self.val)
         data["log_std_range"] = list(self.log_std_range)
+        data["train_only"] = list(self.train_only)
         return data
 
     @classmethod

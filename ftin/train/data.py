@@ -43,23 +43,32 @@ class TrainData:
     info: dict[str, Any]  # training data and split, for the checkpoint's JSON
 
     def validation_sums(
-        self, model: VelocityModel, device: torch.device, ddp: Distributed
-    ) -> tuple[float, int]:
-        """Squared-error sum and element count of ~1 s mean velocities over this rank's share of the
-        validation windows: per window for K = 1 models, per block of parts otherwise
-        (``ftin.train.losses.validation_blocks``)."""
+        self,
+        model: VelocityModel,
+        device: torch.device,
+        ddp: Distributed,
+        log_std_range: tuple[float, float] = (-5.0, 3.0),
+    ) -> tuple[float, float, int]:
+        """Squared-error sum, Gaussian NLL sum (0 without a log-std) and element count of ~1 s mean
+        velocities over this rank's share of the validation windows: per window for K = 1 models, per
+        block of parts otherwise (``ftin.train.losses.validation_blocks``; a block's log-std is its
+        parts' mean, exact for K = 1)."""
         model.eval()
         indices = np.arange(len(self.val))[ddp.rank :: ddp.world]
-        sq_sum, count = 0.0, 0
+        sq_sum, nll_sum, count = 0.0, 0.0, 0
         with torch.inference_mode():
             for i in range(0, len(indices), self.batch):
                 x, v = self.val.get_batch(indices[i : i + self.batch])
-                pred = model.forward_parts(self.normalization.apply(x.to(device))).velocity  # (B, K, D)
-                pred = block_means(pred, self.val_per_block)  # (B, blocks, D)
+                out = model.forward_parts(self.normalization.apply(x.to(device)))  # (B, K, D)
+                pred = block_means(out.velocity, self.val_per_block)  # (B, blocks, D)
                 target = block_means(v.to(device), self.val_per_block)
-                sq_sum += float(((pred - target) ** 2).sum())
+                error2 = (pred - target) ** 2
+                sq_sum += float(error2.sum())
+                if out.log_std is not None:
+                    log_std = block_means(out.log_std, self.val_per_block).clamp(*log_std_range)
+                    nll_sum += float((0.5 * error2 * torch.exp(-2.0 * log_std) + log_std).sum())
                 count += target.numel()
-        return sq_sum, count
+        return sq_sum, nll_sum, count
 
 
 def training_data(

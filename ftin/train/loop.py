@@ -156,7 +156,8 @@ def _setup(
     model.to(config.device)
 
     data = training_data(config, train_sequences, val_sequences, parts=parts, out_dim=model.out_dim, ddp=ddp)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.lr)
+    trained = freeze_except(model, config.train_only)
+    optimizer = torch.optim.Adam(trained, lr=config.lr)
     scheduler = torch.optim.lr_scheduler.ReduceLROnPlateau(
         optimizer, mode="min", factor=config.plateau_factor, patience=config.plateau_patience
     )
@@ -199,19 +200,69 @@ def _setup(
 
 def _initialise_from(model: VelocityModel, config: TrainConfig) -> None:
     """Copy the weights of the checkpoint ``config.init_from`` into ``model``, which must be the same
-    model with the same kwargs (JSON-compared: a checkpoint stores tuples as lists) at the same rate."""
+    model with the same kwargs (JSON-compared: a checkpoint stores tuples as lists) at the same rate.
+    With ``train_only``, the checkpoint may lack exactly the parameters that train (a new head) and
+    the kwarg that adds them (``uncertainty_head``)."""
     try:
         loaded = load_model(config.init_from)
     except CheckpointError as exc:
         raise ConfigError(f"init_from: {exc}") from None
-    ours = (config.model, json.loads(json.dumps(model.config)), config.imu_rate_hz)
-    theirs = (loaded.model_name, json.loads(json.dumps(loaded.model.config)), loaded.imu_rate_hz)
+    ours_kwargs = json.loads(json.dumps(model.config))
+    theirs_kwargs = json.loads(json.dumps(loaded.model.config))
+    if config.train_only:
+        ours_kwargs.pop(NEW_HEAD_KWARG, None)
+        theirs_kwargs.pop(NEW_HEAD_KWARG, None)
+    ours = (config.model, ours_kwargs, config.imu_rate_hz)
+    theirs = (loaded.model_name, theirs_kwargs, loaded.imu_rate_hz)
     if ours != theirs:
         raise ConfigError(
             f"init_from {config.init_from}: its {theirs[0]} {theirs[1]} at {theirs[2]:g} Hz cannot start "
             f"this run's {ours[0]} {ours[1]} at {ours[2]:g} Hz (give the checkpoint's model, kwargs and rate)"
         )
-    model.load_state_dict(loaded.model.state_dict())
+    missing, unexpected = model.load_state_dict(loaded.model.state_dict(), strict=not config.train_only)
+    untrained = [k for k in missing if not k.startswith(config.train_only)]
+    if untrained or unexpected:
+        raise ConfigError(
+            f"init_from {config.init_from}: weights missing {untrained[:3]}, unexpected {unexpected[:3]}"
+        )
+
+
+NEW_HEAD_KWARG = "uncertainty_head"  # the kwarg that adds a head a checkpoint may lack (train_only)
+
+
+def freeze_except(model: VelocityModel, prefixes: tuple[str, ...]) -> list[torch.nn.Parameter]:
+    """The parameters that train: all, or (``prefixes``) those whose names start with one of them,
+    every other one frozen (``requires_grad`` off). ``keep_frozen_in_eval`` keeps their batch norms."""
+    if not prefixes:
+        return list(model.parameters())
+    trained = []
+    for name, parameter in model.named_parameters():
+        parameter.requires_grad_(name.startswith(prefixes))
+        if parameter.requires_grad:
+            trained.append(parameter)
+    if not trained:
+        raise ConfigError(f"train_only {list(prefixes)}: no parameter of this model has such a name")
+    return trained
+
+
+def keep_frozen_in_eval(model: torch.nn.Module) -> None:
+    """Put every module whose own parameters are all frozen into evaluation mode (after ``train()``):
+    frozen batch norms keep their running statistics and frozen dropout is off, so the frozen part
+    computes exactly what the checkpoint shipped."""
+    for module in model.modules():
+        own = list(module.parameters(recurse=False))
+        if own and not any(p.requires_grad for p in own):
+            module.eval()
+        elif isinstance(module, torch.nn.Dropout) and not _trains_after(model, module):
+            module.eval()
+
+
+def _trains_after(model: torch.nn.Module, dropout: torch.nn.Module) -> bool:
+    """Whether a dropout sits in a submodule that still has trainable parameters."""
+    for module in model.modules():
+        if any(m is dropout for m in module.children()):
+            return any(p.requires_grad for p in module.parameters())
+    return True
 
 
 @dataclass
@@ -231,6 +282,7 @@ class _Run:
     elapsed_before: float  # wall time of the earlier invocations
     show_progress: bool
     loss_switch: int | None = None  # epochs of MSE before the NLL (TLIO); None: one loss throughout
+    last_val_nll: float | None = None  # of the latest validation pass (models with a log-std)
 
     @property
     def device(self) -> torch.device:
@@ -260,6 +312,8 @@ class _Run:
                 batches = self._epoch_batches(p.epoch)
                 bar = self._progress_bar(len(batches))
                 self.net.train()
+                if cfg.train_only:
+                    keep_frozen_in_eval(self.model)
                 tick, windows = time.monotonic(), 0
                 for b in range(p.step_in_epoch, len(batches)):
                     p.stop_reason = self._budget_stop(stop)
@@ -336,19 +390,32 @@ class _Run:
         return reason
 
     def validation_mse(self) -> float | None:
-        """The validation MSE of ~1 s mean velocities over every rank's windows (``ftin.train.data``)."""
+        """The validation MSE of ~1 s mean velocities over every rank's windows (``ftin.train.data``);
+        the same pass leaves the Gaussian NLL of a model with a log-std in ``last_val_nll``."""
+        mse, self.last_val_nll = self._validation()
+        return mse
+
+    def _validation(self) -> tuple[float | None, float | None]:
+        """Validation MSE and (for a model with a log-std) Gaussian NLL per element; None without."""
         if self.data.val is None:
-            return None
-        sq_sum, count = self.ddp.sum(*self.data.validation_sums(self.model, self.device, self.ddp))
-        return sq_sum / max(count, 1)
+            return None, None
+        sums = self.data.validation_sums(self.model, self.device, self.ddp, self.config.log_std_range)
+        sq_sum, nll_sum, count = self.ddp.sum(*sums)
+        count = max(count, 1)
+        return sq_sum / count, (nll_sum / count if self.model.has_uncertainty else None)
 
     def _end_epoch(self) -> None:
         p, cfg = self.progress, self.config
         loss_sum, count = self.ddp.sum(p.epoch_loss_sum, p.epoch_count)
         train_loss = loss_sum / max(count, 1)
+        self.last_val_nll = None
         val_loss = self.validation_mse()
-        # Without validation the training loss monitors the plateau (MSE unless the model uses NLL).
+        val_nll = self.last_val_nll
+        # Without validation the training loss monitors the plateau (MSE unless the model uses NLL);
+        # a frozen velocity (train_only) has a constant MSE: its validation NLL is what moves.
         monitored = val_loss if val_loss is not None else train_loss
+        if cfg.train_only and val_nll is not None:
+            monitored = val_nll
         self.scheduler.step(monitored)
         lr = self.optimizer.param_groups[0]["lr"]
         improved = p.best_val_loss is None or monitored < p.best_val_loss
@@ -357,6 +424,7 @@ class _Run:
                 "epoch": p.epoch + 1,
                 "train_loss": train_loss,
                 "val_mse": val_loss,
+                **({"val_nll": val_nll} if val_nll is not None else {}),
                 "lr": lr,
                 "steps": p.global_step,
                 "elapsed_s": self.elapsed_s(),

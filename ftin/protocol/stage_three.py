@@ -1,0 +1,89 @@
+"""Stage three: the walkers the shared data gained, and what the campaign trains on them.
+
+The 30 OxIOD walks added to ``../shared/data`` (its README, "More OxIOD walks") join the protocol as a
+fold of their own, leaving the frozen ``WALKER_FOLDS`` of stages one and two as they were (their
+records stay comparable):
+
+- ``NEW_TRAIN``: walker 3 (pocket, handbag), iPhone 6 walks 1-6, Nexus 5 walk 7, running walk 6.
+- ``NEW_VAL``: walker 4, iPhone 6 walks 7-9, Nexus 5 walk 8, running walk 7, the pocket walk: every
+  choice of stage three is judged on them with the old validation walkers, never on ``NEW_TRAIN``.
+- ``FLOOR_DRIFT``: the ten long floor walks (Tango ground truth) measure drift over minutes (ATE and
+  end-point error per 100 m); no stage-three job trains on them. Trained on through their Tango
+  orientation they pulled every held-out reading down (``docs/results/probes/damped_bounce.md``: the
+  sister walks 1-3 from 0.87 to 0.41-0.59 of their distance) while their steps agree with Tango's
+  distance (0.61-0.63 m a step on all ten): their orientation, not their distance, is in doubt.
+
+Jobs (``stage_three_jobs``): the variance head of the probes' choice (``docs/results/probes/
+uncertainty.md``: no per-window sigma without one follows the error) trained on the frozen shipped
+walking checkpoints (``TrainConfig.train_only``), so their velocities, Table 1 and the default stay
+bit for bit; TLIO's gravity perturbation (``tilt``) beside the checkpoints' own augmentation, so the
+head sees the tilt a phone's orientation leaves (issue 36).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ftin.protocol.datasets import INRIA, OXIOD, RIDI, WALKING, split_paths
+from ftin.protocol.jobs import Job, model_options
+
+_OXIOD = "oxiod/"
+NEW_TRAIN = tuple(
+    _OXIOD + rel
+    for rel in (
+        *(f"multi users/user3/syn/imu{i}.csv.xz" for i in (4, 5, 7)),
+        *(f"multi devices/iPhone 6/syn/imu{i}.csv.xz" for i in range(1, 7)),
+        "multi devices/nexus 5/syn/imu7.csv.xz",
+        "running/data1/syn/imu6.csv.xz",
+    )
+)
+NEW_VAL = tuple(
+    _OXIOD + rel
+    for rel in (
+        *(f"multi users/user4/syn/imu{i}.csv.xz" for i in (4, 6, 7)),
+        *(f"multi devices/iPhone 6/syn/imu{i}.csv.xz" for i in range(7, 10)),
+        "multi devices/nexus 5/syn/imu8.csv.xz",
+        "running/data1/syn/imu7.csv.xz",
+        "pocket/data1/syn/imu5.csv.xz",
+    )
+)
+FLOOR_DRIFT = tuple(f"{_OXIOD}large scale/floor1/syn/imu{i}.csv.xz" for i in range(1, 11))
+
+# The shipped walking checkpoints that gain a head, with the augmentation each was trained with.
+HEADED = {
+    "ronin_resnet": ("ronin_resnet-walking", {}, {"mirror": None}),
+    "ftin": ("ftin-walking", {"fdl_output": "mixed"}, {"mirror": None, "pace": None}),
+}
+HEAD_OPTIONS: dict[str, Any] = {
+    "train_only": ["log_std_head"],
+    "loss": "nll",
+    "nll_warmup_epochs": 0,  # the velocity is frozen: nothing to warm up
+    "max_epochs": 30,
+    "early_stop_patience": 4,
+    "plateau_patience": 2,
+}
+
+
+def relative_paths(data_root: Path, part: str) -> tuple[str, ...]:
+    """The walking dataset's ``part`` (the stage-two split the checkpoints trained on), relative."""
+    root = Path(data_root)
+    return tuple(str(p.relative_to(root)) for d in (OXIOD, RIDI, INRIA) for p in split_paths(root, d, part))
+
+
+def stage_three_jobs(data_root: Path, checkpoint_dir: Path) -> list[Job]:
+    """One job per headed checkpoint: its training and validation walkers plus the new fold's."""
+    train = (*relative_paths(data_root, "train"), *NEW_TRAIN)
+    val = (*relative_paths(data_root, "val"), *NEW_VAL)
+    jobs = []
+    for model, (stem, kwargs, augment) in HEADED.items():
+        options = {
+            **model_options(model, WALKING),
+            **HEAD_OPTIONS,
+            "model_kwargs": {**kwargs, "uncertainty_head": True},
+            "augment": {**augment, "tilt": None},
+            "init_from": str(Path(checkpoint_dir).resolve() / f"{stem}.safetensors"),
+        }
+        parts = {"train": train, "val": val, "test": FLOOR_DRIFT}
+        jobs.append(Job(f"stage-three/{model}-head-s0", model, WALKING, 0, "head", options, None, parts))
+    return jobs
