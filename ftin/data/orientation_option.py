@@ -14,7 +14,8 @@ table --orientation`` and ``TrainConfig.orientation`` take):
 
 :func:`apply_orientation` applies a choice to a sequence (the VQF runs are
 ``ftin.data.preprocess.estimate_orientation``'s) and records what ran in
-``meta["orientation_choice"] = {"requested", "source", "reason"}`` beside ``meta["orientation_source"]``
+``meta["orientation_choice"] = {"requested", "source", "reason"}`` (and ``"magnetometer"``, what the
+check below did, when it calibrated or dropped the field) beside ``meta["orientation_source"]``
 (``device``, ``estimated``, ``ground_truth``). Before ``auto`` and ``vqf`` read the magnetometer, its
 field is checked (``ftin.data.magnetometer``): used as given, calibrated from the recording's own
 turns, or dropped, and the reason says which when it is not as given. A choice the recording cannot
@@ -105,7 +106,7 @@ def apply_phone_only(seq: ImuSequence) -> ImuSequence:
         )
     seq, field = magnetometer.checked(seq)
     source, reason = choose_orientation(phone_only(seq))
-    return _with_source(seq, Orientation.AUTO, source, _with_field(field, source, reason))
+    return _with_source(seq, Orientation.AUTO, source, _with_field(field, source, reason), field)
 
 
 def _own_is_reference(seq: ImuSequence) -> bool:
@@ -148,6 +149,7 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
     done = seq.meta.get("orientation_choice")
     if isinstance(done, dict) and done.get("requested") == choice.value:
         return seq
+    field = None  # the magnetometer check's decision, where the choice reads the field
     if choice is Orientation.AUTO:
         if _own_is_reference(seq):
             source = Orientation.GROUND_TRUTH.value
@@ -170,7 +172,7 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
             reason = f"asked for: VQF 9-D (heading from the magnetometer, {field.text})"
     else:
         source, reason = choice.value, _REASONS[choice]
-    return _with_source(seq, choice, source, reason)
+    return _with_source(seq, choice, source, reason, field)
 
 
 def _with_field(field: MagnetometerDecision | None, source: str, reason: str) -> str:
@@ -196,7 +198,9 @@ _REASONS = {
 }
 
 
-def _with_source(seq: ImuSequence, choice: Orientation, source: str, reason: str) -> ImuSequence:
+def _with_source(
+    seq: ImuSequence, choice: Orientation, source: str, reason: str, field: MagnetometerDecision | None = None
+) -> ImuSequence:
     if source == Orientation.DEVICE.value:
         if seq.q_world_device_wxyz is None:
             raise _unavailable(seq, choice, "the recording carries no phone attitude")
@@ -209,6 +213,8 @@ def _with_source(seq: ImuSequence, choice: Orientation, source: str, reason: str
         out = _reference(seq, choice)
     meta: dict[str, Any] = dict(out.meta)
     meta["orientation_choice"] = {"requested": choice.value, "source": source, "reason": reason}
+    if field is not None and field.action is not MagnetometerAction.AS_GIVEN:  # as given: keys as before
+        meta["orientation_choice"]["magnetometer"] = field.text
     return out.with_(meta=meta)  # an estimate's own message names the filter and its heading
 
 
