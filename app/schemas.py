@@ -20,6 +20,7 @@ from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
 from app.services.verdict import z_note
 from ftin.data import Trajectory
+from ftin.filter.choice import filter_of
 from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_metrics
 
 
@@ -338,6 +339,13 @@ class PredictionResponse(BaseModel):
         None, description="Does it look like a walk, read right? (ok/check/implausible)"
     )
     uncertainty: UncertaintyPayload | None = Field(None, description="How sure: the 95 % end radius.")
+    # Only where asked: an answer without the filter stays as it was (docs/filter.md).
+    filter: str = Field(
+        "none",
+        description="The filter the model ran in: ekf (the network inside the EKF, docs/filter.md); "
+        "absent for none.",
+        exclude_if=lambda value: value == "none",
+    )
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
@@ -373,6 +381,7 @@ class PredictionResponse(BaseModel):
             z_note=z_note(run),
             verdict=VerdictPayload.from_run(run),
             uncertainty=UncertaintyPayload.from_run(run),
+            filter=filter_of(pred),
         )
 
 

@@ -12,7 +12,14 @@ row), on ``auto`` (today's phone-only row), the EKF's own trajectory (started fr
 orientation, zero biases), and the network re-run on the EKF's orientation, integrated as inference
 integrates. Tilt error: mean angle between the estimate's and motion capture's gravity directions over
 the tracked samples. Consistency: the mean NIS of the updates (3 dof) and the mean tilt NEES (2 dof)
-against motion capture, with the share of single values inside their 95 % chi-square bounds.
+against motion capture, with the share of single values inside their 95 % chi-square bounds; and a
+position NEES no marker mounting enters: the EKF's horizontal position error against the start-aligned
+ground truth every 10 s with its own position covariance (2 dof), pooled over each set.
+
+The measurement covariance of a model without a variance head (issue 36's consistency part):
+
+    nice -n 10 .venv/bin/python -m experiments.probe_ekf --sets ridi-val inria-val oxiod-val oxiod-test \
+        --arm fixed measurement_sigma=fixed --arm calibrated measurement_sigma=calibrated
 
 ``--fit`` first prints the network's velocity residuals against motion capture on the OxIOD and RIDI
 validation walks (the fixed measurement covariance of a model without a variance head). ``--arm``
@@ -47,6 +54,7 @@ SETS = {
     "ridi-val": (protocol.RIDI, "val"),
     "inria-val": (protocol.INRIA, "val"),
 }
+POSITION_EVERY_S = 10.0  # how often the position NEES is read (s): roughly independent checks
 WAYS = ("truth", "auto", "ekf", "net_on_ekf", "net_on_ekf_tilt")
 
 
@@ -57,7 +65,7 @@ def parse_arm(items: list[str]) -> tuple[str, dict]:
         key, value = item.split("=", 1)
         if value == "none":
             overrides[key] = None
-        elif key == "heading_reference":
+        elif key in ("heading_reference", "measurement_sigma"):
             overrides[key] = value
         else:
             overrides[key] = int(value) if key == "update_every" else float(value)
@@ -117,8 +125,10 @@ def with_filter(model, path: Path, config: FilterConfig) -> dict:
     tilt_only = heading_of(seq.q_world_device_wxyz, run.q_world_device_wxyz)
     rerun_tilt = predict_trajectory(model, seq.with_(q_world_device_wxyz=tilt_only))
     nees = tilt_nees(q_ekf, q_true, run.tilt_cov[tracked])
+    scored = score(prediction, "start")
+    pos_nees = position_nees(scored.truth_in_estimate_frame(seq.gt), run.p_world_m, run.position_cov_xy)
     return {
-        "ekf": score(prediction, "start").metrics.ate,
+        "ekf": scored.metrics.ate,
         "net_on_ekf": score(rerun, "start").metrics.ate,
         "net_on_ekf_tilt": score(rerun_tilt, "start").metrics.ate,
         "tilt_ekf": float(tilt_error_deg(q_ekf, q_true).mean()),
@@ -126,10 +136,28 @@ def with_filter(model, path: Path, config: FilterConfig) -> dict:
         "nis_within": fraction_within(run.nis, 3),
         "nees": float(nees.mean()),
         "nees_within": fraction_within(nees, 2),
+        "pos_nees": float(pos_nees.mean()) if len(pos_nees) else float("nan"),
+        "pos_nees_within": fraction_within(pos_nees, 2),
+        "pos_nees_values": [round(float(v), 3) for v in pos_nees],
         "rejected": int((~run.applied).sum()),
         "seconds": round(seconds, 1),
         "bias_end": {"gyro": run.gyro_bias_rad_s[-1].tolist(), "acc": run.acc_bias_m_s2[-1].tolist()},
     }
+
+
+def position_nees(
+    truth, p_m: np.ndarray, cov_xy: np.ndarray, every_s: float = POSITION_EVERY_S
+) -> np.ndarray:
+    """The filter's horizontal position NEES (2 dof) against the ground truth (already moved into the
+    estimate's frame by the start alignment) every ``every_s`` seconds of tracked truth after the
+    start: no motion-capture mounting enters it, only where the device was."""
+    t = truth.t_s
+    marks = np.arange(t[0] + every_s, t[-1], every_s)
+    idx = np.unique(np.clip(np.searchsorted(t, marks), 0, len(t) - 1))
+    idx = idx[truth.tracked_mask[idx]]
+    e = truth.p_world_m[idx, :2] - p_m[idx, :2]
+    P = cov_xy[idx]
+    return np.einsum("ni,ni->n", e, np.linalg.solve(P, e[..., None])[..., 0])
 
 
 def heading_of(heading_from: np.ndarray, tilt_from: np.ndarray) -> np.ndarray:
@@ -186,10 +214,14 @@ def main() -> None:
 
 
 def summary(records: list[dict]) -> dict:
-    keys = (*WAYS, "tilt_auto", "tilt_ekf", "nis", "nees")  # arms run before a column lack it: nan
+    keys = (*WAYS, "tilt_auto", "tilt_ekf", "nis", "nees", "nis_within", "nees_within")
+    # arms run before a column lack it: nan
     mean = {k: float(np.mean([r.get(k, np.nan) for r in records])) for k in keys}
-    mean["nis_within"] = float(np.mean([r["nis_within"] for r in records]))
-    mean["nees_within"] = float(np.mean([r["nees_within"] for r in records]))
+    # Position NEES pooled over the set's checks (every POSITION_EVERY_S), not averaged per walk.
+    pooled = [v for r in records for v in r.get("pos_nees_values", [])]
+    mean["pos_nees"] = float(np.mean(pooled)) if pooled else float("nan")
+    mean["pos_nees_within"] = fraction_within(np.array(pooled), 2) if pooled else float("nan")
+    mean["pos_nees_n"] = len(pooled)
     return mean
 
 
@@ -208,21 +240,31 @@ def render(args, rows: dict, arms: dict) -> list[str]:
         "(`net/ekf tilt`); the ratios are over `truth`. Tilt: mean angle (deg) between the estimate's and",
         "motion capture's gravity direction. NIS (3 dof, expected 3, single-value 95 % bounds",
         f"{low3:.2f}-{high3:.2f}) and tilt NEES against motion capture (2 dof, expected 2, bounds",
-        f"{low2:.2f}-{high2:.2f}): mean, and the share of values inside the bounds.",
+        f"{low2:.2f}-{high2:.2f}): mean, and the share of values inside the bounds. Position NEES: the",
+        "EKF's horizontal position error against the start-aligned ground truth every"
+        f" {POSITION_EVERY_S:.0f} s with its own",
+        "position covariance (2 dof, same bounds; no motion-capture mounting enters it), pooled over the",
+        "set's checks: mean, share inside the bounds, number of checks (arms run before it was added: -).",
         "",
         "| arm | set | n | truth | auto | ekf | net/ekf | net/ekf tilt | over truth: auto / ekf / net/ekf /"
-        " net/ekf tilt | tilt VQF / EKF | NIS (in) | tilt NEES (in) |",
-        "|---|---|--:|--:|--:|--:|--:|--:|---|---|---|---|",
+        " net/ekf tilt | tilt VQF / EKF | NIS (in) | tilt NEES (in) | position NEES (in, checks) |",
+        "|---|---|--:|--:|--:|--:|--:|--:|---|---|---|---|---|",
     ]
     for arm in args.report_arms or list(rows):
         for set_name, records in rows.get(arm, {}).items():
             m = summary(records)
             ratios = " / ".join(f"{m[w] / m['truth']:.2f}x" for w in WAYS[1:])
             ates = " | ".join(f"{m[w]:.3f}" for w in WAYS)
+            position = (
+                f"{m['pos_nees']:.2f} ({m['pos_nees_within']:.0%}, {m['pos_nees_n']}) |"
+                if m["pos_nees_n"]
+                else "- |"
+            )
             lines.append(
                 f"| {arm} | {set_name} | {len(records)} | {ates} | {ratios} |"
                 f" {m['tilt_auto']:.2f} / {m['tilt_ekf']:.2f} |"
                 f" {m['nis']:.2f} ({m['nis_within']:.0%}) | {m['nees']:.1f} ({m['nees_within']:.0%}) |"
+                f" {position}"
             )
     lines += ["", "Arms (`FilterConfig` overrides of the defaults):", ""]
     for arm in args.report_arms or list(rows):

@@ -17,6 +17,10 @@ truth that cannot be scored at all (one that never moves has no drift ratio) giv
 The result stands beside the prediction (``Scored``), which it never changes, as evo's ``ape()``
 returns a result and leaves the reference alone. Path lengths are compared over the model's window
 (``ftin.metrics.definitions``).
+
+Beside the metrics, each sequence's uncertainty coverage (``ftin.uncertainty.coverage``): the share of
+samples whose true position lies inside the 1- and 2-sigma ellipse of the path's covariance
+(``ftin.uncertainty``, start-aligned) and whether the true end lies within ``end_radius_95_m``.
 """
 
 from __future__ import annotations
@@ -43,6 +47,8 @@ from ftin.metrics import (
     mean_metrics,
     stand_still,
 )
+from ftin.uncertainty import path_uncertainty
+from ftin.uncertainty.coverage import Coverage, CoverageSummary, coverage_of, pooled
 
 
 @dataclass(frozen=True)
@@ -55,6 +61,7 @@ class SequenceResult:
     orientation_choice: dict[str, str] | None = (
         None  # requested, source, reason (ftin.data.orientation_option)
     )
+    coverage: Coverage | None = None  # how well the path's uncertainty holds the truth (None: no uncertainty)
 
 
 def _values(m: TrajectoryMetrics | None) -> dict[str, Any] | None:
@@ -80,6 +87,11 @@ class EvaluationReport:
         """The sentence stating the convention, for every table of these numbers."""
         return describe(self.convention, self.rte_window_s)
 
+    @property
+    def coverage(self) -> CoverageSummary | None:
+        """Every sequence's uncertainty coverage pooled (from the sequences, so a merged report has it)."""
+        return pooled([r.coverage for r in self.sequences])
+
     def to_json(self) -> dict[str, Any]:
         return {
             "checkpoint": self.checkpoint,
@@ -90,9 +102,11 @@ class EvaluationReport:
                     "duration_s": r.duration_s,
                     "stand_still": _values(r.stand_still),
                     "orientation_choice": r.orientation_choice,
+                    "uncertainty_coverage": None if r.coverage is None else r.coverage.to_json(),
                 }
                 for r in self.sequences
             ],
+            "uncertainty_coverage": None if self.coverage is None else self.coverage.to_json(),
             "mean": _values(self.mean),
             "stand_still": _values(self.stand_still),
             "convention": self.convention.value,
@@ -221,6 +235,7 @@ def evaluate_checkpoint(
                 warnings,
                 scored.stand_still,
                 prediction.orientation_choice,
+                _coverage(prediction, loaded.name, seq),
             )
         )
     if not results:
@@ -234,3 +249,15 @@ def evaluate_checkpoint(
         mean=mean_metrics([r.metrics for r in results]),
         stand_still=mean_metrics(stills) if stills else None,
     )
+
+
+def _coverage(prediction: Prediction, checkpoint: str, seq: ImuSequence) -> Coverage | None:
+    """How well ``prediction``'s uncertainty covers its prepared ground truth (None without either)."""
+    found = path_uncertainty(prediction, checkpoint, seq.meta.get("carry"))
+    truth = prediction.truth
+    if found is None or truth is None:
+        return None
+    try:
+        return coverage_of(prediction.trajectory, found.cov_m2, truth, found.end_radius_95_m)
+    except ValueError:  # a truth the start alignment cannot fit (one that never moves): no coverage
+        return None

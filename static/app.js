@@ -98,6 +98,7 @@ function runPrediction() {
   const runId = newRunId();
   const form = new FormData();
   form.append("file", file, file.name);
+  if (filterPicked()) form.append("filter", "ekf"); // only when asked: the answer is otherwise as before
   const xhr = new XMLHttpRequest();
   xhr.open("POST", `/predict?run_id=${runId}${modelParam()}${alignParam()}${orientationParam()}`);
   xhr.upload.onprogress = (e) => {
@@ -174,7 +175,7 @@ async function predictSample({ auto = false } = {}) {
   setProgress(0, `Running ${model ? displayName(model) : "the default model"} on ${option.dataset.name} ...`);
   try {
     // No model named: the server runs the sequence's suggested model and says so (model_choice).
-    const query = `?${orientationParam().slice(1)}`;
+    const query = `?${orientationParam().slice(1)}${filterPicked() ? "&filter=ekf" : ""}`;
     const r = await fetch(`/sequences/${encodeURIComponent(option.value)}/predict${query}`, { method: "POST" });
     const text = await r.text();
     if (auto && state.userActed) return; // the user picked something else meanwhile
@@ -199,11 +200,18 @@ async function predictSample({ auto = false } = {}) {
   }
 }
 
+// --- the filter (docs/filter.md): sent only when the EKF is picked; the result says which ran ------
+
+function filterPicked() {
+  return $("filter-select").value === "ekf";
+}
+
 function setUp() {
   const zone = $("drop-zone");
   $("file-input").addEventListener("change", (e) => pickFile(e.target.files[0]));
   $("align-select").addEventListener("change", hideResult); // numbers scored another way: stale
   $("orientation-select").addEventListener("change", hideResult); // another input: stale
+  $("filter-select").addEventListener("change", hideResult); // another estimate: stale
   zone.addEventListener("keydown", (e) => {
     if (e.key === "Enter" || e.key === " ") $("file-input").click();
   });

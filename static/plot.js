@@ -1,12 +1,18 @@
 // A small dependency-free SVG plot of 2-D trajectories (x east, y north, equal scale).
 // FtinPlot.render(container, series, legend): series = [{label, color, x: [...], y: [...], dashed, truth,
-// gps, accuracy: [...]}]
+// gps, accuracy: [...], band: {t, xx, xy, yy}, endRadius}]
 // The legend is HTML beside the plot (never over the data, names never cut). Markers: the start is
 // one green circle (the ground truth's, else where the predictions start); a prediction aligned away
 // from it starts at a small circle in its own colour; the ground truth ends at a hollow grey square,
 // a prediction at a triangle in its own colour. GPS fixes are drawn first, under every path: dots on a
 // dotted line, inside their reported accuracy as one pale area (the circles drawn opaque inside a
 // faint group, so a hundred overlapping fixes tint the plot no more than one: they used to wash it).
+// How sure (docs/metrics.md, "How sure is it"): a path with `band` (its per-sample covariance, m²) is
+// drawn over a pale corridor, the union of its 2-sigma ellipses every BAND_EVERY_S (wider apart on a
+// long walk, at most MAX_BAND_ELLIPSES) joined by round-capped strokes as wide as the narrower of the
+// two ellipses across the stroke, opaque inside one faint group as the GPS area; `endRadius` (end_radius_95_m) is a dashed
+// circle around its end. Both are clipped to the plot area: a radius larger than the walk does not
+// rescale the plot.
 // Colours: app/viz/palette.py (START_COLOR here, the rest in util.js), no two alike.
 "use strict";
 
@@ -17,6 +23,10 @@ const FtinPlot = (() => {
   const START_COLOR = "#00aa5a";
   const TRUTH_END = "#3c3c3c";
   const GPS_AREA_OPACITY = 0.1; // the union of the accuracy circles, however many overlap
+  const BAND_OPACITY = 0.16;
+  const BAND_EVERY_S = 2;
+  const MAX_BAND_ELLIPSES = 900; // a 1-hour walk: one every 4 s
+  let clipCount = 0; // a unique clip-path id per plot drawn
 
   function el(name, attrs, parent) {
     const node = document.createElementNS(SVG_NS, name);
@@ -58,6 +68,62 @@ const FtinPlot = (() => {
     return { x0: cx - spanX / 2, x1: cx + spanX / 2, y0: cy - spanY / 2, y1: cy + spanY / 2, scale };
   }
 
+  // The samples that get an ellipse: one per BAND_EVERY_S (or wider), the last always.
+  function bandRows(t) {
+    const n = t.length;
+    if (n < 2) return [];
+    const every = Math.max(BAND_EVERY_S, (t[n - 1] - t[0]) / MAX_BAND_ELLIPSES);
+    const rows = [];
+    let next = t[0] + every; // not the start: its ellipse is a point
+    for (let i = 1; i < n; i++) {
+      if (t[i] >= next) {
+        rows.push(i);
+        next = t[i] + every;
+      }
+    }
+    if (rows[rows.length - 1] !== n - 1) rows.push(n - 1);
+    return rows;
+  }
+
+  // The 2x2 covariance [xx, xy; xy, yy] as its axes: larger and smaller variance, long axis angle.
+  function axes(xx, xy, yy) {
+    const mid = (xx + yy) / 2, half = Math.sqrt(((xx - yy) / 2) ** 2 + xy * xy);
+    return { long: Math.max(mid + half, 0), short: Math.max(mid - half, 0), angle: 0.5 * Math.atan2(2 * xy, xx - yy) };
+  }
+
+  function drawBand(parent, s, px, py, scale) {
+    const band = s.band;
+    const g = el("g", { class: "uncertainty-band", opacity: BAND_OPACITY, "data-label": s.label }, parent);
+    // Half the 2-sigma ellipse's width across the direction (nx, ny) (world, unit): 2 sqrt(n' C n).
+    const across = (i, nx, ny) => 2 * Math.sqrt(Math.max(
+      nx * nx * band.xx[i] + 2 * nx * ny * band.xy[i] + ny * ny * band.yy[i], 0));
+    let last = null;
+    for (const i of bandRows(band.t)) {
+      const a = axes(band.xx[i], band.xy[i], band.yy[i]);
+      const cx = px(s.x[i]), cy = py(s.y[i]);
+      const ry = 2 * Math.sqrt(a.short) * scale;
+      if (last) {
+        // The stroke between two ellipses is as wide as the narrower of them across it: the corridor
+        // never claims more than the ellipses do, and has no gaps between them.
+        const dx = s.x[i] - s.x[last.i], dy = s.y[i] - s.y[last.i], d = Math.hypot(dx, dy) || 1;
+        const half = Math.min(across(last.i, -dy / d, dx / d), across(i, -dy / d, dx / d)) * scale;
+        el("line", { x1: last.cx.toFixed(1), y1: last.cy.toFixed(1), x2: cx.toFixed(1), y2: cy.toFixed(1),
+          stroke: s.color, "stroke-linecap": "round", "stroke-width": (2 * half).toFixed(1) }, g);
+      }
+      // SVG's y points down: the world's angle turns the other way.
+      el("ellipse", { cx: cx.toFixed(1), cy: cy.toFixed(1), rx: (2 * Math.sqrt(a.long) * scale).toFixed(1), ry: ry.toFixed(1),
+        transform: `rotate(${(-a.angle * 180 / Math.PI).toFixed(1)} ${cx.toFixed(1)} ${cy.toFixed(1)})`,
+        fill: s.color, class: "band-ellipse" }, g);
+      last = { i, cx, cy };
+    }
+  }
+
+  function drawEndRadius(parent, s, px, py, scale) {
+    const last = s.x.length - 1;
+    el("circle", { cx: px(s.x[last]), cy: py(s.y[last]), r: Math.max(s.endRadius * scale, 1), fill: "none",
+      stroke: s.color, "stroke-width": 1.5, "stroke-dasharray": "5 4", opacity: 0.7, class: "end-radius" }, parent);
+  }
+
   function renderLegend(legend, series, ownStarts) {
     legend.textContent = "";
     const item = (swatch, label) => {
@@ -74,6 +140,14 @@ const FtinPlot = (() => {
       }
       const dash = s.dashed ? "stroke-dasharray='6 4'" : "";
       item(`<svg width="26" height="10"><line x1="0" y1="5" x2="26" y2="5" stroke="${s.color}" stroke-width="3" ${dash}/></svg>`, s.label);
+    }
+    for (const s of series.filter((b) => b.band)) {
+      item(`<svg width="26" height="12"><rect x="0" y="1" width="26" height="10" rx="5" fill="${s.color}" fill-opacity="${BAND_OPACITY}"/><line x1="0" y1="6" x2="26" y2="6" stroke="${s.color}" stroke-width="2"/></svg>`,
+        "2σ band: holds 86 % of true positions");
+    }
+    for (const s of series.filter((b) => b.endRadius)) {
+      item(`<svg width="14" height="14"><circle cx="7" cy="7" r="5.5" fill="none" stroke="${s.color}" stroke-width="1.5" stroke-dasharray="3 2"/></svg>`,
+        `95 %: the true end lies within ${s.endRadius >= 10 ? s.endRadius.toFixed(0) : s.endRadius.toFixed(1)} m`);
     }
     item(`<svg width="12" height="12"><circle cx="6" cy="6" r="5" fill="${START_COLOR}"/></svg>`, "start");
     if (ownStarts) {
@@ -116,6 +190,15 @@ const FtinPlot = (() => {
       .textContent = "y (m)";
 
     const paths = series.filter((s) => !s.gps);
+    const sure = paths.filter((s) => s.band || s.endRadius);
+    if (sure.length) {
+      const id = `plot-area-${++clipCount}`;
+      el("rect", { x: SIZE.left, y: SIZE.top, width: SIZE.width - SIZE.left - SIZE.right,
+        height: SIZE.height - SIZE.top - SIZE.bottom }, el("clipPath", { id }, el("defs", {}, svg)));
+      const clipped = el("g", { "clip-path": `url(#${id})`, class: "uncertainty" }, svg);
+      for (const s of sure.filter((p) => p.band)) drawBand(clipped, s, px, py, b.scale);
+      for (const s of sure.filter((p) => p.endRadius)) drawEndRadius(clipped, s, px, py, b.scale);
+    }
     for (const s of series.filter((g) => g.gps)) drawGps(svg, s, px, py, b.scale);
     for (const s of paths) {
       const points = decimate(s.x.length).map((i) => `${px(s.x[i]).toFixed(1)},${py(s.y[i]).toFixed(1)}`);
@@ -168,5 +251,5 @@ const FtinPlot = (() => {
     }
   }
 
-  return { render, decimate, tickStep };
+  return { render, decimate, tickStep, bandRows };
 })();

@@ -39,6 +39,12 @@ function renderPlot() {
   for (const r of [result, ...state.compared]) {
     series.push({ label: displayName(r.model), color: modelColor(r.model), x: r.trajectory.x, y: r.trajectory.y, model: r.model });
   }
+  // How sure: the shown result's 2-sigma band and 95 % end circle (the compared runs' would hide the paths).
+  const traj = result.trajectory, mine = series.find((s) => s.model === result.model);
+  if (mine && traj.cov_xx && traj.cov_xx.length === traj.x.length) {
+    mine.band = { t: traj.t, xx: traj.cov_xx, xy: traj.cov_xy, yy: traj.cov_yy };
+  }
+  if (mine && result.uncertainty) mine.endRadius = result.uncertainty.end_radius_95_m;
   FtinPlot.render($("plot"), series, $("plot-legend"));
 }
 
@@ -158,6 +164,16 @@ function showUncertainty(uncertainty) {
   line.title = uncertainty.calibration;
 }
 
+// Which filter ran (docs/filter.md): a line only where the EKF did.
+function showFilter(result) {
+  const box = $("filter-text");
+  const ekf = result && result.filter === "ekf";
+  box.hidden = !ekf;
+  box.textContent = ekf
+    ? "Filter: EKF — the trajectory, tilt and uncertainty are the filter's (the model's velocity is its measurement)."
+    : "";
+}
+
 function showResult(result, label) {
   state.result = result;
   $("result").hidden = false;
@@ -165,6 +181,7 @@ function showResult(result, label) {
   $("result-caption").textContent = `${label || result.sequence} · ${displayName(result.model)}`;
   showWalkVerdict(result.verdict);
   showUncertainty(result.uncertainty);
+  showFilter(result);
   renderPlot();
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];

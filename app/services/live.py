@@ -61,6 +61,7 @@ from app.services.listeners import Listeners
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin.data.errors import DataFormatError
+from ftin.filter.choice import EKF, LIVE_UNAVAILABLE, parse_filter
 from ftin.live.formats import PushFormat
 from ftin.live.messages import MessageError, PushMessage
 from ftin.live.session import LiveSession
@@ -175,11 +176,17 @@ class LiveService:
         push_format: PushFormat,
         model: str | None = None,
         platform: str | None = None,
+        filter: str | None = None,
     ) -> dict[str, Any]:
         """Check and queue one push body (its size was checked at the door); the answer for the
-        phone (raises 4xx service errors)."""
+        phone (raises 4xx service errors). ``filter``: only none for now (``ftin.filter.choice``)."""
         if platform is not None and platform.lower() not in PLATFORMS:
             raise InvalidInputError(f"platform must be one of {', '.join(PLATFORMS)}; got {platform!r}")
+        try:
+            if parse_filter(filter) == EKF:  # causal, but not yet stepped sample by sample live
+                raise InvalidInputError(LIVE_UNAVAILABLE)
+        except ValueError as exc:
+            raise InvalidInputError(str(exc)) from None
         try:
             message = push_format.parse(body)
         except MessageError as exc:

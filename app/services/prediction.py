@@ -31,11 +31,16 @@ Decisions:
   model runs on the oriented sequence (inference then has no choice left to apply), and the run keeps
   that sequence, so that the drawn ground truth is in the frame the model ran in. A request without a
   model runs the one ``model_choice`` picks.
+- Filter (``ftin.filter.choice``): ``filter=ekf`` puts the model inside the EKF on the oriented sequence
+  (its trajectory, and its own covariance as the run's uncertainty); none or absent runs inference
+  exactly as before. The EKF's tilt and bias series are kept by run id for the scene's timeline.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -59,6 +64,7 @@ from ftin.data.from_bytes import read_bytes
 from ftin.data.orientation_option import orient, parse_orientation
 from ftin.data.validate import validate
 from ftin.evaluate import score
+from ftin.filter.choice import EKF, ekf_prediction, parse_filter
 from ftin.metrics import Alignment
 from ftin.metrics.steps import detect_steps
 from ftin.precision import PrecisionChoice, choose
@@ -66,6 +72,32 @@ from ftin.precision import PrecisionChoice, choose
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
+# The EKF's tilt and bias series of the latest EKF runs, by run id, for the scene's timeline
+# (app.viz.filter_series): the same arrays the run's prediction holds (nothing copied); at most
+# FILTER_SERIES_KEPT, so those of a run the store has dropped are let go soon after.
+FILTER_SERIES_KEPT = 32
+_FILTER_SERIES: OrderedDict[str, dict[str, np.ndarray]] = OrderedDict()
+_FILTER_SERIES_LOCK = threading.Lock()
+
+
+def filter_series_of(run_id: str) -> dict[str, np.ndarray] | None:
+    """The EKF series of run ``run_id`` (``ftin.filter.choice.ekf_series``), or None: no EKF, or
+    no longer kept (a restored run's series are not stored)."""
+    with _FILTER_SERIES_LOCK:
+        return _FILTER_SERIES.get(run_id)
+
+
+def _keep_filter_series(run_id: str, prediction: Any) -> None:
+    series = (prediction.features or {}).get("filter_series")
+    if series is None:
+        return
+    with _FILTER_SERIES_LOCK:
+        _FILTER_SERIES[run_id] = series
+        _FILTER_SERIES.move_to_end(run_id)
+        while len(_FILTER_SERIES) > FILTER_SERIES_KEPT:
+            _FILTER_SERIES.popitem(last=False)
+
+
 # Work of a run that needs the recording but not the model (its steps), done while the model runs.
 _FIGURES = ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftin-figures")
 
@@ -125,6 +157,7 @@ class RunOptions:
     align: str | None = None  # ``ftin.metrics.Alignment``; None: the recording's default
     orientation: str | None = None  # ``ftin.data.orientation_option``; None: auto
     group: str | None = None  # the run_id a compare-all started from (app.services.runs.Run.group)
+    filter: str | None = None  # ``ftin.filter.choice``: none (None) or ekf, the network inside the EKF
 
 
 class HandedBytes:
@@ -261,6 +294,7 @@ class PredictionService:
             orientation=options.orientation,
             model_choice=choice,
             group=options.group,
+            filter=options.filter,
         )
 
     def run(
@@ -276,11 +310,14 @@ class PredictionService:
         orientation: str | None = None,
         model_choice: ModelChoice | None = None,
         group: str | None = None,
+        filter: str | None = None,
     ) -> Run:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
 
         ``orientation`` (``ftin.data.orientation_option``; ``auto`` when None) is applied first; the run
         keeps the oriented sequence. ``model_choice`` says why ``entry`` runs (``app.services.model_choice``).
+        ``filter`` (``ftin.filter.choice``): ``ekf`` puts the model inside the EKF (its trajectory, its
+        covariance as the uncertainty); none or None runs inference as always.
 
         With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
         where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
@@ -295,6 +332,12 @@ class PredictionService:
             orientation = parse_orientation(orientation).value
         except ValueError as exc:
             raise InvalidInputError(str(exc)) from None
+        try:
+            filter = parse_filter(filter)
+        except ValueError as exc:
+            raise InvalidInputError(str(exc)) from None
+        if filter == EKF and entry.loaded.model.streams:
+            raise InvalidInputError(f"filter=ekf needs a window model; {entry.name} is a streaming model")
         what = f"running {entry.name} on {seq.name}"
 
         def progress(done: int, total: int) -> None:
@@ -311,14 +354,20 @@ class PredictionService:
                 # (the model takes one thread, FTIN_TORCH_THREADS), not after it, in the answer.
                 steps = _FIGURES.submit(detect_steps, seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
-                prediction = infer.predict_trajectory(
-                    entry.loaded,
-                    seq,
-                    batch_size=BATCH_WINDOWS,
-                    progress=progress,
-                    keep_prepared=False,
-                    precision=self.precision_for(entry).precision,
-                )
+                if filter == EKF:  # sample by sample: progress (and the deadline) at every update
+                    try:
+                        prediction = ekf_prediction(entry.loaded, seq, progress=progress, keep_prepared=False)
+                    except ValueError as exc:  # too short for one window, no orientation: the input's fault
+                        raise DataFormatError(str(exc)) from None
+                else:
+                    prediction = infer.predict_trajectory(
+                        entry.loaded,
+                        seq,
+                        batch_size=BATCH_WINDOWS,
+                        progress=progress,
+                        keep_prepared=False,
+                        precision=self.precision_for(entry).precision,
+                    )
         except DataFormatError as exc:
             self.runs.fail(run_id, str(exc))
             raise InvalidInputError(f"{seq.name}: {exc}") from None
@@ -348,5 +397,6 @@ class PredictionService:
             group=group,
             steps=steps,
         )
+        _keep_filter_series(run_id, prediction)  # before finish: the scene hears of the run there
         self.runs.finish(run)
         return run

@@ -24,6 +24,7 @@ import viser
 from app.services.checkpoint_store import ModelStore
 from app.services.runs import Run
 from app.viz.drawing import GridNodes, PathNodes, draw_gps, draw_grid, draw_path, extent_of, set_window
+from app.viz.filter_series import filter_label
 from app.viz.framing import aim, follow
 from app.viz.live_path import GrowingPath
 from app.viz.palette import START_COLOR, TRUTH_COLOR, ColorBook
@@ -56,7 +57,7 @@ class Overlay:
         entry = self.models.entries.get(run.model_name)
         loaded = entry.loaded if entry is not None else None
         window_s = float(loaded.window) / float(loaded.imu_rate_hz) if loaded is not None else 1.0
-        shown = entry.display_name if entry is not None else run.model_name
+        shown = filter_label(run.prediction, entry.display_name if entry is not None else run.model_name)
         return RunView.from_run(run, self.colors.color(run.model_name), window_s, loaded, shown)
 
     def frame(self, run: Run, view: RunView) -> None:

@@ -7,6 +7,8 @@ Decisions:
   older prediction) the checkpoint's window is placed around ``window_t_s``, the middle of its span.
 - The FDL spectra are recomputed for the window on screen from the run's ``ModelInput``
   (``app.services.features``); whether a model has them at all is found once, on window 0.
+- How sure the path is (``PathSpread``: its covariance, ``ftin.uncertainty``) is taken once too; a live
+  run's only every 10 s of walking (``PathSpread.grown``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from app.services.features import CHANNEL_SPECTRUM, TEMPORAL_SPECTRUM, ModelInput, window_taps
 from app.services.runs import Run
+from app.viz.ellipses import PathSpread
 from app.viz.palette import RGB
 from app.viz.spectra import (
     amplitude_spectrum,
@@ -63,6 +66,7 @@ class RunView:
     scope_note: str | None = None  # why ATE means little on this recording, if it does
     plausibility: Any = None  # ftin.metrics.plausibility.Plausibility: figures without ground truth, GPS
     display_name: str = ""  # the model's name people know ("RNIN · OxIOD"); model_name is the API's
+    spread: PathSpread | None = None  # the path's covariance (None: no uncertainty for this run)
 
     @classmethod
     def from_run(
@@ -109,6 +113,7 @@ class RunView:
             scope_note=verdict.scope_note,
             plausibility=run.plausibility,
             display_name=display_name,
+            spread=PathSpread.of_run(run),
         )
 
     @property
@@ -145,6 +150,7 @@ class RunView:
             window_end_s=pred.span_t_s[:, 1],
             model_input=run.model_input if self.model_input is not None else None,
             warnings=tuple(pred.warnings),
+            spread=PathSpread.of_run(run) if self.spread is None else self.spread.grown(run),
         )
 
     def spectra_at(self, index: int) -> tuple[np.ndarray | None, np.ndarray | None]:

@@ -1,33 +1,68 @@
 """The "Timeline" folder's behaviour: the time slider moves every marker and window highlight and
 refreshes the plots, on the drawing thread (slider moves coalesce: a dragged slider never queues
-seconds of stale redraws); Play advances the slider at the chosen speed on its own thread."""
+seconds of stale redraws); Play advances the slider at the chosen speed on its own thread.
+
+The folder also shows how sure each path is: sigma over time (the 1-sigma position radius along the
+ellipse's long axis, ``app.viz.ellipses``) for every shown run with a cursor at the slider's time, and
+the "Uncertainty" checkbox for the ellipses in the scene. Every update keeps the ellipses in step with
+the runs shown (a new run, a repeat that replaced one, a live walk grown: each ends in an update)."""
 
 from __future__ import annotations
 
 import threading
 import time
 
+import numpy as np
 import viser
 
 from app.viz.draw_queue import DrawQueue
+from app.viz.ellipses import UncertaintyLayer, sigma_curves
+from app.viz.filter_series import FilterPlots
 from app.viz.overlay import Overlay
-from app.viz.panels import Plots
+from app.viz.palette import hex_color
+from app.viz.panels import CURSOR_COLOR, Plots
+from app.viz.run_scene_data import RunView
+from app.viz.spectra import common_time_grid, with_cursor
 from ftin.data import ImuSequence
 
 PLAY_TICK_S = 0.1
 PLAY_SPEEDS = ("1×", "2×", "5×", "10×", "30×")
 
-TimelineHandles = tuple[viser.GuiButtonHandle, viser.GuiButtonGroupHandle, viser.GuiSliderHandle]
+SIGMA_SERIES_NONE = ({"label": "t (s)"}, {"label": "–", "stroke": "#999999"})
+
+TimelineHandles = tuple[
+    viser.GuiButtonHandle,
+    viser.GuiButtonGroupHandle,
+    viser.GuiSliderHandle,
+    viser.GuiCheckboxHandle,
+    viser.GuiUplotHandle,
+]
 
 
 def add_timeline_folder(gui: viser.GuiApi) -> TimelineHandles:
-    """The "Timeline" folder: Play, the speed and the time slider (disabled until a run is shown)."""
+    """The "Timeline" folder: Play, the speed and the time slider (disabled until a run is shown), the
+    "Uncertainty" checkbox and the sigma plot."""
     with gui.add_folder("Timeline"):
         play = gui.add_button("Play", icon=viser.Icon.PLAYER_PLAY, disabled=True)
         speed = gui.add_button_group("Speed", PLAY_SPEEDS)
         speed.value = "5×"
         time_slider = gui.add_slider("Time (s)", 0.0, 1.0, 0.05, 0.0, disabled=True)
-    return play, speed, time_slider
+        show = gui.add_checkbox(
+            "Uncertainty",
+            True,
+            hint="2σ ellipses along each path every 10 s (86 % of true positions) and the 95 % circle "
+            "around its end, in the path's colour, lighter",
+        )
+        sigma = gui.add_uplot(
+            (np.ones(2), np.ones(2)),
+            SIGMA_SERIES_NONE,
+            title="σ: position uncertainty (1σ, long axis), all runs",
+            scales={"x": {"time": False}, "m": {"auto": True}, "cursor": {"range": (0.0, 1.0)}},
+            axes=({"label": "time (s)"}, {"scale": "m", "label": "σ (m)"}),
+            aspect=2.0,
+            visible=False,
+        )
+    return play, speed, time_slider, show, sigma
 
 
 class Timeline:
@@ -48,7 +83,11 @@ class Timeline:
         self._drawing = drawing
         self._overlay = overlay
         self._plots = plots
-        self.gui_play, self.gui_speed, self.gui_time = handles
+        self.gui_play, self.gui_speed, self.gui_time, self.gui_uncertainty, self.gui_sigma = handles
+        self.filter_plots = FilterPlots(server.gui)  # the EKF's tilt and biases (app.viz.filter_series)
+        self.uncertainty = UncertaintyLayer(server.scene, self.gui_uncertainty)
+        self._sigma_key: tuple[object, ...] = ()  # the runs and spreads the sigma plot's curves are of
+        self._sigma_curves: tuple[np.ndarray, list[np.ndarray]] | None = None
         self._pending = False  # a redraw is queued: later slider moves join it
         self._playing = False
 
@@ -89,6 +128,35 @@ class Timeline:
             with self.server.atomic():
                 self._overlay.move_to(t)
                 self._plots.show(views, t, t_rel)
+                self.filter_plots.show(views, t_rel)
+                self.uncertainty.sync(views)
+                self._show_sigma(views, t_rel)
+
+    def _show_sigma(self, views: list[RunView], t_rel_s: float) -> None:
+        """Sigma over time of every shown run with uncertainty, a cursor at ``t_rel_s``; the curves are
+        recomputed only when the runs (or a live run's spread) change, not on every slider move."""
+        shown = [v for v in views if v.spread is not None]
+        if not shown:
+            self.gui_sigma.visible = False
+            return
+        key = tuple((v.run_id, len(v.spread.t_s), float(v.spread.t_s[-1])) for v in shown)
+        if key != self._sigma_key or self._sigma_curves is None:
+            duration = float(shown[0].sequence.t_s[-1] - shown[0].sequence.t_s[0])
+            grid = common_time_grid(duration)
+            self._sigma_curves = (grid, sigma_curves(shown, grid))
+            self.gui_sigma.series = (
+                {"label": "t (s)"},
+                *(
+                    {"label": v.shown_name, "stroke": hex_color(v.color), "width": 1.5, "scale": "m"}
+                    for v in shown
+                ),
+                {"label": "now", "stroke": CURSOR_COLOR, "width": 1.0, "scale": "cursor", "dash": [4, 4]},
+            )
+            self._sigma_key = key
+        grid, curves = self._sigma_curves
+        x, curves, cursor = with_cursor(grid, curves, t_rel_s)
+        self.gui_sigma.data = (x, *curves, cursor)
+        self.gui_sigma.visible = True
 
     def set_range(self, sequence: ImuSequence) -> None:
         """A new recording: the slider spans it, from its start."""
@@ -113,6 +181,10 @@ class Timeline:
         self.gui_time.max = 1.0
         self.gui_time.disabled = True
         self.gui_play.disabled = True
+        self.uncertainty.clear()
+        self.filter_plots.clear()
+        self.gui_sigma.visible = False
+        self._sigma_key, self._sigma_curves = (), None
 
     def stop(self) -> None:
         self._playing = False

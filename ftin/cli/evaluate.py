@@ -1,5 +1,6 @@
 """``ftin evaluate``: a thin caller of ``ftin.evaluate``; one table per checkpoint, the convention
-and alignment in words, the stand-still row beside the numbers."""
+and alignment in words, the stand-still row beside the numbers; then how well the paths' uncertainty
+covers the truth (``ftin.uncertainty.coverage``), per sequence and overall."""
 
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ from ftin.evaluate import evaluate_checkpoint
 from ftin.files import atomic_write_text
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
 from ftin.precision import PrecisionSetting, choose
+from ftin.uncertainty.coverage import ONE_SIGMA, TWO_SIGMA
 
 
 @app.command("evaluate")
@@ -115,6 +117,9 @@ def evaluate_command(
         table.add_row("[dim]stand still (never moves)[/]", "", "", *cells(report.stand_still), "")
     console = out_console()
     console.print(table)
+    coverage = coverage_table(report)
+    if coverage is not None:
+        console.print(coverage)
     console.print(report.describe(), highlight=False, soft_wrap=True)
     console.print(f"precision: {chosen.precision.value} ({chosen.reason})", highlight=False, soft_wrap=True)
     aligned = [r for r in report.sequences if r.metrics.alignment is not None]
@@ -136,3 +141,46 @@ def evaluate_command(
     )
     if json_out is not None:
         typer.echo(f"wrote {json_out}")
+
+
+def coverage_table(report: Any) -> Table | None:
+    """How sure: per sequence and overall, the share of samples whose true position lies inside the 1-
+    and 2-sigma ellipse and whether the true end lies within the 95 % radius (None: no uncertainty)."""
+    overall = report.coverage
+    if overall is None:
+        return None
+    table = Table(
+        title="Uncertainty coverage (start-aligned on the first 10 s; docs/metrics.md, How sure is it)"
+    )
+    table.add_column("sequence", overflow="fold")
+    for header in (
+        f"inside 1σ ({ONE_SIGMA:.0%})",
+        f"inside 2σ ({TWO_SIGMA:.0%})",
+        "end error",
+        "95 % radius",
+    ):
+        table.add_column(escape(header), justify="right", no_wrap=True)
+    table.add_column("end inside", justify="center", no_wrap=True)
+    for r in report.sequences:
+        c = r.coverage
+        if c is None:
+            table.add_row(escape(r.name), "-", "-", "-", "-", "-")
+            continue
+        table.add_row(
+            escape(r.name),
+            f"{c.share_1sigma:.0%}",
+            f"{c.share_2sigma:.0%}",
+            f"{c.end_error_m:.1f} m",
+            f"{c.end_radius_95_m:.1f} m",
+            "yes" if c.end_inside else "[bold red]no[/]",
+        )
+    table.add_section()
+    table.add_row(
+        f"all ({overall.recordings}, {overall.samples} samples)",
+        f"{overall.share_1sigma:.0%}",
+        f"{overall.share_2sigma:.0%}",
+        "",
+        "",
+        f"{overall.end_inside_share:.0%} (95 %)",
+    )
+    return table

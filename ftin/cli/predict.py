@@ -3,6 +3,7 @@ TUM (and its ground truth in the same frame)."""
 
 from __future__ import annotations
 
+import enum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -31,6 +32,7 @@ from ftin.data.orientation_option import Orientation, apply_orientation
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.evaluate import score
 from ftin.files import atomic_write_text
+from ftin.filter.choice import ekf_prediction
 from ftin.infer import FRAME_GROUND_TRUTH, predict_trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
@@ -40,7 +42,25 @@ from ftin.metrics.walk_verdict import judge_walk, truth_reasons
 from ftin.precision import PrecisionSetting, choose
 from ftin.uncertainty import path_uncertainty
 
+
+class FilterName(str, enum.Enum):
+    """``--filter``: the model alone (none) or inside the EKF (``ftin.filter.choice``)."""
+
+    NONE = "none"
+    EKF = "ekf"
+
+
+FilterOption = Annotated[
+    FilterName,
+    typer.Option(
+        "--filter",
+        help="none (the model's velocities integrated) or ekf (the model inside an EKF that integrates the "
+        "raw IMU and corrects tilt and biases: its trajectory and its own position covariance; a window "
+        "model only; docs/filter.md). --stride, --yaw-copies and --cyclic-turns are the model's alone.",
+    ),
+]
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on
+EKF_TEXT = "ekf (the trajectory, orientation and uncertainty are the EKF's; docs/filter.md)"
 PrecisionOption = Annotated[
     PrecisionSetting,
     typer.Option(
@@ -77,6 +97,7 @@ def predict_command(
     yaw_copies: YawCopiesOption = None,
     cyclic_turns: CyclicTurnsOption = None,
     precision: PrecisionOption = PrecisionSetting.AUTO,
+    filter: FilterOption = FilterName.NONE,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
     CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
@@ -97,16 +118,22 @@ def predict_command(
                     task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
                 bar.update(task, completed=done)
 
-            prediction = predict_trajectory(
-                loaded,
-                seq,
-                stride=stride,
-                progress=report,
-                orientation=None,  # applied above, once
-                yaw_copies=yaw_copies,
-                cyclic_turns=cyclic_turns,
-                precision=chosen.precision,
-            )
+            if filter is FilterName.EKF:
+                try:
+                    prediction = ekf_prediction(loaded, seq, progress=report)
+                except ValueError as exc:  # a streaming model, a recording shorter than one window
+                    raise DataFormatError(f"--filter ekf: {exc}") from None
+            else:
+                prediction = predict_trajectory(
+                    loaded,
+                    seq,
+                    stride=stride,
+                    progress=report,
+                    orientation=None,  # applied above, once
+                    yaw_copies=yaw_copies,
+                    cyclic_turns=cyclic_turns,
+                    precision=chosen.precision,
+                )
         scored = score(prediction, align)
         shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
         warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
@@ -122,6 +149,8 @@ def predict_command(
             f"frame: {frame}",
             f"orientation: {orientation_text(prediction.orientation_choice)}; units: t in s, x y z in m",
         ]
+        if filter is FilterName.EKF:
+            header.append(f"filter: {EKF_TEXT}")
         if out.suffix.lower() == ".tum":
             atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
         else:
@@ -145,6 +174,8 @@ def predict_command(
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")
     typer.echo(f"precision: {chosen.precision.value} ({chosen.reason})")
+    if filter is FilterName.EKF:
+        typer.echo(f"filter: {EKF_TEXT}")
     if scored is not None and scored.metrics is not None:
         m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"

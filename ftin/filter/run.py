@@ -14,6 +14,7 @@ orientation), beside the ``FilterRun`` with biases, covariances and the NIS of e
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,11 +23,14 @@ from vqf import VQF
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
+from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.filter.ekf import ErrorStateEkf
 from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
 from ftin.infer import FRAME_DEVICE_WORLD, FRAME_GROUND_TRUTH, Prediction, run_windows
+from ftin.uncertainty.calibration import calibration_for
+from ftin.uncertainty.propagate import window_sigma
 from ftin.yaw_average import YAW_COPIES
 
 
@@ -62,6 +66,9 @@ class NetworkVelocity:
         self.copies = YAW_COPIES
         self.parts = loaded.model.target_parts(loaded.window)
         self.has_head = bool(getattr(loaded.model, "has_uncertainty", False))
+        self.calibration = None
+        if config.measurement_sigma == "calibrated" and not self.has_head:
+            self.calibration = calibration_for(loaded.name)
 
     def __call__(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         window = len(rows)
@@ -81,6 +88,10 @@ class NetworkVelocity:
         out = np.zeros(3)
         out[: min(3, len(v))] = v[:3]
         var = np.full(2, self.config.velocity_std_m_s**2)
+        if self.calibration is not None:
+            # The calibrated per-window sigma (a + b|v|), the one the position uncertainty uses.
+            sigma = window_sigma(out[None, :2], self.calibration)[0] * self.config.measurement_sigma_scale
+            var = np.full(2, sigma**2)
         if self.has_head and taps is not None and "log_std" in taps:
             # The head's per-axis variance; over K parts the mean's variance is their mean / K.
             part_var = np.exp(2.0 * taps["log_std"].astype(np.float64)[0].reshape(self.parts, -1))
@@ -97,6 +108,7 @@ def run_filter(
     start_position_m: np.ndarray | None = None,
     measure=None,
     heading_ref_rad: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> FilterRun:
     """The filter over ``seq`` (oriented: its first orientation is the start; on a uniform grid).
 
@@ -105,6 +117,8 @@ def run_filter(
     first row was built with, whose heading is the measurement's world); otherwise ``network``
     measures each window. ``heading_ref_rad`` ``(N,)``: a causal heading reference in the start's world
     (``reference_heading``), taken at every update when ``config.heading_std_rad`` is set.
+    ``progress(done, total)`` is called after every network update (in samples), as inference calls
+    it between batches (a server checks its deadline there).
     """
     config = config or FilterConfig()
     if seq.q_world_device_wxyz is None:
@@ -153,6 +167,8 @@ def run_filter(
             nis.append(result.nis)
             applied.append(result.applied)
             covariances.append(ekf.evolving_covariance.copy())
+            if progress is not None:
+                progress(k, n)
         s = ekf.state
         p_out[k], v_out[k], R_out[k], bg_out[k], ba_out[k] = s.p, s.v, s.R, s.bg, s.ba
         P = ekf.evolving_covariance
@@ -214,7 +230,11 @@ def reference_heading(seq: ImuSequence, causal: bool = False) -> np.ndarray | No
 
 
 def filter_prediction(
-    loaded: LoadedModel, seq: ImuSequence, config: FilterConfig | None = None, orientation: str | None = None
+    loaded: LoadedModel,
+    seq: ImuSequence,
+    config: FilterConfig | None = None,
+    orientation: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[Prediction, FilterRun]:
     """``seq`` prepared as inference prepares it (``orientation``: its choice; the filter starts from
     that orientation's first sample), run through the filter with ``loaded`` as its measurement; the
@@ -233,6 +253,7 @@ def filter_prediction(
         config,
         start_position_m=start,
         heading_ref_rad=heading,
+        progress=progress,
     )
     p = run.p_world_m.copy()
     if loaded.out_dim < 3:
@@ -256,5 +277,6 @@ def filter_prediction(
         imu_world=run.imu_world,
         starts=spans[:, 0].copy(),
         notes=[*pseq.meta.get("notes", []), *prepared.notes, "trajectory and orientation from the EKF"],
+        orientation_choice=choice_of(pseq),
     )
     return prediction, run

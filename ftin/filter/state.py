@@ -49,6 +49,10 @@ class FilterConfig:
     init_gyro_bias_std_rad_s: float = 1.0e-2
     init_acc_bias_std_m_s2: float = 0.2
     velocity_std_m_s: float = 0.12  # the default's residual RMS: OxIOD 0.10, RIDI 0.15 (docs/filter.md)
+    # Without a variance head: "fixed" (velocity_std_m_s) or "calibrated", the position uncertainty's
+    # per-window sigma a + b|v| (ftin.uncertainty.propagate.window_sigma) times measurement_sigma_scale.
+    measurement_sigma: str = "fixed"
+    measurement_sigma_scale: float = 1.0
     vertical_std_m_s: float = 0.1
     update_every: int | None = None
     heading_std_rad: float | None = np.radians(2.0)  # a heading reference's sigma (None: own heading)
@@ -67,6 +71,7 @@ class FilterConfig:
                     "correct_network_input",
                     "heading_std_rad",
                     "heading_reference",
+                    "measurement_sigma",
                 )
                 or value is None
             ):
@@ -76,6 +81,10 @@ class FilterConfig:
         if self.heading_reference not in ("offline", "causal"):
             raise ValueError(
                 f"FilterConfig.heading_reference must be offline or causal, got {self.heading_reference!r}"
+            )
+        if self.measurement_sigma not in ("fixed", "calibrated"):
+            raise ValueError(
+                f"FilterConfig.measurement_sigma must be fixed or calibrated, got {self.measurement_sigma!r}"
             )
         if self.update_every is not None and self.update_every < 1:
             raise ValueError(f"FilterConfig.update_every must be >= 1 sample, got {self.update_every}")

@@ -137,6 +137,7 @@ def _push_endpoint(push_format: PushFormat) -> Callable[..., Awaitable[LivePushR
         token: TokenQuery = None,
         model: ModelQuery = None,
         platform: PlatformQuery = None,
+        filter: Annotated[str | None, Query(description="none only: the EKF is not live yet.")] = None,
     ) -> LivePushResponse:
         arrival_s = time.monotonic()
         auth = request.headers.get("authorization", "")
@@ -154,7 +155,9 @@ def _push_endpoint(push_format: PushFormat) -> Callable[..., Awaitable[LivePushR
         finally:
             gate.waiting -= 1
         try:
-            answer = await run_in_threadpool(live.accept, body, arrival_s, push_format, model, platform)
+            answer = await run_in_threadpool(
+                live.accept, body, arrival_s, push_format, model, platform, filter
+            )
         finally:
             gate.semaphore.release()
         return LivePushResponse(**answer)

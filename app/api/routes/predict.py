@@ -18,6 +18,7 @@ a prediction that stops making progress, or waits too long for a slot.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query, Request, Response
@@ -32,6 +33,7 @@ from app.services.errors import InvalidInputError
 from app.services.prediction import HandedBytes, PredictionService, RunOptions, sequence_from_arrays
 from app.services.runs import Run
 from ftin.data.orientation_option import Orientation
+from ftin.filter.choice import FILTERS
 
 router = APIRouter(tags=["predict"])
 
@@ -50,6 +52,16 @@ GroupQuery = Annotated[
     Query(
         description="The run_id of the run a compare-all started from (GET /runs groups them).",
         pattern=r"^[A-Za-z0-9_-]{6,64}$",
+    ),
+]
+
+FilterQuery = Annotated[
+    str | None,
+    Query(
+        description="none (the default) or ekf: the model inside the EKF (docs/filter.md); the answer's "
+        "trajectory and uncertainty are then the filter's. A multipart upload may send it as the form "
+        "field 'filter' instead.",
+        max_length=20,
     ),
 ]
 
@@ -72,7 +84,11 @@ _OPENAPI_BODY = {
         "required": True,
         "content": {
             "multipart/form-data": {
-                "schema": {"type": "object", "properties": {"file": _CSV_SCHEMA}, "required": ["file"]}
+                "schema": {
+                    "type": "object",
+                    "properties": {"file": _CSV_SCHEMA, "filter": {"type": "string", "enum": list(FILTERS)}},
+                    "required": ["file"],
+                }
             },
             "text/csv": {"schema": {"type": "string"}},
             "application/zip": {"schema": {"type": "string", "format": "binary"}},
@@ -90,6 +106,7 @@ def _predict_options(
     align: AlignQuery = None,
     orientation: OrientationQuery = Orientation.AUTO,
     group: GroupQuery = None,
+    filter: FilterQuery = None,
 ) -> RunOptions:
     """The query options every prediction route takes, and the deadline that starts with the request."""
     how = None if align is None else align.value
@@ -100,6 +117,7 @@ def _predict_options(
         align=how,
         orientation=orientation.value,
         group=group,
+        filter=filter,
     )
 
 
@@ -173,6 +191,9 @@ async def predict(
                 )
             body = HandedBytes(await upload.read())  # taken by the service: no reference stays here
             filename = name or upload.filename or "upload.csv"
+            chosen = form.get("filter")  # the page's select; the query parameter, where given, wins
+            if options.filter is None and chosen is not None:
+                options = replace(options, filter=str(chosen))
         _body_in(options)
         run = await run_in_threadpool(predictor.predict_csv, body, filename, options)
     elif content_type in _RAW_BODY_TYPES:

@@ -1,0 +1,97 @@
+"""``filter=none|ekf``: the choice every door offers (API, CLI, page, scene), parsed once here, and the
+EKF's prediction as the doors use it (``docs/filter.md``, "At every door").
+
+With ``ekf`` the answer's trajectory and orientation are the filter's (``filter_prediction``), and the
+filter's own horizontal position covariance (its ``P``) is the path's uncertainty in place of the
+default model's (``ftin.uncertainty``): ``Prediction.features`` carries it as ``filter_uncertainty``
+(which ``ftin.uncertainty.path_uncertainty`` returns as it is) and the tilt and bias estimates as
+``filter_series`` for the scene's timeline. ``none`` leaves inference as it always was.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ftin.checkpoint import LoadedModel
+from ftin.data.types import ImuSequence
+from ftin.filter.consistency import tilt_error_deg
+from ftin.filter.run import FilterRun, filter_prediction
+from ftin.filter.state import FilterConfig
+from ftin.infer import Prediction
+from ftin.uncertainty import PathUncertainty
+from ftin.uncertainty.radius import radius_holding
+
+FILTERS = ("none", "ekf")
+NONE, EKF = FILTERS
+LIVE_UNAVAILABLE = "filter=ekf is not available for live sessions yet; use filter=none"
+
+
+def parse_filter(value: str | None) -> str:
+    """``none`` (also for None or an empty value) or ``ekf``; ``ValueError`` naming the field else."""
+    if value is None or str(value).strip() == "":
+        return NONE
+    name = str(value).strip().lower()
+    if name not in FILTERS:
+        raise ValueError(f"filter must be one of {', '.join(FILTERS)}; got {value!r}")
+    return name
+
+
+def filter_of(prediction: Any) -> str:
+    """The filter a prediction was made with: ``ekf`` where the EKF made it, else ``none``."""
+    return EKF if getattr(prediction, "orientation_filter", None) == EKF else NONE
+
+
+def ekf_uncertainty(run: FilterRun, config: FilterConfig) -> PathUncertainty:
+    """The EKF's own horizontal position covariance per sample, as the path's uncertainty."""
+    P = run.position_cov_xy
+    cov = np.column_stack([P[:, 0, 0], P[:, 0, 1], P[:, 1, 1]])
+    how = (
+        "the EKF's own position covariance (its P, horizontal), measurement sigma "
+        + (
+            f"{config.measurement_sigma_scale:g} x the calibrated window sigma a + b|v|"
+            if config.measurement_sigma == "calibrated"
+            else f"{config.velocity_std_m_s:g} m/s"
+        )
+        + " (docs/filter.md)"
+    )
+    return PathUncertainty(cov, radius_holding(P[-1], 0.95), how)
+
+
+def ekf_series(run: FilterRun, q_input_wxyz: np.ndarray) -> dict[str, np.ndarray]:
+    """What the scene's timeline plots of an EKF run, per sample: the device's tilt from level (deg),
+    how far the EKF moved it from the orientation it started from (deg), both bias estimates."""
+    q = run.q_world_device_wxyz
+    level = np.tile([1.0, 0.0, 0.0, 0.0], (len(q), 1))
+    return {
+        "t_s": run.t_s,
+        "tilt_deg": tilt_error_deg(q, level),
+        "tilt_correction_deg": tilt_error_deg(q, q_input_wxyz),
+        "gyro_bias_deg_s": np.degrees(run.gyro_bias_rad_s),
+        "acc_bias_m_s2": run.acc_bias_m_s2,
+    }
+
+
+def ekf_prediction(
+    loaded: LoadedModel,
+    seq: ImuSequence,
+    config: FilterConfig | None = None,
+    *,
+    progress: Callable[[int, int], None] | None = None,
+    keep_prepared: bool = True,
+) -> Prediction:
+    """``seq`` (oriented, or oriented here as inference would) through the EKF with ``loaded`` as its
+    measurement; a ``Prediction`` carrying the filter's uncertainty and series in ``features``.
+    ``ValueError`` for a streaming model (the EKF needs a window model) or a recording too short."""
+    config = config or FilterConfig()
+    prediction, run = filter_prediction(loaded, seq, config, progress=progress)
+    q_input = prediction.prepared.seq.q_world_device_wxyz
+    prediction.features = {
+        "filter_uncertainty": ekf_uncertainty(run, config),
+        "filter_series": ekf_series(run, q_input),
+    }
+    if not keep_prepared:
+        prediction.prepared = None
+    return prediction

@@ -1,0 +1,139 @@
+"""``filter=none|ekf`` on ``POST /predict`` (``ftin.filter.choice``; docs/filter.md, "At every door"):
+the answer names the filter, its trajectory is the EKF's, the EKF's covariance is its uncertainty; a
+bad value is a 422 naming the field; without the field the answer is what it always was.
+
+The fixture checkpoints are tiny and untrained, so the EKF's trajectory is not scored here (the probe
+scores the default model on real walks); what is checked is that the door runs the filter."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from ftin.uncertainty.radius import radius_holding
+from tests.app.routes.helpers import upload
+
+
+def covariances(answer: dict) -> np.ndarray:
+    traj = answer["trajectory"]
+    return np.column_stack([traj["cov_xx"], traj["cov_xy"], traj["cov_yy"]])
+
+
+def path(answer: dict) -> np.ndarray:
+    traj = answer["trajectory"]
+    return np.column_stack([traj["x"], traj["y"]])
+
+
+def test_ekf_answer_names_the_filter_and_carries_its_own_covariance(
+    client: TestClient, csv_without_gt: bytes
+) -> None:
+    plain = upload(client, csv_without_gt, "phone.csv").json()
+    response = client.post(
+        "/predict", files={"file": ("phone.csv", csv_without_gt, "text/csv")}, data={"filter": "ekf"}
+    )
+    assert response.status_code == 200, response.text
+    ekf = response.json()
+    assert ekf["filter"] == "ekf"
+    assert "filter" not in plain  # not asked: not named, the answer as before
+    assert len(ekf["trajectory"]["t"]) == len(plain["trajectory"]["t"])
+    # The filter's trajectory is its own: not the integrated network's.
+    assert np.abs(path(ekf) - path(plain)).max() > 0.01
+    cov = covariances(ekf)
+    assert np.all(cov[1:, 0] > 0) and np.all(cov[1:, 2] > 0)
+    assert np.all(cov[:, 0] * cov[:, 2] - cov[:, 1] ** 2 >= -1e-12)  # each a covariance
+    assert not np.allclose(cov, covariances(plain))  # the EKF's P, not the path model's
+    end = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
+    assert ekf["uncertainty"]["end_radius_95_m"] == pytest.approx(radius_holding(end), abs=0.01)
+    assert "EKF" in ekf["uncertainty"]["calibration"]
+    assert any("EKF" in note for note in ekf["notes"]) or ekf["orientation_source"]
+    # The run keeps its filter: metrics.json names it where the run's options are kept.
+    metrics = client.get(ekf["metrics_url"]).json()
+    assert metrics["orientation_filter"] == "ekf"
+    assert metrics["uncertainty"]["end_radius_95_m"] == ekf["uncertainty"]["end_radius_95_m"]
+
+
+def test_the_query_parameter_works_for_a_json_body_too(client: TestClient, csv_with_gt: bytes) -> None:
+    response = client.post("/predict", params={"filter": "ekf"}, content=csv_with_gt,
+                           headers={"content-type": "text/csv"})  # fmt: skip
+    assert response.status_code == 200, response.text
+    answer = response.json()
+    assert answer["filter"] == "ekf"
+    assert answer["metrics"] is not None  # scored against its ground truth like any run
+
+
+@pytest.mark.parametrize("where", ["form", "query"])
+def test_an_unknown_filter_is_a_422_naming_the_field(
+    client: TestClient, csv_without_gt: bytes, where: str
+) -> None:
+    files = {"file": ("phone.csv", csv_without_gt, "text/csv")}
+    if where == "form":
+        response = client.post("/predict", files=files, data={"filter": "kalman"})
+    else:
+        response = client.post("/predict", files=files, params={"filter": "kalman"})
+    assert response.status_code == 422
+    body = response.json()
+    text = json.dumps(body)
+    assert "filter" in text and "kalman" in text and "ekf" in text
+    assert "Traceback" not in text
+
+
+def test_without_the_field_the_answer_is_byte_identical(client: TestClient, csv_without_gt: bytes) -> None:
+    """Two requests without ``filter`` (one naming ``none``) answer the same bytes but for the run's id."""
+    first = upload(client, csv_without_gt, "phone.csv", run_id="nofilter-1").content
+    second = client.post(
+        "/predict",
+        params={"run_id": "nofilter-2"},
+        files={"file": ("phone.csv", csv_without_gt, "text/csv")},
+        data={"filter": "none"},
+    ).content
+    assert b'"filter"' not in first
+    assert first.replace(b"nofilter-1", b"nofilter-2") == second
+
+
+def test_a_live_session_refuses_the_ekf_in_words(client: TestClient) -> None:
+    """Live sessions take filter=none only for now: the EKF is asked for, and refused with a 422 that
+    says so, before any session starts; a bad value names the field."""
+    from tests.app.test_live import PUSH, push_body
+
+    response = client.post(PUSH, params={"filter": "ekf"}, json=push_body("ekf-session"))
+    assert response.status_code == 422
+    assert response.json()["detail"] == "filter=ekf is not available for live sessions yet; use filter=none"
+    assert all(s.get("session_id") != "ekf-session" for s in client.get("/live/sessions").json())
+    bad = client.post(PUSH, params={"filter": "kalman"}, json=push_body("bad-session"))
+    assert bad.status_code == 422 and "filter" in bad.json()["detail"] and "kalman" in bad.json()["detail"]
+    assert client.post(PUSH, params={"filter": "none"}, json=push_body("plain-session")).status_code == 200
+
+
+def test_the_scene_names_an_ekf_run_and_plots_its_tilt_and_biases(make_settings, csv_with_gt: bytes) -> None:
+    """An EKF run drawn in the viser scene: ``· EKF`` in its label, its tilt and both bias estimates in
+    the timeline's "Filter (EKF)" plots with a cursor; a run without the filter hides them."""
+    from app.services.prediction import RunOptions
+    from tests.utils.scenes import empty_scene, running_scene
+
+    with running_scene(make_settings()) as scene:
+        empty_scene(scene)
+        predictor = scene.services.predictor
+        run = predictor.predict_csv(csv_with_gt, "walk.csv", RunOptions(filter="ekf"))
+        scene.flush()
+        assert run.run_id in scene.shown_run_ids()
+        assert scene.overlay.views[run.run_id].shown_name.endswith(" · EKF")
+        plots = scene.timeline.filter_plots
+        assert plots.gui_tilt.visible and plots.gui_gyro.visible and plots.gui_acc.visible
+        series = run.prediction.features["filter_series"]
+        x, tilt, moved, cursor = (np.asarray(a, dtype=float) for a in plots.gui_tilt.data)
+        assert len(x) > 10 and np.nanmax(tilt) > 1.0  # a handheld phone is far from level
+        assert np.nanmax(np.abs(moved)) < 45.0  # the filter corrects its start's tilt, it does not flip it
+        assert np.isfinite(cursor).sum() == 2  # the slider's time as a vertical line
+        gyro = np.asarray(plots.gui_gyro.data[1:4], dtype=float)
+        assert gyro.shape[0] == 3 and np.all(np.isfinite(gyro))
+        assert np.abs(gyro).max() == pytest.approx(np.abs(series["gyro_bias_deg_s"]).max(), rel=0.5)
+        assert "EKF" in plots.gui_text.content
+
+        empty_scene(scene)
+        plain = predictor.predict_csv(csv_with_gt, "walk.csv", RunOptions())
+        scene.flush()
+        assert not scene.overlay.views[plain.run_id].shown_name.endswith("EKF")
+        assert not plots.gui_tilt.visible
