@@ -288,6 +288,12 @@ class OrientationChoicePayload(BaseModel):
     requested: str = Field(description="The orientation asked for: auto, device, vqf, vqf6d or ground_truth.")
     source: str = Field(description="The source that ran: device, vqf, vqf6d or ground_truth.")
     reason: str = Field(description="Why, in words (for auto: what the recording showed).")
+    magnetometer: str | None = Field(
+        None,
+        description="What the magnetometer check did where it did not use the field as given: calibrated "
+        "hard and soft iron from the recording's own turns, or dropped it (docs/orientation.md); null: as given "
+        "or not read.",
+    )
 
 
 class ModelChoicePayload(BaseModel):

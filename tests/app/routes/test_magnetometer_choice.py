@@ -28,5 +28,6 @@ def test_a_raw_field_without_turns_falls_back_and_says_why(client: TestClient, s
     assert auto["requested"] == "auto" and auto["source"] == "vqf6d"
     assert auto["reason"].startswith("magnetometer dropped (its field reads")
     assert "uncalibrated" in auto["reason"] and "VQF 6-D" in auto["reason"]
+    assert auto["magnetometer"] and "uncalibrated" in auto["magnetometer"]  # the check's own words, apart
     vqf = upload(client, data, orientation="vqf").json()["orientation_choice"]
     assert vqf["source"] == "vqf6d" and "magnetometer is dropped" in vqf["reason"]
