@@ -20,6 +20,10 @@ Method. Each constant is measured, none is tuned to one file:
   VQF 6-D walks give a drift rate (RMS of each walk's least-squares slope), 9-D walks a constant (RMS);
 - one factor on the whole position covariance so that the pooled 2-sigma ellipse at 30 s, 60 s and the
   end holds 86.5 % (the share a 2-D Gaussian's does).
+With ``--checkpoint`` (a checkpoint with a variance head: ``ftin/protocol/stage_three.py``; or another of
+the same rate and window) the walks are reread by it (``experiments.uncertainty_walks.reread``) and its
+own log-std replaces ``a + b |v|``: one scale on it, ``log_std_scale``, fitted by the Gaussian
+likelihood of the residuals (each dataset weighted alike), the other terms as above.
 Positions are compared start-aligned: the estimate is fitted to the truth by a rigid 2-D motion over
 the first 10 s. Writes ``ftin/uncertainty/calibration.json`` (with ``--save``) and the markdown.
 
@@ -35,7 +39,8 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.uncertainty_walks import FIT_SETS, NEW_SET, cached_walks
+from experiments.uncertainty_walks import FIT_SETS, NEW_SET, cached_walks, reread
+from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.uncertainty.calibration import Calibration, save_calibration
@@ -69,6 +74,26 @@ def fit_window_sigma(walks: list[dict]) -> tuple[float, float]:
             if nll < best_nll:
                 best, best_nll = (float(a), float(b)), nll
     return best
+
+
+def fit_log_std_scale(walks: list[dict]) -> float | None:
+    """The scale on the model's own sigma that maximises the Gaussian likelihood of the residuals,
+    each dataset weighted alike (closed form: the mean over datasets of ``(r / sigma)^2`` per axis);
+    None for walks read without a variance head."""
+    if any("log_std" not in w for w in walks):
+        return None
+    by_set: dict[str, list[np.ndarray]] = defaultdict(list)
+    for w in walks:
+        keep = w["tracked"]
+        sigma = np.exp(w["log_std"][keep]).mean(axis=1)
+        by_set[str(w["dataset"])].append(((w["v_pred"][keep] - w["v_true"][keep]) / sigma[:, None]) ** 2)
+    return float(np.sqrt(np.mean([np.concatenate(parts).mean() for parts in by_set.values()])))
+
+
+def sigma_of(w: dict, calibration: Calibration, keep: np.ndarray | slice = slice(None)) -> np.ndarray:
+    """The walk's per-window sigma as the app computes it (its log-std where it has one)."""
+    log_std = w["log_std"][keep] if "log_std" in w else None
+    return window_sigma(w["v_pred"][keep], calibration, log_std)
 
 
 def distance_ratio(w: dict) -> float:
@@ -140,7 +165,7 @@ def covariance(w: dict, calibration: Calibration) -> np.ndarray:
     t = w["t_s"]
     start = np.clip(np.searchsorted(t, w["span_t_s"][:, 0]), 0, len(t) - 1)
     end = np.clip(np.searchsorted(t, w["span_t_s"][:, 1]), 0, len(t) - 1)
-    sigma = window_sigma(w["v_pred"], calibration)
+    sigma = sigma_of(w, calibration)
     return path_covariance(
         t, w["p_pred"], start, end, sigma, calibration,
         heading=heading_kind(str(w["orientation_filter"])), carry=str(w["carry"]),
@@ -165,14 +190,15 @@ def marks_of(w: dict, calibration: Calibration) -> dict:
     return out
 
 
-def fit(walks: list[dict]) -> Calibration:
+def fit(walks: list[dict], model: str = CHECKPOINT.name) -> Calibration:
     a, b = fit_window_sigma(walks)
+    log_std_scale = fit_log_std_scale(walks)
     scale, by_carry = fit_scale(walks)
     drift, heading = fit_heading(walks)
     sets = ", ".join(sorted({str(w["dataset"]) for w in walks}))
     raw = Calibration(
-        model=CHECKPOINT.name, sigma_a=a, sigma_b=b, scale_sigma=scale, gyro_drift_rad_s=drift,
-        heading_sigma_rad=heading, scale_sigma_by_carry=by_carry,
+        model=model, sigma_a=a, sigma_b=b, scale_sigma=scale, gyro_drift_rad_s=drift,
+        heading_sigma_rad=heading, scale_sigma_by_carry=by_carry, log_std_scale=log_std_scale,
         fitted_on=f"{len(walks)} walker-held-out validation walks ({sets}), phone only",
     )  # fmt: skip
     m2 = [v for w in walks for k, v in marks_of(w, raw).items() if k in MARKS]
@@ -186,7 +212,7 @@ def window_rows(walks: list[dict], calibration: Calibration) -> list[str]:
         z2 = []
         for w in part:
             keep = w["tracked"]
-            sigma = window_sigma(w["v_pred"][keep], calibration)
+            sigma = sigma_of(w, calibration, keep)
             z2.append(((w["v_pred"][keep] - w["v_true"][keep]) / sigma[:, None]) ** 2)
         z = np.concatenate(z2).ravel()  # each axis on its own: 68 % / 95 % expected
         rows.append(f"| {name} | {len(z) // 2} | {np.mean(z <= 1):.0%} | {np.mean(z <= 4):.0%} |")
@@ -220,7 +246,7 @@ def target_rows(walks: list[dict], calibration: Calibration) -> list[str]:
             [
                 (
                     ((w["v_pred"] - w["v_true"])[w["tracked"]])
-                    / window_sigma(w["v_pred"][w["tracked"]], calibration)[:, None]
+                    / sigma_of(w, calibration, w["tracked"])[:, None]
                 ).ravel()
                 for w in part
             ]
@@ -274,10 +300,26 @@ def term_rows(walks: list[dict], calibration: Calibration) -> list[str]:
     return rows
 
 
+def _new_part(name: str) -> str:
+    """Which part of stage three's fold (``ftin.protocol.stage_three``) a new OxIOD walk is in, by
+    name (``multi users/user3/imu4``): the variance heads trained on ``NEW_TRAIN``."""
+
+    def short(rel: str) -> str:  # "oxiod/multi users/user3/syn/imu4.csv.xz" -> "multi users/user3/imu4"
+        return rel.removeprefix("oxiod/").replace("/syn/", "/").removesuffix(".csv.xz")
+
+    if name in {short(r) for r in protocol.NEW_TRAIN}:
+        return f"{NEW_SET}: heads' training walkers"
+    if name in {short(r) for r in protocol.NEW_VAL}:
+        return f"{NEW_SET}: held out (stage three's validation)"
+    return f"{NEW_SET}: long floor walks"
+
+
 def _sets(walks: list[dict]) -> dict[str, list[dict]]:
     sets: dict[str, list[dict]] = defaultdict(list)
     for w in walks:
         sets[str(w["dataset"])].append(w)
+        if str(w["dataset"]) == NEW_SET:
+            sets[_new_part(str(w["name"]))].append(w)
     fitted = [w for w in walks if str(w["dataset"]) in FIT_SETS]
     return {**sets, "fitted sets together": fitted}
 
@@ -285,14 +327,20 @@ def _sets(walks: list[dict]) -> dict[str, list[dict]]:
 def report(walks: list[dict], calibration: Calibration) -> list[str]:
     c = calibration
     carries = ", ".join(f"{k} {v:.2f}" for k, v in sorted(c.scale_sigma_by_carry.items())) or "none"
+    head = (
+        f"the model's own log-std x {c.log_std_scale:.2f} (likelihood of the residuals; without the head "
+        f"{c.sigma_a:.2f} + {c.sigma_b:.2f} |v| m/s)"
+        if c.log_std_scale is not None
+        else f"{c.sigma_a:.2f} + {c.sigma_b:.2f} |v| m/s per axis (likelihood of the residuals)"
+    )
     return [
-        "# How sure is the default model: calibrated position uncertainty (no training)",
+        f"# How sure is `{c.model}`: calibrated position uncertainty",
         "",
         "Made by `python -m experiments.probe_uncertainty --save` (its docstring: question, method);",
-        f"`{CHECKPOINT}`, phone only. Fitted on {c.fitted_on}; `{NEW_SET}` (the 30 new OxIOD walks) was",
+        f"`{c.model}`, phone only. Fitted on {c.fitted_on}; `{NEW_SET}` (the 30 new OxIOD walks) was",
         "fitted on by nothing. Constants in `ftin/uncertainty/calibration.json`:",
         "",
-        f"- window sigma {c.sigma_a:.2f} + {c.sigma_b:.2f} |v| m/s per axis (likelihood of the residuals);",
+        f"- window sigma: {head};",
         f"- speed scale: RMS(distance ratio - 1) = {c.scale_sigma:.2f} (per carry: {carries});",
         f"- heading: 6-D drift {np.degrees(c.gyro_drift_rad_s) * 60:.2f} deg/min, "
         f"9-D +-{np.degrees(c.heading_sigma_rad):.1f} deg",
@@ -344,9 +392,20 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=Path("runs/uncertainty_walks"), help="per-walk npz")
     parser.add_argument("--save", action="store_true", help="write ftin/uncertainty/calibration.json")
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument(
+        "--checkpoint", type=Path, default=CHECKPOINT,
+        help="the checkpoint to fit (default: the default model); it rereads the default's walks",
+    )  # fmt: skip
     args = parse(parser)
     walks = cached_walks(load_model(CHECKPOINT), args.data_root, args.cache)
-    calibration = fit([w for w in walks if str(w["dataset"]) in FIT_SETS])
+    model = load_model(args.checkpoint)
+    # Another checkpoint, or a head the cached walks were read without: reread them (same input).
+    if args.checkpoint != CHECKPOINT or (
+        model.model.has_uncertainty and any("log_std" not in w for w in walks)
+    ):
+        walks = [reread(w, model) for w in walks]
+    name = args.checkpoint.name.removesuffix(".safetensors")
+    calibration = fit([w for w in walks if str(w["dataset"]) in FIT_SETS], name)
     if args.save:
         save_calibration(calibration)
     write_report(args.out, report(walks, calibration))

@@ -325,7 +325,9 @@ def run_windows(
     precision: Precision | str = Precision.FP32,
     turn_stride: int | None = None,
 ) -> tuple[np.ndarray, dict | None]:
-    """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps.
+    """Part velocities ``(M, K, D)`` (float64) and, when asked, the concatenated per-window taps; a model
+    with a variance head always adds its per-window ``log_std`` (M, D) to them (the path's uncertainty
+    reads it: ``ftin.uncertainty``), so the dict is then never None.
 
     K = 1 models go through ``forward`` (their taps and log-std exactly as ever), others through
     ``forward_parts``. With ``turn_stride`` each window is first turned by ``start // turn_stride mod 4``
@@ -341,6 +343,7 @@ def run_windows(
     total = len(starts)
     velocity = np.empty((total, parts, loaded.out_dim))
     taps: dict[str, list[np.ndarray]] | None = {} if return_features else None
+    log_stds: list[np.ndarray] = []
 
     def call(inputs: torch.Tensor, features: dict | None) -> Any:
         inputs = loaded.normalization.apply(inputs)
@@ -370,14 +373,16 @@ def run_windows(
                 if output.log_std is not None:
                     output = output._replace(log_std=turn_log_std(output.log_std, -yaw))
             velocity[first : first + len(batch_starts)] = batch_velocity.reshape(len(batch_starts), parts, -1)
+            if output.log_std is not None:
+                log_stds.append(output.log_std.float().cpu().numpy())
             if taps is not None:
-                if output.log_std is not None:
-                    features["log_std"] = output.log_std.float()
                 for name, value in features.items():
                     taps.setdefault(name, []).append(value.detach().float().cpu().numpy())
             if progress is not None:
                 progress(first + len(batch_starts), total)
     joined = None if taps is None else {name: np.concatenate(rows, axis=0) for name, rows in taps.items()}
+    if log_stds:
+        joined = {**(joined or {}), "log_std": np.concatenate(log_stds, axis=0)}
     return velocity, joined
 
 

@@ -277,6 +277,23 @@ def ship_command(
     echo_written(written)
 
 
+@campaign_app.command("ship-heads")
+def ship_heads_command(
+    runs: RunsOption = DEFAULT_RUNS,
+    checkpoints: Annotated[
+        Path, typer.Option("--checkpoints", help="The shipped checkpoints that gain their heads.")
+    ] = Path("checkpoints"),
+) -> None:
+    """Put the variance heads a campaign trained on frozen shipped checkpoints (stage three) onto them:
+    the weights with the head, a variance_head section in the card; velocities, cards and the default
+    otherwise unchanged (refused if any frozen tensor differs)."""
+    from ftin.campaign.heads import HeadShipError, ship_heads
+
+    with user_errors(*CAMPAIGN_ERRORS, HeadShipError):
+        written = ship_heads(Campaign(runs), checkpoints, on_event=lambda line: typer.echo(line))
+    echo_written(written)
+
+
 @campaign_app.command("table")
 def table_command(
     results: ResultsOption = DEFAULT_RESULTS,

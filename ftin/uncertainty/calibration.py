@@ -65,10 +65,12 @@ def _table(path: Path = CALIBRATION_FILE) -> dict[str, dict[str, Any]]:
 
 def calibration_for(checkpoint: str) -> Calibration:
     """The constants fitted for ``checkpoint`` (its stem, e.g. ``ronin_resnet-walking``), else the default
-    model's; ``KeyError`` only when the file holds neither."""
+    model's without its log-std scale (a scale fitted on one head says nothing of another's: a borrowed
+    calibration reads ``a + b |v|``); ``KeyError`` only when the file holds neither."""
     table = _table()
-    entry = table.get(checkpoint) or table[FALLBACK]
-    return Calibration(**entry)
+    if checkpoint in table:
+        return Calibration(**table[checkpoint])
+    return Calibration(**{**table[FALLBACK], "log_std_scale": None})
 
 
 def save_calibration(calibration: Calibration, path: Path = CALIBRATION_FILE) -> None:
