@@ -291,8 +291,8 @@ class OrientationChoicePayload(BaseModel):
     magnetometer: str | None = Field(
         None,
         description="What the magnetometer check did where it did not use the field as given: calibrated "
-        "hard and soft iron from the recording's own turns, or dropped it (docs/orientation.md); null: as given "
-        "or not read.",
+        "hard and soft iron from the recording's own turns, or dropped it (docs/orientation.md); null: as "
+        "given or not read.",
     )
 
 

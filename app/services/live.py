@@ -32,6 +32,10 @@ Decisions:
   are runs as ever (``GET /live/sessions``, the upload page, "Open in 3D").
 - Latency: from a message's arrival to the publication of a trajectory that covers its last sample
   (what the service itself knows; a viewer draws it on its own time).
+- ``filter=ekf`` (``ftin.filter.choice``) on a session's first push runs it through the EKF
+  (``ftin.filter.session``, causal heading) instead of the incremental inference; the session keeps
+  the filter it started with (a later push's ``filter`` changes nothing). A streaming model is a 422
+  at once, as on ``POST /predict``.
 """
 
 from __future__ import annotations
@@ -61,7 +65,7 @@ from app.services.listeners import Listeners
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin.data.errors import DataFormatError
-from ftin.filter.choice import EKF, LIVE_UNAVAILABLE, parse_filter
+from ftin.filter.choice import EKF, parse_filter
 from ftin.live.formats import PushFormat
 from ftin.live.messages import MessageError, PushMessage
 from ftin.live.session import LiveSession
@@ -88,6 +92,7 @@ class _Item:
     push_format: PushFormat
     model: str | None
     platform: str | None
+    filter: str = "none"
 
 
 @dataclass
@@ -179,12 +184,12 @@ class LiveService:
         filter: str | None = None,
     ) -> dict[str, Any]:
         """Check and queue one push body (its size was checked at the door); the answer for the
-        phone (raises 4xx service errors). ``filter``: only none for now (``ftin.filter.choice``)."""
+        phone (raises 4xx service errors). ``filter``: none or ekf (``ftin.filter.choice``), taken by
+        the push that starts a session."""
         if platform is not None and platform.lower() not in PLATFORMS:
             raise InvalidInputError(f"platform must be one of {', '.join(PLATFORMS)}; got {platform!r}")
         try:
-            if parse_filter(filter) == EKF:  # causal, but not yet stepped sample by sample live
-                raise InvalidInputError(LIVE_UNAVAILABLE)
+            chosen = parse_filter(filter)
         except ValueError as exc:
             raise InvalidInputError(str(exc)) from None
         try:
@@ -196,6 +201,10 @@ class LiveService:
             return {"status": "ok", "test": True, "detail": "FTIN Studio received the test push"}
         if model is not None:
             self.models.get(model)  # 404 for an unknown model now, not in the worker
+        if chosen == EKF:
+            entry = self.models.get(model or self.settings.live_model)
+            if entry.loaded.model.streams:  # what ftin.filter.run.NetworkVelocity would refuse
+                raise InvalidInputError(f"{entry.name!r} is a streaming model: the EKF needs a window model")
         key = (message.session_id, message.device_id)
         with self._lock:
             known = key in self._sessions
@@ -217,7 +226,7 @@ class LiveService:
             run_id = live.run_id if live is not None else None
         try:
             self._queue.put_nowait(
-                _Item(message, arrival_s, push_format, model, platform and platform.lower())
+                _Item(message, arrival_s, push_format, model, platform and platform.lower(), chosen)
             )
         except queue.Full:
             self.refused += 1
@@ -261,6 +270,7 @@ class LiveService:
             "distance_m": round(s.distance_m(), 2),
             "steps": s.steps,
             "orientation": s.orientation.source,
+            "filter": s.filter,
             "warnings": s.warnings(),
         }
 
@@ -363,6 +373,7 @@ class LiveService:
                     item.push_format,
                     platform=item.platform,
                     now_s=item.arrival_s,
+                    filter=item.filter,
                 )
                 live = _Live(session, part, model_name=entry.name)
                 live.name = _session_name(key[1], part)

@@ -26,7 +26,6 @@ from ftin.uncertainty.radius import radius_holding
 
 FILTERS = ("none", "ekf")
 NONE, EKF = FILTERS
-LIVE_UNAVAILABLE = "filter=ekf is not available for live sessions yet; use filter=none"
 
 
 def parse_filter(value: str | None) -> str:

@@ -1,11 +1,10 @@
 """The network inside the EKF: one recording through ``ErrorStateEkf``, causally, with a window
 model's mean velocity as the measurement (``docs/filter.md``).
 
-Per sample k (on the model's rate grid): first the update of any window ending at k (the network
-reads the world-frame rows of that window, each built with the filter's orientation and biases at
-its own sample, so only samples before k); then the outputs at k are recorded; then a clone is taken
-if a window starts at k; then row k of the network's input is built and the state is propagated to
-k + 1 with sample k. The estimate at a time therefore never depends on a later sample.
+``run_filter`` feeds the whole recording to a ``FilterSession`` (``ftin.filter.session``: the one
+stepping core, per sample: propagate to k, the update of any window ending at k, the outputs at k,
+a clone where a window starts, row k of the network's input), so the estimate at a time never
+depends on a later sample, and a live stream fed in chunks gets the same estimates.
 
 ``filter_prediction`` wraps it as inference does (``ftin.infer.predict_trajectory``): the same
 preparation, a ``Prediction`` whose trajectory is the filter's (positions at every sample, its
@@ -15,10 +14,8 @@ orientation), beside the ``FilterRun`` with biases, covariances and the NIS of e
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 from vqf import VQF
 
 from ftin.checkpoint import LoadedModel
@@ -26,32 +23,12 @@ from ftin.data import frames
 from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.filter.ekf import ErrorStateEkf
-from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
+from ftin.filter.session import FilterRun, FilterSession
+from ftin.filter.state import FilterConfig
 from ftin.infer import FRAME_DEVICE_WORLD, FRAME_GROUND_TRUTH, Prediction, run_windows
 from ftin.uncertainty.calibration import calibration_for
 from ftin.uncertainty.propagate import window_sigma
 from ftin.yaw_average import YAW_COPIES
-
-
-@dataclass
-class FilterRun:
-    """What the filter estimated, per sample ``(N, ...)`` and per update ``(M, ...)``."""
-
-    t_s: np.ndarray  # (N,)
-    p_world_m: np.ndarray  # (N, 3) position after any update at that sample
-    velocity_state_m_s: np.ndarray  # (N, 3) the filter's own velocity
-    q_world_device_wxyz: np.ndarray  # (N, 4) the filter's orientation
-    gyro_bias_rad_s: np.ndarray  # (N, 3)
-    acc_bias_m_s2: np.ndarray  # (N, 3)
-    position_cov_xy: np.ndarray  # (N, 2, 2) horizontal position covariance
-    tilt_cov: np.ndarray  # (N, 2, 2) covariance of the tilt error (world x, y rotation)
-    imu_world: np.ndarray  # (N, 6) float32: the rows the network read
-    update_span: np.ndarray  # (M, 2) first and end sample of each update's window
-    velocity_m_s: np.ndarray  # (M, D) the network's world-frame velocity of each window
-    nis: np.ndarray  # (M,) normalised innovation squared (3 dof)
-    applied: np.ndarray  # (M,) bool: False where the gate refused the update
-    covariance: np.ndarray  # (M, 15, 15) evolving-state covariance after each update
 
 
 class NetworkVelocity:
@@ -128,76 +105,17 @@ def run_filter(
         raise ValueError(
             f"{seq.name!r} is too short for the filter: {n} samples, a window needs {window + 1}"
         )
-    every = config.update_every or window
-    if measure is None:
-        if network is None:
-            raise ValueError("run_filter needs a network or a measure function")
-
-        def measure(rows: np.ndarray, start: int, end: int, _: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return network(rows[start:end])
-
-    ekf = ErrorStateEkf(
+    session = FilterSession(
+        network,
+        window,
         config,
-        frames.rotation_from_wxyz(seq.q_world_device_wxyz[0]).as_matrix(),
-        np.zeros(3) if start_position_m is None else start_position_m,
+        start_q_wxyz=seq.q_world_device_wxyz[0],
+        start_position_m=start_position_m,
+        measure=measure,
+        on_update=None if progress is None else (lambda k: progress(k, n)),
     )
-    gyro, acc = seq.gyro_rad_s, seq.acc_m_s2
-    rows = np.zeros((n, 6), dtype=np.float32)
-    p_out, v_out, R_out = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
-    bg_out, ba_out = np.zeros((n, 3)), np.zeros((n, 3))
-    pos_cov, tilt_cov = np.zeros((n, 2, 2)), np.zeros((n, 2, 2))
-    yaw_at = np.zeros(n)  # the heading each row was built with: the network's frame for its window
-    spans, velocities, nis, applied, covariances = [], [], [], [], []
-    sigma_z2 = config.vertical_std_m_s**2
-    for k in range(n):
-        start = k - window
-        if start >= 0 and start % every == 0:
-            v_world, cov_xy = measure(rows, start, k, R_out[start])
-            Rz = rot_z(yaw_at[start])
-            z = Rz.T @ v_world  # into the frame of the clone's heading (the measurement's frame)
-            R_meas = np.zeros((3, 3))
-            R_meas[:2, :2] = Rz[:2, :2].T @ cov_xy @ Rz[:2, :2]
-            R_meas[2, 2] = sigma_z2
-            result = ekf.update(start, z, R_meas, t[k] - t[start])
-            ekf.drop_clone(start)
-            if heading_ref_rad is not None and config.heading_std_rad is not None:
-                ekf.update_heading(float(heading_ref_rad[k]), config.heading_std_rad)
-            spans.append((start, k))
-            velocities.append(v_world)
-            nis.append(result.nis)
-            applied.append(result.applied)
-            covariances.append(ekf.evolving_covariance.copy())
-            if progress is not None:
-                progress(k, n)
-        s = ekf.state
-        p_out[k], v_out[k], R_out[k], bg_out[k], ba_out[k] = s.p, s.v, s.R, s.bg, s.ba
-        P = ekf.evolving_covariance
-        pos_cov[k] = P[POS, POS][:2, :2]
-        tilt_cov[k] = P[THETA, THETA][:2, :2]
-        if k % every == 0 and k + window < n:
-            yaw_at[k] = yaw_of(s.R)
-            ekf.clone(k)
-        w, f = (gyro[k] - s.bg, acc[k] - s.ba) if config.correct_network_input else (gyro[k], acc[k])
-        rows[k, :3], rows[k, 3:] = s.R @ w, s.R @ f
-        if k + 1 < n:
-            ekf.propagate(gyro[k], acc[k], t[k + 1] - t[k], gyro[k + 1], acc[k + 1])
-    q = frames.wxyz_from_rotation(Rotation.from_matrix(R_out))
-    return FilterRun(
-        t_s=t.copy(),
-        p_world_m=p_out,
-        velocity_state_m_s=v_out,
-        q_world_device_wxyz=frames.make_continuous(q),
-        gyro_bias_rad_s=bg_out,
-        acc_bias_m_s2=ba_out,
-        position_cov_xy=pos_cov,
-        tilt_cov=tilt_cov,
-        imu_world=rows,
-        update_span=np.array(spans, dtype=np.int64).reshape(-1, 2),
-        velocity_m_s=np.array(velocities).reshape(-1, 3),
-        nis=np.array(nis),
-        applied=np.array(applied, dtype=bool),
-        covariance=np.array(covariances).reshape(-1, 15, 15),
-    )
+    session.update(t, seq.gyro_rad_s, seq.acc_m_s2, heading_ref_rad)
+    return session.result()
 
 
 def reference_heading(seq: ImuSequence, causal: bool = False) -> np.ndarray | None:

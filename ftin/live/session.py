@@ -9,6 +9,11 @@ Latency (``latencies_s``, per sample): from the arrival of the message that carr
 moment the trajectory covers it, i.e. a window (or, for streaming models, a frame) ending at or after
 it was integrated and the result was handed on (``mark_effect``, called by whoever publishes it).
 Samples are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
+
+``filter="ekf"``: the samples go through the EKF (``ftin.filter.session.FilterSession``) instead of
+the incremental inference, with the causal orientation as its start and heading reference; the
+trajectory, orientation and uncertainty are the filter's, and a sample is covered as soon as it was
+stepped (its estimate is final then), from the first network update on (``docs/filter.md``).
 """
 
 from __future__ import annotations
@@ -21,6 +26,10 @@ import numpy as np
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.filter.choice import EKF, NONE, ekf_uncertainty
+from ftin.filter.run import NetworkVelocity
+from ftin.filter.session import FilterSession
+from ftin.filter.state import FilterConfig
 from ftin.infer import FRAME_DEVICE_WORLD, Prediction
 from ftin.live.formats.base import PushFormat
 from ftin.live.grid import SensorStreams
@@ -50,6 +59,7 @@ class LiveSession:
         platform: str | None = None,
         hold_s: float = 0.5,
         now_s: float | None = None,
+        filter: str = NONE,
     ) -> None:
         now_s = time.monotonic() if now_s is None else now_s
         self.session_id, self.device_id = session_id, device_id
@@ -59,7 +69,17 @@ class LiveSession:
         self.order = MessageOrder(hold_s)
         self.streams = SensorStreams(loaded.imu_rate_hz, push_format, platform, self.source)
         self.orientation = CausalOrientation(loaded.imu_rate_hz)
-        self.predictor = IncrementalPredictor(loaded)
+        self.model_rate_hz = float(loaded.imu_rate_hz)
+        self.window = int(loaded.window)
+        self.out_dim = int(loaded.out_dim)
+        self.filter = filter
+        self.predictor: IncrementalPredictor | FilterSession
+        if filter == EKF:  # the offline heading (auto's, forwards and backwards) does not exist live
+            self.filter_config = FilterConfig(heading_reference="causal")
+            network = NetworkVelocity(loaded, self.filter_config)  # ValueError for a streaming model
+            self.predictor = FilterSession(network, loaded.window, self.filter_config)
+        else:
+            self.predictor = IncrementalPredictor(loaded)
         self.step_detector = StepDetector(loaded.imu_rate_hz)  # the upload's detector, fed as samples come
         self.started_s = now_s
         self.last_message_s = now_s
@@ -197,7 +217,7 @@ class LiveSession:
         """What was received, on the model's clock (views; the run's sequence)."""
         t = self.predictor.t_s()
         gyro, acc, q = self.predictor.imu()
-        rate = float(self.predictor.loaded.imu_rate_hz)
+        rate = self.model_rate_hz
         meta: dict[str, Any] = {
             "dataset": f"{self.push_format.name}-live",
             "source": self.source,
@@ -213,6 +233,8 @@ class LiveSession:
         return ImuSequence(name, t, gyro, acc, q, None, meta)
 
     def prediction(self) -> Prediction:
+        if isinstance(self.predictor, FilterSession):
+            return self._filter_prediction(self.predictor)
         p = self.predictor
         t = p.t_s()
         mid, span_t = p.span_times()
@@ -226,6 +248,27 @@ class LiveSession:
             warnings=self.warnings(),
             features=None,
             span_t_s=span_t,
+        )
+
+    def _filter_prediction(self, session: FilterSession) -> Prediction:
+        """The EKF's trajectory, orientation and horizontal position covariance so far (its ``P``, the
+        run's uncertainty: ``ftin.filter.choice.ekf_uncertainty``); views but for that covariance."""
+        run = session.result()
+        mid, span_t = session.span_times()
+        return Prediction(
+            trajectory=Trajectory(run.t_s, run.p_world_m, run.q_world_device_wxyz),
+            window_t_s=mid,
+            velocity_m_s=run.velocity_m_s[:, : self.out_dim],
+            orientation_source=self.orientation.source or "device",
+            frame=FRAME_DEVICE_WORLD,
+            warnings=self.warnings(),
+            features={"filter_uncertainty": ekf_uncertainty(run, self.filter_config)},
+            span_t_s=span_t,
+            window_s=self.window / self.model_rate_hz,
+            orientation_filter=EKF,
+            imu_world=run.imu_world,
+            starts=run.update_span[:, 0],
+            notes=["trajectory and orientation from the EKF, its heading held to the causal orientation's"],
         )
 
 

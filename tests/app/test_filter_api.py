@@ -93,20 +93,6 @@ def test_without_the_field_the_answer_is_byte_identical(client: TestClient, csv_
     assert first.replace(b"nofilter-1", b"nofilter-2") == second
 
 
-def test_a_live_session_refuses_the_ekf_in_words(client: TestClient) -> None:
-    """Live sessions take filter=none only for now: the EKF is asked for, and refused with a 422 that
-    says so, before any session starts; a bad value names the field."""
-    from tests.app.test_live import PUSH, push_body
-
-    response = client.post(PUSH, params={"filter": "ekf"}, json=push_body("ekf-session"))
-    assert response.status_code == 422
-    assert response.json()["detail"] == "filter=ekf is not available for live sessions yet; use filter=none"
-    assert all(s.get("session_id") != "ekf-session" for s in client.get("/live/sessions").json())
-    bad = client.post(PUSH, params={"filter": "kalman"}, json=push_body("bad-session"))
-    assert bad.status_code == 422 and "filter" in bad.json()["detail"] and "kalman" in bad.json()["detail"]
-    assert client.post(PUSH, params={"filter": "none"}, json=push_body("plain-session")).status_code == 200
-
-
 def test_the_scene_names_an_ekf_run_and_plots_its_tilt_and_biases(make_settings, csv_with_gt: bytes) -> None:
     """An EKF run drawn in the viser scene: ``· EKF`` in its label, its tilt and both bias estimates in
     the timeline's "Filter (EKF)" plots with a cursor; a run without the filter hides them."""

@@ -77,6 +77,7 @@ class LiveSessionInfo(BaseModel):
     distance_m: float = Field(description="Horizontal path length so far.")
     steps: int
     orientation: str | None = Field(description="device (the phone's own) or estimated (VQF online).")
+    filter: str = Field("none", description="none, or ekf: the session runs through the EKF.")
     warnings: list[str]
 
 
@@ -137,7 +138,10 @@ def _push_endpoint(push_format: PushFormat) -> Callable[..., Awaitable[LivePushR
         token: TokenQuery = None,
         model: ModelQuery = None,
         platform: PlatformQuery = None,
-        filter: Annotated[str | None, Query(description="none only: the EKF is not live yet.")] = None,
+        filter: Annotated[
+            str | None,
+            Query(description="none (default) or ekf: a session's first push picks its filter."),
+        ] = None,
     ) -> LivePushResponse:
         arrival_s = time.monotonic()
         auth = request.headers.get("authorization", "")

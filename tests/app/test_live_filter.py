@@ -1,0 +1,126 @@
+"""``filter=ekf`` on a live session (``POST /live/sensorlogger?filter=ekf``; docs/filter.md, "Live
+sessions"): a replayed phone stream runs through the EKF as it arrives, the live run names the filter
+and carries the EKF's covariance as its uncertainty, its scene label ends in "· EKF", and its
+trajectory is the one the EKF gives the whole received recording at once (pushes change nothing).
+Bad values are 422s that say why; the refusal of the EKF for live sessions is gone.
+
+The fixture checkpoints are tiny and untrained: the filter's path is not scored here (the probe
+scores the default model on real walks), only that the live door runs it, causally."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from app.main import create_app
+from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from app.viz.filter_series import filter_label
+from ftin.data import frames
+from ftin.data.readers.generic_csv import read
+from ftin.filter import FilterConfig, NetworkVelocity, run_filter
+from ftin.live.replay import send, sequence_messages
+from ftin.uncertainty.radius import radius_holding
+from tests.app.conftest import DEFAULT_MODEL
+from tests.app.test_live import PUSH, push_body
+from tests.utils import checkpoints
+
+
+@pytest.fixture(scope="module")
+def live_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
+    with TestClient(create_app(make_settings())) as client:
+        yield client
+
+
+def _post(client: TestClient) -> Callable[[str, dict[str, Any]], tuple[int, str]]:
+    def post(url: str, body: dict[str, Any]) -> tuple[int, str]:
+        response = client.post(url, json=body)
+        return response.status_code, response.text
+
+    return post
+
+
+def _replayed(client: TestClient, session_id: str, query: str, *, orientation: bool = True) -> dict[str, Any]:
+    seq = read(BUNDLED_SAMPLES_DIR / "sim_handheld.csv").slice(0, 1500).with_(gt=None)
+    if not orientation:  # no orientation streamed: VQF online (6-D) is the causal orientation
+        seq = seq.with_(q_world_device_wxyz=None)
+    report = send(sequence_messages(seq, 0.5, session_id=session_id), PUSH + query, math.inf, _post(client))
+    assert report.statuses == {200: report.sent}, report.errors
+    live = client.app.state.services.live
+    live.end_all()
+    return next(s for s in live.sessions() if s["session_id"] == session_id)
+
+
+@pytest.mark.parametrize("orientation", [True, False], ids=["device", "vqf-online"])
+def test_a_replayed_stream_runs_through_the_ekf_as_it_arrives(
+    live_client: TestClient, orientation: bool
+) -> None:
+    session = _replayed(live_client, f"ekf-{orientation}", "?filter=ekf", orientation=orientation)
+    assert session["state"] == "ended" and session["filter"] == "ekf" and session["run_id"]
+    assert session["orientation"] == ("device" if orientation else "estimated")
+    listed = next(
+        s for s in live_client.get("/live/sessions").json() if s["session_id"] == session["session_id"]
+    )
+    assert listed["filter"] == "ekf"
+    answer = live_client.get(f"/runs/{session['run_id']}/result").json()
+    assert answer["filter"] == "ekf"  # named as the upload answer names it
+    traj = answer["trajectory"]
+    cov = np.column_stack([traj["cov_xx"], traj["cov_xy"], traj["cov_yy"]])
+    assert len(cov) == session["samples"] >= 1400
+    assert np.all(cov[1:, 0] > 0) and np.all(cov[:, 0] * cov[:, 2] - cov[:, 1] ** 2 >= -1e-12)
+    assert "EKF" in answer["uncertainty"]["calibration"]
+    end = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
+    assert answer["uncertainty"]["end_radius_95_m"] == pytest.approx(radius_holding(end), abs=0.01)
+
+    # The pushes' chunks change nothing: the EKF over the whole received recording at once, with
+    # the session's causal orientation as start and heading reference, gives the same path.
+    services = live_client.app.state.services
+    run = services.runs.get(session["run_id"])
+    seq = run.sequence
+    config = FilterConfig(heading_reference="causal")  # as the live session makes it
+    loaded = services.models.get(DEFAULT_MODEL).loaded
+    heading = np.unwrap(frames.yaw_rad(seq.q_world_device_wxyz))
+    whole = run_filter(NetworkVelocity(loaded, config), seq, loaded.window, config, heading_ref_rad=heading)
+    np.testing.assert_allclose(run.prediction.trajectory.p_world_m, whole.p_world_m, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(cov[:, 0], whole.position_cov_xy[:, 0, 0], rtol=0, atol=1e-6)  # 6 decimals
+    # The scene labels the run with its filter (app.viz.overlay draws it with this label).
+    assert filter_label(run.prediction, "FTIN").endswith("· EKF")
+
+
+def test_without_the_filter_a_session_streams_as_before(live_client: TestClient) -> None:
+    session = _replayed(live_client, "plain", "")
+    assert session["filter"] == "none" and session["run_id"]
+    answer = live_client.get(f"/runs/{session['run_id']}/result").json()
+    assert "filter" not in answer
+    run = live_client.app.state.services.runs.get(session["run_id"])
+    assert filter_label(run.prediction, "FTIN") == "FTIN"
+
+
+def test_bad_filter_values_are_422s_that_say_why(live_client: TestClient) -> None:
+    bad = live_client.post(PUSH, params={"filter": "kalman"}, json=push_body("bad-session"))
+    assert bad.status_code == 422
+    assert (
+        "filter" in bad.json()["detail"]
+        and "kalman" in bad.json()["detail"]
+        and "ekf" in bad.json()["detail"]
+    )
+    assert live_client.post(PUSH, params={"filter": "ekf"}, json=push_body("ekf-ok")).status_code == 200
+    live_client.app.state.services.live.end_all()
+
+
+def test_a_streaming_model_is_refused_for_the_ekf_before_any_session(
+    make_settings: Callable[..., Settings], tmp_path
+) -> None:
+    checkpoints.write_checkpoint(tmp_path / "tcn-tiny", "ronin_tcn")
+    with TestClient(create_app(make_settings(checkpoint_dir=tmp_path, default_model="tcn-tiny"))) as client:
+        response = client.post(PUSH, params={"filter": "ekf"}, json=push_body("tcn-ekf"))
+        assert response.status_code == 422
+        assert "streaming model" in response.json()["detail"] and "window model" in response.json()["detail"]
+        assert "Traceback" not in response.text
+        assert all(s["session_id"] != "tcn-ekf" for s in client.get("/live/sessions").json())
+        assert client.post(PUSH, json=push_body("tcn-plain")).status_code == 200
+        client.app.state.services.live.end_all()
