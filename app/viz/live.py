@@ -26,7 +26,7 @@ IDLE_TEXT = (
 
 
 def rates_text(session: dict[str, Any]) -> str:
-    """"gyro 500 Hz · acc 100 Hz": each sensor's own rate (``LiveService.sessions()``' ``rates_hz``)."""
+    """ "gyro 500 Hz · acc 100 Hz": each sensor's own rate (``LiveService.sessions()``' ``rates_hz``)."""
     rates = session.get("rates_hz") or {"gyro": session["rate_hz"]}
     return " · ".join(f"{kind} {hz:.0f} Hz" for kind, hz in rates.items() if hz is not None)
 
