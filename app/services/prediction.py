@@ -33,14 +33,13 @@ Decisions:
   model runs the one ``model_choice`` picks.
 - Filter (``ftin.filter.choice``): ``filter=ekf`` puts the model inside the EKF on the oriented sequence
   (its trajectory, and its own covariance as the run's uncertainty); none or absent runs inference
-  exactly as before. The EKF's tilt and bias series are kept by run id for the scene's timeline.
+  exactly as before. The run's prediction carries the EKF's tilt and bias series (the scene's timeline
+  plots them).
 """
 
 from __future__ import annotations
 
 import logging
-import threading
-from collections import OrderedDict
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -72,32 +71,6 @@ from ftin.precision import PrecisionChoice, choose
 log = logging.getLogger(__name__)
 
 BATCH_WINDOWS = 256
-# The EKF's tilt and bias series of the latest EKF runs, by run id, for the scene's timeline
-# (app.viz.filter_series): the same arrays the run's prediction holds (nothing copied); at most
-# FILTER_SERIES_KEPT, so those of a run the store has dropped are let go soon after.
-FILTER_SERIES_KEPT = 32
-_FILTER_SERIES: OrderedDict[str, dict[str, np.ndarray]] = OrderedDict()
-_FILTER_SERIES_LOCK = threading.Lock()
-
-
-def filter_series_of(run_id: str) -> dict[str, np.ndarray] | None:
-    """The EKF series of run ``run_id`` (``ftin.filter.choice.ekf_series``), or None: no EKF, or
-    no longer kept (a restored run's series are not stored)."""
-    with _FILTER_SERIES_LOCK:
-        return _FILTER_SERIES.get(run_id)
-
-
-def _keep_filter_series(run_id: str, prediction: Any) -> None:
-    series = (prediction.features or {}).get("filter_series")
-    if series is None:
-        return
-    with _FILTER_SERIES_LOCK:
-        _FILTER_SERIES[run_id] = series
-        _FILTER_SERIES.move_to_end(run_id)
-        while len(_FILTER_SERIES) > FILTER_SERIES_KEPT:
-            _FILTER_SERIES.popitem(last=False)
-
-
 # Work of a run that needs the recording but not the model (its steps), done while the model runs.
 _FIGURES = ThreadPoolExecutor(max_workers=2, thread_name_prefix="ftin-figures")
 
@@ -397,6 +370,5 @@ class PredictionService:
             group=group,
             steps=steps,
         )
-        _keep_filter_series(run_id, prediction)  # before finish: the scene hears of the run there
         self.runs.finish(run)
         return run

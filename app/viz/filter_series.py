@@ -3,10 +3,10 @@
 orientation it started from (deg), and its gyroscope and accelerometer bias estimates, on the
 timeline's time axis with a cursor at the slider's time (``docs/filter.md``, "At every door").
 
-The series are the run's (``Prediction.features["filter_series"]``), found by run id through
-``app.services.prediction.filter_series_of``, which every door's EKF run registers with. A run
-without the filter (or one restored from disk, whose series were not kept) shows no EKF plot: the
-folder says so and the plots are hidden.
+The series are the run's (``Prediction.features["filter_series"]``, carried by its
+``app.viz.run_scene_data.RunView``), for uploads and live sessions alike. A run without the filter (or
+one restored from disk, whose series were not kept) shows no EKF plot: the folder says so and the
+plots are hidden.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 import viser
 
-from app.services.prediction import filter_series_of
 from app.viz.spectra import common_time_grid, with_cursor
 from ftin.filter.choice import EKF, filter_of
 
@@ -67,7 +66,7 @@ class FilterPlots:
     def show(self, views: list[Any], t_rel_s: float) -> None:
         """Plot the first of ``views`` (``app.viz.run_scene_data.RunView``) with EKF series, cursor at
         ``t_rel_s`` (seconds from the recording's start); hide the plots when none has them."""
-        found = next(((v, s) for v in views if (s := filter_series_of(v.run_id)) is not None), None)
+        found = next(((v, v.filter_series) for v in views if v.filter_series is not None), None)
         plots = (self.gui_tilt, self.gui_gyro, self.gui_acc)
         for plot in plots:
             plot.visible = found is not None

@@ -67,6 +67,7 @@ class RunView:
     plausibility: Any = None  # ftin.metrics.plausibility.Plausibility: figures without ground truth, GPS
     display_name: str = ""  # the model's name people know ("RNIN · OxIOD"); model_name is the API's
     spread: PathSpread | None = None  # the path's covariance (None: no uncertainty for this run)
+    filter_series: dict[str, np.ndarray] | None = None  # the EKF's tilt and biases (ftin.filter.choice)
 
     @classmethod
     def from_run(
@@ -114,6 +115,7 @@ class RunView:
             plausibility=run.plausibility,
             display_name=display_name,
             spread=PathSpread.of_run(run),
+            filter_series=(pred.features or {}).get("filter_series"),
         )
 
     @property

@@ -26,7 +26,7 @@ import numpy as np
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.filter.choice import EKF, NONE, ekf_uncertainty
+from ftin.filter.choice import EKF, NONE, ekf_series, ekf_uncertainty
 from ftin.filter.run import NetworkVelocity
 from ftin.filter.session import FilterSession
 from ftin.filter.state import FilterConfig
@@ -262,7 +262,10 @@ class LiveSession:
             orientation_source=self.orientation.source or "device",
             frame=FRAME_DEVICE_WORLD,
             warnings=self.warnings(),
-            features={"filter_uncertainty": ekf_uncertainty(run, self.filter_config)},
+            features={
+                "filter_uncertainty": ekf_uncertainty(run, self.filter_config),
+                "filter_series": ekf_series(run, session.imu()[2]),  # the scene's EKF plots
+            },
             span_t_s=span_t,
             window_s=self.window / self.model_rate_hz,
             orientation_filter=EKF,

@@ -87,8 +87,12 @@ def test_a_replayed_stream_runs_through_the_ekf_as_it_arrives(
     whole = run_filter(NetworkVelocity(loaded, config), seq, loaded.window, config, heading_ref_rad=heading)
     np.testing.assert_allclose(run.prediction.trajectory.p_world_m, whole.p_world_m, rtol=0, atol=1e-9)
     np.testing.assert_allclose(cov[:, 0], whole.position_cov_xy[:, 0, 0], rtol=0, atol=1e-6)  # 6 decimals
-    # The scene labels the run with its filter (app.viz.overlay draws it with this label).
+    # The scene labels the run with its filter (app.viz.overlay draws it with this label) and plots its
+    # tilt and biases from the series the run carries (app.viz.filter_series, as for an upload).
     assert filter_label(run.prediction, "FTIN").endswith("· EKF")
+    series = run.prediction.features["filter_series"]
+    np.testing.assert_allclose(series["gyro_bias_deg_s"], np.degrees(whole.gyro_bias_rad_s), atol=1e-9)
+    assert len(series["tilt_deg"]) == len(seq) and np.all(np.isfinite(series["tilt_correction_deg"]))
 
 
 def test_without_the_filter_a_session_streams_as_before(live_client: TestClient) -> None:
