@@ -18,7 +18,7 @@ import numpy as np
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence
 from ftin.filter.consistency import tilt_error_deg
-from ftin.filter.run import FilterRun, filter_prediction
+from ftin.filter.run import FilterRun, filter_prediction, measurement_source
 from ftin.filter.state import FilterConfig
 from ftin.infer import Prediction
 from ftin.uncertainty import PathUncertainty
@@ -43,20 +43,23 @@ def filter_of(prediction: Any) -> str:
     return EKF if getattr(prediction, "orientation_filter", None) == EKF else NONE
 
 
-def ekf_uncertainty(run: FilterRun, config: FilterConfig) -> PathUncertainty:
-    """The EKF's own horizontal position covariance per sample, as the path's uncertainty."""
+def ekf_uncertainty(run: FilterRun, config: FilterConfig, source: str = "fixed") -> PathUncertainty:
+    """The EKF's own horizontal position covariance per sample, as the path's uncertainty; ``source``:
+    the measurement sigma the filter took (``ftin.filter.run.measurement_source``)."""
     P = run.position_cov_xy
     cov = np.column_stack([P[:, 0, 0], P[:, 0, 1], P[:, 1, 1]])
-    how = (
-        "the EKF's own position covariance (its P, horizontal), measurement sigma "
-        + (
-            f"{config.measurement_sigma_scale:g} x the calibrated window sigma a + b|v|"
-            if config.measurement_sigma == "calibrated"
-            else f"{config.velocity_std_m_s:g} m/s"
-        )
-        + " (docs/filter.md)"
-    )
+    sigma = {
+        "calibrated": f"{config.measurement_sigma_scale:g} x the calibrated window sigma a + b|v|",
+        "head": "the model's variance head, scaled as calibrated",
+    }.get(source, f"{config.velocity_std_m_s:g} m/s")
+    how = f"the EKF's own position covariance (its P, horizontal), measurement sigma {sigma} (docs/filter.md)"
     return PathUncertainty(cov, radius_holding(P[-1], 0.95), how)
+
+
+def sigma_source(loaded: LoadedModel, config: FilterConfig) -> str:
+    """The measurement sigma ``config`` gives ``loaded`` inside the filter."""
+    has_head = bool(getattr(loaded.model, "has_uncertainty", False))
+    return measurement_source(config.measurement_sigma, has_head, loaded.name)
 
 
 def ekf_series(run: FilterRun, q_input_wxyz: np.ndarray) -> dict[str, np.ndarray]:
@@ -88,7 +91,7 @@ def ekf_prediction(
     prediction, run = filter_prediction(loaded, seq, config, progress=progress)
     q_input = prediction.prepared.seq.q_world_device_wxyz
     prediction.features = {
-        "filter_uncertainty": ekf_uncertainty(run, config),
+        "filter_uncertainty": ekf_uncertainty(run, config, sigma_source(loaded, config)),
         "filter_series": ekf_series(run, q_input),
     }
     if not keep_prepared:

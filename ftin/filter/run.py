@@ -31,6 +31,16 @@ from ftin.uncertainty.propagate import window_sigma
 from ftin.yaw_average import YAW_COPIES
 
 
+def measurement_source(choice: str, has_head: bool, name: str) -> str:
+    """What ``FilterConfig.measurement_sigma`` means for a model: ``auto`` is its head where it has one,
+    else ``fixed``; ``head`` on a model without one is a ``ValueError``."""
+    if choice == "auto":
+        return "head" if has_head else "fixed"
+    if choice == "head" and not has_head:
+        raise ValueError(f"measurement_sigma 'head': {name!r} has no variance head")
+    return choice
+
+
 class NetworkVelocity:
     """A window model as the filter calls it: one window of world-frame rows in, its mean velocity
     ``(3,)`` (z = 0 for a 2-D model) and the covariance ``(3, 3)`` of its horizontal part out."""
@@ -43,9 +53,13 @@ class NetworkVelocity:
         self.copies = YAW_COPIES
         self.parts = loaded.model.target_parts(loaded.window)
         self.has_head = bool(getattr(loaded.model, "has_uncertainty", False))
+        self.sigma_source = measurement_source(config.measurement_sigma, self.has_head, loaded.name)
         self.calibration = None
-        if config.measurement_sigma == "calibrated" and not self.has_head:
+        self.head_scale = config.measurement_sigma_scale
+        if self.sigma_source in ("calibrated", "head"):
             self.calibration = calibration_for(loaded.name)
+            if self.sigma_source == "head":
+                self.head_scale *= self.calibration.log_std_scale or 1.0  # none fitted: the head as it is
 
     def __call__(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         window = len(rows)
@@ -65,14 +79,15 @@ class NetworkVelocity:
         out = np.zeros(3)
         out[: min(3, len(v))] = v[:3]
         var = np.full(2, self.config.velocity_std_m_s**2)
-        if self.calibration is not None:
+        if self.sigma_source == "calibrated":
             # The calibrated per-window sigma (a + b|v|), the one the position uncertainty uses.
             sigma = window_sigma(out[None, :2], self.calibration)[0] * self.config.measurement_sigma_scale
             var = np.full(2, sigma**2)
-        if self.has_head and taps is not None and "log_std" in taps:
-            # The head's per-axis variance; over K parts the mean's variance is their mean / K.
+        elif self.sigma_source == "head":
+            # The head's per-axis variance (over K parts the mean's variance is their mean / K), scaled
+            # as the position uncertainty scales it.
             part_var = np.exp(2.0 * taps["log_std"].astype(np.float64)[0].reshape(self.parts, -1))
-            var = part_var.mean(axis=0)[:2] / self.parts
+            var = part_var.mean(axis=0)[:2] / self.parts * self.head_scale**2
         return out, np.diag(var)
 
 

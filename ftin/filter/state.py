@@ -21,6 +21,9 @@ EVOLVING = 15
 CLONE = 6
 
 
+MEASUREMENT_SIGMAS = ("auto", "fixed", "calibrated", "head")
+
+
 @dataclass(frozen=True)
 class FilterConfig:
     """Noise densities, initial uncertainty and the measurement options (defaults: a phone MEMS IMU,
@@ -49,9 +52,12 @@ class FilterConfig:
     init_gyro_bias_std_rad_s: float = 1.0e-2
     init_acc_bias_std_m_s2: float = 0.2
     velocity_std_m_s: float = 0.12  # the default's residual RMS: OxIOD 0.10, RIDI 0.15 (docs/filter.md)
-    # Without a variance head: "fixed" (velocity_std_m_s) or "calibrated", the position uncertainty's
-    # per-window sigma a + b|v| (ftin.uncertainty.propagate.window_sigma) times measurement_sigma_scale.
-    measurement_sigma: str = "fixed"
+    # "auto": the model's variance head where it has one, else "fixed"; "fixed" (velocity_std_m_s);
+    # "calibrated", the position uncertainty's per-window sigma a + b|v|
+    # (ftin.uncertainty.propagate.window_sigma); "head", the head's sigma times its calibrated
+    # log_std_scale (ftin/uncertainty/calibration.json; 1 where none is fitted). Each times
+    # measurement_sigma_scale but "fixed".
+    measurement_sigma: str = "auto"
     measurement_sigma_scale: float = 1.0
     vertical_std_m_s: float = 0.1
     update_every: int | None = None
@@ -82,9 +88,10 @@ class FilterConfig:
             raise ValueError(
                 f"FilterConfig.heading_reference must be offline or causal, got {self.heading_reference!r}"
             )
-        if self.measurement_sigma not in ("fixed", "calibrated"):
+        if self.measurement_sigma not in MEASUREMENT_SIGMAS:
             raise ValueError(
-                f"FilterConfig.measurement_sigma must be fixed or calibrated, got {self.measurement_sigma!r}"
+                f"FilterConfig.measurement_sigma must be one of {', '.join(MEASUREMENT_SIGMAS)}, "
+                f"got {self.measurement_sigma!r}"
             )
         if self.update_every is not None and self.update_every < 1:
             raise ValueError(f"FilterConfig.update_every must be >= 1 sample, got {self.update_every}")

@@ -77,6 +77,7 @@ class LiveSession:
         if filter == EKF:  # the offline heading (auto's, forwards and backwards) does not exist live
             self.filter_config = FilterConfig(heading_reference="causal")
             network = NetworkVelocity(loaded, self.filter_config)  # ValueError for a streaming model
+            self.filter_sigma = network.sigma_source  # which measurement sigma, for the uncertainty's words
             self.predictor = FilterSession(network, loaded.window, self.filter_config)
         else:
             self.predictor = IncrementalPredictor(loaded)
@@ -263,7 +264,7 @@ class LiveSession:
             frame=FRAME_DEVICE_WORLD,
             warnings=self.warnings(),
             features={
-                "filter_uncertainty": ekf_uncertainty(run, self.filter_config),
+                "filter_uncertainty": ekf_uncertainty(run, self.filter_config, self.filter_sigma),
                 "filter_series": ekf_series(run, session.imu()[2]),  # the scene's EKF plots
             },
             span_t_s=span_t,

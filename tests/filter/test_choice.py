@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from ftin.checkpoint import load_model
 from ftin.filter import FilterConfig
@@ -60,3 +61,31 @@ def test_the_calibrated_measurement_sigma_grows_with_speed(walking) -> None:
     sigma = 1.5 * (c.sigma_a + c.sigma_b * np.linalg.norm(v[:2]))
     assert np.diag(cov2) == pytest.approx([sigma**2] * 2)
     assert cov2[0, 1] == 0.0
+
+
+def test_auto_takes_a_variance_head_where_the_model_has_one(tmp_path) -> None:
+    """``auto``: the head's variance (times its calibrated scale; none fitted for this one: 1) where the
+    model has a head, else the fixed sigma; ``head`` on a model without one is refused."""
+    from tests.utils.checkpoints import tiny_model_kwargs, write_checkpoint  # noqa: PLC0415
+
+    kwargs = tiny_model_kwargs("ronin_resnet")
+    headed = load_model(
+        write_checkpoint(
+            tmp_path / "headed", "ronin_resnet", model_kwargs={**kwargs, "uncertainty_head": True}
+        )
+    )
+    plain = load_model(write_checkpoint(tmp_path / "plain", "ronin_resnet", model_kwargs=kwargs))
+    rows = np.random.default_rng(0).normal(size=(kwargs["window"], 6)).astype(np.float32)
+    network = NetworkVelocity(headed, FilterConfig())
+    assert network.sigma_source == "head"
+    _, cov = network(rows)
+    with torch.no_grad():
+        out = headed.model.eval()(torch.from_numpy(rows.T[None].copy()))
+    expected = np.exp(2.0 * out.log_std.numpy()[0].astype(np.float64))  # copy 0 of the four is the input
+    np.testing.assert_allclose(np.diag(cov)[:2], expected, rtol=1e-5)
+    assert NetworkVelocity(plain, FilterConfig()).sigma_source == "fixed"
+    assert NetworkVelocity(headed, FilterConfig(measurement_sigma="fixed"))(rows)[1][0, 0] == pytest.approx(
+        0.12**2
+    )
+    with pytest.raises(ValueError, match="no variance head"):
+        NetworkVelocity(plain, FilterConfig(measurement_sigma="head"))
