@@ -99,8 +99,13 @@ def ship_heads(campaign: Any, checkpoints: Path, on_event: Any = print) -> list[
         if not campaign.is_done(job):
             on_event(f"not shipped: {job.name} has not finished")
             continue
-        written += ship_head(campaign.runs / job.name, checkpoints, job.checkpoint_stem, job.name)
-        on_event(f"shipped the variance head of {job.name} onto {job.checkpoint_stem}")
+        folder, stem = campaign.runs / job.name, job.checkpoint_stem
+        card = read_json(checkpoints / f"{stem}.json")
+        if card.get("weights_sha256") == read_json(folder / f"{stem}.json").get("weights_sha256"):
+            on_event(f"already shipped: {job.name} onto {stem}")
+            continue
+        written += ship_head(folder, checkpoints, stem, job.name)
+        on_event(f"shipped the variance head of {job.name} onto {stem}")
     return written
 
 
