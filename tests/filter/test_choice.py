@@ -45,11 +45,12 @@ def walking():
 
 
 def test_the_calibrated_measurement_sigma_grows_with_speed(walking) -> None:
-    """Without a head: fixed 0.12 m/s, or a + b|v| of the checkpoint's calibration times the scale."""
+    """Fixed 0.12 m/s, or a + b|v| of the checkpoint's calibration times the scale (the default has a
+    head since stage three: both are asked for by name, as ``auto`` would take the head)."""
     rng = np.random.default_rng(0)
     rows = rng.normal(0.0, 1.0, (walking.window, 6)).astype(np.float32)
     rows[:, 5] += 9.81  # a world-frame accelerometer reads gravity up
-    fixed = NetworkVelocity(walking, FilterConfig())
+    fixed = NetworkVelocity(walking, FilterConfig(measurement_sigma="fixed"))
     v, cov = fixed(rows)
     assert np.diag(cov) == pytest.approx([0.12**2] * 2)
     calibrated = NetworkVelocity(
