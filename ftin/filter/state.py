@@ -52,12 +52,13 @@ class FilterConfig:
     init_gyro_bias_std_rad_s: float = 1.0e-2
     init_acc_bias_std_m_s2: float = 0.2
     velocity_std_m_s: float = 0.12  # the default's residual RMS: OxIOD 0.10, RIDI 0.15 (docs/filter.md)
-    # "auto": the model's variance head where it has one, else "fixed"; "fixed" (velocity_std_m_s);
+    # "fixed" (velocity_std_m_s; the default: chosen on validation, docs/filter.md); "auto": the
+    # model's variance head where it has one, else "fixed";
     # "calibrated", the position uncertainty's per-window sigma a + b|v|
     # (ftin.uncertainty.propagate.window_sigma); "head", the head's sigma times its calibrated
     # log_std_scale (ftin/uncertainty/calibration.json; 1 where none is fitted). Each times
     # measurement_sigma_scale but "fixed".
-    measurement_sigma: str = "auto"
+    measurement_sigma: str = "fixed"
     measurement_sigma_scale: float = 1.0
     vertical_std_m_s: float = 0.1
     update_every: int | None = None

@@ -66,7 +66,8 @@ def test_the_calibrated_measurement_sigma_grows_with_speed(walking) -> None:
 
 def test_auto_takes_a_variance_head_where_the_model_has_one(tmp_path) -> None:
     """``auto``: the head's variance (times its calibrated scale; none fitted for this one: 1) where the
-    model has a head, else the fixed sigma; ``head`` on a model without one is refused."""
+    model has a head, else the fixed sigma; ``head`` on a model without one is refused; the default is
+    ``fixed`` whatever the model."""
     from tests.utils.checkpoints import tiny_model_kwargs, write_checkpoint  # noqa: PLC0415
 
     kwargs = tiny_model_kwargs("ronin_resnet")
@@ -77,14 +78,15 @@ def test_auto_takes_a_variance_head_where_the_model_has_one(tmp_path) -> None:
     )
     plain = load_model(write_checkpoint(tmp_path / "plain", "ronin_resnet", model_kwargs=kwargs))
     rows = np.random.default_rng(0).normal(size=(kwargs["window"], 6)).astype(np.float32)
-    network = NetworkVelocity(headed, FilterConfig())
+    network = NetworkVelocity(headed, FilterConfig(measurement_sigma="auto"))
     assert network.sigma_source == "head"
+    assert NetworkVelocity(headed, FilterConfig()).sigma_source == "fixed"  # the default
     _, cov = network(rows)
     with torch.no_grad():
         out = headed.model.eval()(torch.from_numpy(rows.T[None].copy()))
     expected = np.exp(2.0 * out.log_std.numpy()[0].astype(np.float64))  # copy 0 of the four is the input
     np.testing.assert_allclose(np.diag(cov)[:2], expected, rtol=1e-5)
-    assert NetworkVelocity(plain, FilterConfig()).sigma_source == "fixed"
+    assert NetworkVelocity(plain, FilterConfig(measurement_sigma="auto")).sigma_source == "fixed"
     assert NetworkVelocity(headed, FilterConfig(measurement_sigma="fixed"))(rows)[1][0, 0] == pytest.approx(
         0.12**2
     )
