@@ -99,4 +99,5 @@ def first_half(prediction: Prediction) -> Prediction:
         trajectory=Trajectory(traj.t_s[:n], traj.p_world_m[:n], None),
         span_t_s=prediction.span_t_s[keep],
         velocity_m_s=prediction.velocity_m_s[keep],
+        features={k: v[keep] for k, v in (prediction.features or {}).items()},  # the head's log-std
     )
