@@ -201,9 +201,17 @@ def fit(walks: list[dict], model: str = CHECKPOINT.name) -> Calibration:
         heading_sigma_rad=heading, scale_sigma_by_carry=by_carry, log_std_scale=log_std_scale,
         fitted_on=f"{len(walks)} walker-held-out validation walks ({sets}), phone only",
     )  # fmt: skip
-    m2 = [v for w in walks for k, v in marks_of(w, raw).items() if k in MARKS]
-    factor = float(np.quantile(m2, TWO_SIGMA) / 4.0)  # the 2-sigma ellipse then holds 86.5 % of them
-    return Calibration(**{**raw.to_json(), "position_scale": factor})
+    factor = position_factor(walks, raw)
+    # With a head, also the factor for a + b|v|: a prediction may lack the head's sigma (live, restored).
+    without = None if log_std_scale is None else position_factor(walks, raw.without_head())
+    return Calibration(**{**raw.to_json(), "position_scale": factor, "position_scale_without_head": without})
+
+
+def position_factor(walks: list[dict], calibration: Calibration) -> float:
+    """The factor on the position covariance with which the pooled 2-sigma ellipse at 30 s, 60 s and
+    the end holds 86.5 % of the true positions."""
+    m2 = [v for w in walks for k, v in marks_of(w, calibration).items() if k in MARKS]
+    return float(np.quantile(m2, TWO_SIGMA) / 4.0)
 
 
 def _by_carry(walks: list[dict]) -> dict[str, list[dict]]:

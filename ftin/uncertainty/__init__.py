@@ -45,6 +45,8 @@ def uncertainty_of(prediction: Any, checkpoint: str, carry: str | None = None) -
     start = np.clip(np.searchsorted(t, spans[:, 0]), 0, len(t) - 1)
     end = np.clip(np.searchsorted(t, spans[:, 1]), 0, len(t) - 1)
     log_std = (prediction.features or {}).get("log_std")
+    if log_std is None:  # a live walk or a restored run of a model with a head: its sigma is not at hand
+        calibration = calibration.without_head()
     sigma = window_sigma(prediction.velocity_m_s, calibration, log_std)
     cov = path_covariance(
         t,

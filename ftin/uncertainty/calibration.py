@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -31,12 +31,28 @@ class Calibration:
     heading_sigma_rad: float  # sigma of the yaw error with a magnetometer (VQF 9-D)
     position_scale: float = 1.0  # one factor on the whole position covariance, fitted on coverage
     log_std_scale: float | None = None  # for a model with a log-std head: its sigma times this
+    # With a head, the factor fitted on the head's sigma is position_scale; this one was fitted on
+    # a + b|v|, for a prediction of that model that lacks the head's sigma (a live walk, a restored run).
+    position_scale_without_head: float | None = None
     scale_sigma_by_carry: dict[str, float] = field(default_factory=dict)  # where a carry had enough walks
     fitted_on: str = ""  # what the constants were fitted on, in words
 
     def scale_sigma_for(self, carry: str | None) -> float:
         """The distance ratio's spread for ``carry`` where it was measured, else all carries'."""
         return self.scale_sigma_by_carry.get(carry or "", self.scale_sigma)
+
+    def without_head(self) -> Calibration:
+        """The constants for a prediction without the head's per-window sigma: ``a + b |v|`` and the
+        factor fitted with it (the same constants where no head was calibrated)."""
+        if self.log_std_scale is None:
+            return self
+        factor = self.position_scale_without_head
+        return replace(
+            self,
+            log_std_scale=None,
+            position_scale=self.position_scale if factor is None else factor,
+            position_scale_without_head=None,
+        )
 
     def describe(self, checkpoint: str) -> str:
         """How this uncertainty was calibrated, in one line (the API's ``calibration``)."""
@@ -47,8 +63,13 @@ class Calibration:
             else f"not calibrated for {checkpoint}: the constants of {self.model} ({self.fitted_on}) applied"
         )
         drift = math.degrees(self.gyro_drift_rad_s) * 60
+        window = (
+            f"the model's variance head x{self.log_std_scale:.2f}"
+            if self.log_std_scale is not None
+            else f"{self.sigma_a:.2f} + {self.sigma_b:.2f}|v| m/s"
+        )
         return (
-            f"{head}; window sigma {self.sigma_a:.2f} + {self.sigma_b:.2f}|v| m/s, speed scale "
+            f"{head}; window sigma {window}, speed scale "
             f"+-{self.scale_sigma:.0%}, heading drift {drift:.1f} deg/min (6-D) or "
             f"+-{math.degrees(self.heading_sigma_rad):.0f} deg (9-D), covariance x{self.position_scale:.2f} "
             "(experiments/probe_uncertainty.py)"

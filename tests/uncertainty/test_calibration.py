@@ -101,3 +101,21 @@ def first_half(prediction: Prediction) -> Prediction:
         velocity_m_s=prediction.velocity_m_s[keep],
         features={k: v[keep] for k, v in (prediction.features or {}).items()},  # the head's log-std
     )
+
+
+def test_a_prediction_without_the_heads_sigma_takes_the_constants_fitted_without_it() -> None:
+    """A live walk or a restored run of the default carries no per-window log-std: its uncertainty is
+    ``a + b |v|`` with the factor fitted for it, not the head's factor on another sigma."""
+    c = calibration_for(FALLBACK)
+    assert c.log_std_scale is not None and c.position_scale_without_head is not None  # the default has a head
+    plain = c.without_head()
+    assert plain.log_std_scale is None and plain.position_scale == c.position_scale_without_head
+    assert plain.sigma_a == c.sigma_a and plain.without_head() == plain
+    assert "variance head" in c.describe(FALLBACK) and "|v|" in plain.describe(FALLBACK)
+    frame = pd.read_csv(BUNDLED_SAMPLES_DIR / "sim_handheld.csv", nrows=3000)
+    loaded = load_model(CHECKPOINTS / "ronin_resnet-walking.json")
+    prediction = predict_trajectory(loaded, read_csv(frame.to_csv(index=False).encode()), keep_prepared=False)
+    with_head = uncertainty_of(prediction, loaded.name)
+    without = uncertainty_of(replace(prediction, features=None), loaded.name)
+    assert "variance head" in with_head.calibration and "|v|" in without.calibration
+    assert without.end_radius_95_m > 0 and without.end_radius_95_m != with_head.end_radius_95_m
