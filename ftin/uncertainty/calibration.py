@@ -91,7 +91,7 @@ def calibration_for(checkpoint: str) -> Calibration:
     table = _table()
     if checkpoint in table:
         return Calibration(**table[checkpoint])
-    return Calibration(**{**table[FALLBACK], "log_std_scale": None})
+    return Calibration(**table[FALLBACK]).without_head()
 
 
 def save_calibration(calibration: Calibration, path: Path = CALIBRATION_FILE) -> None:

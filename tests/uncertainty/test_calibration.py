@@ -42,7 +42,7 @@ def test_the_default_model_has_its_own_constants() -> None:
 
 def test_a_checkpoint_without_constants_borrows_the_defaults_and_says_so() -> None:
     c = calibration_for("tlio-ridi")
-    assert c == replace(calibration_for(FALLBACK), log_std_scale=None)  # another head's scale is not its own
+    assert c == calibration_for(FALLBACK).without_head()  # another head's scale (and factor) is not its own
     assert c.describe("tlio-ridi").startswith("not calibrated for tlio-ridi")
 
 
