@@ -227,6 +227,8 @@ def encode_run(run: Any, record: dict[str, Any]) -> NpzContent:
             "truth": _trajectory(w, "pred.truth", pred.truth),
             "arrays": {name: w.array(f"pred.{name}", getattr(pred, name)) for name in _PRED_ARRAYS},
             **{name: w.value(f"pred.{name}", getattr(pred, name)) for name in _PRED_FIELDS},
+            # a variance head's per-window sigma: the restored run's uncertainty is the one it had
+            "log_std": w.array("pred.log_std", (pred.features or {}).get("log_std")),
         },
         "model_input": None
         if mi is None
@@ -249,7 +251,7 @@ def decode_run(data: bytes | Any, sequence: ImuSequence, run_type: type) -> Any:
         pred = Prediction(
             trajectory=_trajectory_back(p["trajectory"], arrays),
             truth=_trajectory_back(p["truth"], arrays),
-            features=None,
+            features=None if p.get("log_std") is None else {"log_std": arrays[p["log_std"]]},
             **{name: None if key is None else arrays[key] for name, key in p["arrays"].items()},
             **{name: _read(p[name], arrays) for name in _PRED_FIELDS},
         )

@@ -24,6 +24,7 @@ from app.settings import BUNDLED_SAMPLES_DIR, Settings
 from ftin.data.readers.generic_csv import read
 from ftin.live.replay import send, sequence_messages
 from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, detail, upload
+from tests.utils.paths import CHECKPOINTS
 from tests.utils.phone_walk import sensorlogger_walk_zip
 
 DOWNLOADS = ("trajectory.csv", "trajectory.tum", "metrics.json")
@@ -83,6 +84,24 @@ def test_100_uploads_and_5_compares_survive_a_restart_byte_for_byte(
         status = client.get(f"/runs/{ids[0]}").json()
         assert status["state"] == "done" and status["model"] == DEFAULT_MODEL
         assert client.post(f"/runs/{ids[0]}/show").status_code == 200
+
+
+def test_a_headed_models_uncertainty_comes_back_as_it_was(
+    make_settings: Callable[..., Settings], sample_frame: pd.DataFrame, tmp_path: Path
+) -> None:
+    """The default's variance head sets its path's uncertainty; a restored run keeps the head's per-window
+    sigma, so its covariance, sigma columns and end radius are the ones it was answered with."""
+    settings = make_settings(runs_dir=tmp_path / "runs", checkpoint_dir=CHECKPOINTS)
+    walk = sample_frame.iloc[:2000].to_csv(index=False).encode()  # 20 s: enough windows to differ
+    with app_on(settings) as client:
+        answer = upload(client, walk, name="walk.csv", model="ronin_resnet-walking").json()
+        assert "variance head" in answer["uncertainty"]["calibration"]
+        before = files_of(client, answer["run_id"])
+    with app_on(settings) as client:
+        again = client.get(f"/runs/{answer['run_id']}/result").json()
+        assert again["uncertainty"] == answer["uncertainty"]
+        assert again["trajectory"]["cov_xx"] == answer["trajectory"]["cov_xx"]
+        assert files_of(client, answer["run_id"]) == before
 
 
 def test_a_phone_export_with_gps_comes_back_whole(
