@@ -81,6 +81,8 @@ class IncrementalPredictor:
         self._span_t = Growing(2)  # start and end time of every span
         self._mid_t = Growing(None)  # their middles (``Prediction.window_t_s``)
         self._window_starts = Growing(None, np.int64)
+        # A variance head's per-window log-std (x, y), one row a span where a window is one span.
+        self._log_std = Growing(2) if self.parts == 1 and loaded.model.has_uncertainty else None
         self._next_start = 0  # window models: the next window's first sample
         self._next_frame = 0  # streaming models: the next frame to run
         self._stream_state = None
@@ -127,6 +129,10 @@ class IncrementalPredictor:
             self._integrate()
         return self.n_spans - before
 
+    def log_std(self) -> np.ndarray | None:
+        """``(spans, 2)`` the variance head's per-window log-std so far (a view), or None without one."""
+        return None if self._log_std is None else self._log_std.view()
+
     # --- the model ------------------------------------------------------------------------------
 
     def _run_windows(self) -> None:
@@ -136,7 +142,7 @@ class IncrementalPredictor:
             return
         starts = np.arange(self._next_start, last + 1, self.stride, dtype=np.int64)
         self._next_start = int(starts[-1]) + self.stride
-        part_velocity, _ = run_windows(
+        part_velocity, taps = run_windows(
             self.loaded,
             self._imu.view(),
             starts,
@@ -156,6 +162,8 @@ class IncrementalPredictor:
             span_end = span_start + self.part
             velocity = part_velocity[:, self.parts - self.later :].reshape(-1, self.dim)
         self._window_starts.extend(starts)
+        if self._log_std is not None:
+            self._log_std.extend(taps["log_std"][:, :2])
         self._add_spans(span_start, span_end, velocity)
 
     def _run_stream(self) -> None:

@@ -247,7 +247,8 @@ class LiveSession:
             orientation_source=self.orientation.source or "device",
             frame=FRAME_DEVICE_WORLD,
             warnings=self.warnings(),
-            features=None,
+            # a variance head's per-window sigma, so a live walk's uncertainty is an upload's
+            features=None if (log_std := p.log_std()) is None else {"log_std": log_std},
             span_t_s=span_t,
         )
 

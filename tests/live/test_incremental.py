@@ -32,7 +32,9 @@ def _stream(predictor: IncrementalPredictor, seq, seed: int) -> None:
         i = j
 
 
-@pytest.mark.parametrize("name", ["ftin-pedestrian", "rnin-oxiod", "ronin_lstm-ridi", "ftin-ridi"])
+@pytest.mark.parametrize(
+    "name", ["ftin-pedestrian", "rnin-oxiod", "ronin_lstm-ridi", "ftin-ridi", "ronin_resnet-walking"]
+)
 def test_incremental_equals_offline(name: str, walk) -> None:
     loaded = load_model(CHECKPOINTS / name)
     offline = predict_trajectory(loaded, walk)
@@ -46,6 +48,8 @@ def test_incremental_equals_offline(name: str, walk) -> None:
     assert predictor.path_length_m() == pytest.approx(
         np.linalg.norm(np.diff(offline.trajectory.p_world_m[:, :2], axis=0), axis=1).sum(), rel=1e-6
     )
+    if name == "ronin_resnet-walking":  # a variance head with one span a window: its sigma live too
+        np.testing.assert_allclose(predictor.log_std(), offline.features["log_std"][:, :2], atol=1e-5)
 
 
 def test_work_per_update_does_not_grow_with_the_session(walk) -> None:
