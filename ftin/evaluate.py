@@ -235,7 +235,7 @@ def evaluate_checkpoint(
                 warnings,
                 scored.stand_still,
                 prediction.orientation_choice,
-                _coverage(prediction, loaded.name, seq),
+                uncertainty_coverage(prediction, loaded.name, seq),
             )
         )
     if not results:
@@ -251,7 +251,7 @@ def evaluate_checkpoint(
     )
 
 
-def _coverage(prediction: Prediction, checkpoint: str, seq: ImuSequence) -> Coverage | None:
+def uncertainty_coverage(prediction: Prediction, checkpoint: str, seq: ImuSequence) -> Coverage | None:
     """How well ``prediction``'s uncertainty covers its prepared ground truth (None without either)."""
     found = path_uncertainty(prediction, checkpoint, seq.meta.get("carry"))
     truth = prediction.truth

@@ -208,6 +208,8 @@ def part_rows(
                     "duration_s": res.duration_s,
                     **res.metrics.as_dict(),
                     "stand_still": {m.name: still.values.get(m.name) for m in list_metrics(in_tables=True)},
+                    # 1 / 2 sigma shares and the end within its 95 % radius (ftin.uncertainty.coverage)
+                    "uncertainty_coverage": None if res.coverage is None else res.coverage.to_json(),
                 }
             )
         parts[dataset.name] = rows

@@ -23,7 +23,7 @@ from ftin.checkpoint import META_SUFFIX, WEIGHTS_SUFFIX, LoadedModel, load_model
 from ftin.data.errors import DataFormatError
 from ftin.data.loading import load_sequences
 from ftin.data.types import Trajectory
-from ftin.evaluate import EvaluationReport, SequenceResult, score
+from ftin.evaluate import EvaluationReport, SequenceResult, score, uncertainty_coverage
 from ftin.infer import predict_trajectory
 from ftin.metrics import Convention, evaluate_trajectory, mean_metrics, stand_still
 from ftin.report.results import (
@@ -162,7 +162,10 @@ def evaluate_checkpoints(
                 warnings = [*prediction.warnings, *scored.warnings]
                 duration_s = prediction.trajectory.duration_s
                 choice = prediction.orientation_choice
-                sequences.append(SequenceResult(seq.name, scored.metrics, duration_s, warnings, None, choice))
+                coverage = uncertainty_coverage(prediction, loaded.name, seq)  # the uncertainty vs the truth
+                sequences.append(
+                    SequenceResult(seq.name, scored.metrics, duration_s, warnings, None, choice, coverage)
+                )
                 ground_truth[dataset.name].setdefault(seq.name, prediction.truth)
                 if loaded.model_name in FIGURE_MODELS:
                     result.trajectories.setdefault(dataset.name, {})[seq.name] = prediction.trajectory

@@ -75,6 +75,10 @@ def test_every_pair_evaluated_once(results, table_data):
         assert report.mean.ate == pytest.approx(np.mean([r.metrics.ate for r in report.sequences]))
         # trajectories are kept for the figure models only
         assert bool(c.trajectories) == (c.model_name in ("ftin", "ronin_resnet"))
+        # each recording's uncertainty against its truth, as ftin evaluate reports it (the campaign's
+        # job records carry it too: ftin.campaign.job.part_rows)
+        for r in report.sequences:
+            assert r.coverage is not None and r.coverage.samples > 0 and 0.0 <= r.coverage.share_2sigma <= 1.0
 
 
 def test_table_layout_and_percentage(results, report_dir):
