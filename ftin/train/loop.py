@@ -246,23 +246,13 @@ def freeze_except(model: VelocityModel, prefixes: tuple[str, ...]) -> list[torch
 
 
 def keep_frozen_in_eval(model: torch.nn.Module) -> None:
-    """Put every module whose own parameters are all frozen into evaluation mode (after ``train()``):
-    frozen batch norms keep their running statistics and frozen dropout is off, so the frozen part
-    computes exactly what the checkpoint shipped."""
+    """Put every part of ``model`` whose parameters are all frozen into evaluation mode (after
+    ``train()``): frozen batch norms keep their running statistics and the dropout inside frozen parts
+    is off, so the frozen part computes exactly what the checkpoint shipped."""
     for module in model.modules():
-        own = list(module.parameters(recurse=False))
-        if own and not any(p.requires_grad for p in own):
-            module.eval()
-        elif isinstance(module, torch.nn.Dropout) and not _trains_after(model, module):
-            module.eval()
-
-
-def _trains_after(model: torch.nn.Module, dropout: torch.nn.Module) -> bool:
-    """Whether a dropout sits in a submodule that still has trainable parameters."""
-    for module in model.modules():
-        if any(m is dropout for m in module.children()):
-            return any(p.requires_grad for p in module.parameters())
-    return True
+        parameters = list(module.parameters())
+        if parameters and not any(p.requires_grad for p in parameters):
+            module.eval()  # its children too
 
 
 @dataclass
