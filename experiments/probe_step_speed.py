@@ -123,7 +123,9 @@ def walk_record(model, seq, key: str) -> dict:
     cache = CACHE / (key.replace("/", "__").replace(" ", "_") + ".npz")
     if cache.exists():
         return dict(np.load(cache))
-    prediction = predict_trajectory(model, seq, keep_prepared=False)
+    # The network's own directions (the body-locked heading came after this probe; its probe,
+    # ``experiments.probe_body_heading``, reads this cache as "network alone").
+    prediction = predict_trajectory(model, seq, keep_prepared=False, body_lock=False)
     steps = detect_steps(seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
     t = prediction.trajectory.t_s
     record = {

@@ -45,6 +45,9 @@ call. Steps and decisions:
    position when there is ground truth, else at the origin; with a 2-D model z stays at the start
    height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
    (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
+4b. Body-locked heading (``ftin.body_heading``, phone-only orientations): where the network's
+   direction does not follow the phone at all over the walk, each window keeps its speed and takes
+   the phone's heading plus one offset (a phone carried fixed to the body); a note says so.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
    with the device world frame at the start: ``docs/design.md``, "Frames"); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).
@@ -65,6 +68,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from ftin.body_heading import lock_to_phone
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.gaps import holes_of
@@ -128,6 +132,7 @@ def predict_trajectory(
     yaw_copies: int | None = None,
     precision: Precision | str = Precision.FP32,
     cyclic_turns: bool | None = None,
+    body_lock: bool = True,
 ) -> Prediction:
     """Run ``loaded`` over ``seq`` and integrate a trajectory; see the module docstring. The result
     carries the prepared sequence (``Prediction.prepared``, unless ``keep_prepared`` is False) and
@@ -172,6 +177,14 @@ def predict_trajectory(
             stride if cyclic else None,
         )
         span_start, span_end, velocity = select_parts(starts, window, stride, part_velocity)
+    orientation_source = str(prepared.seq.meta.get("orientation_source", "device"))
+    if body_lock and orientation_source != "ground_truth":
+        lock = lock_to_phone(
+            t_s, prepared.seq.q_world_device_wxyz, prepared.imu_world[:, 3:6], prepared.rate_hz,
+            span_start, span_end, velocity,
+        )  # fmt: skip
+        velocity = lock.velocity_m_s
+        notes += [lock.note()] if lock.locked else []
     gt = prepared.seq.gt
     start_m = gt.p_world_m[0] if gt is not None else np.zeros(3)
     holes = holes_of(prepared.seq)
@@ -180,7 +193,7 @@ def predict_trajectory(
         trajectory=Trajectory(t_s.copy(), p_world_m, prepared.seq.q_world_device_wxyz),
         window_t_s=0.5 * (t_s[span_start] + t_s[span_end]),
         velocity_m_s=velocity,
-        orientation_source=str(prepared.seq.meta.get("orientation_source", "device")),
+        orientation_source=orientation_source,
         frame=FRAME_GROUND_TRUTH if gt is not None else FRAME_DEVICE_WORLD,
         warnings=[*prepared.seq.meta.get("warnings", []), *short],
         features=features,
