@@ -20,9 +20,11 @@ from vqf import VQF
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
+from ftin.data.gaps import holes_of
 from ftin.data.orientation_option import choice_of
 from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.filter.holes import run_around_holes
 from ftin.filter.session import FilterRun, FilterSession
 from ftin.filter.state import FilterConfig
 from ftin.infer import FRAME_DEVICE_WORLD, FRAME_GROUND_TRUTH, Prediction, run_windows
@@ -110,27 +112,35 @@ def run_filter(
     measures each window. ``heading_ref_rad`` ``(N,)``: a causal heading reference in the start's world
     (``reference_heading``), taken at every update when ``config.heading_std_rad`` is set.
     ``progress(done, total)`` is called after every network update (in samples), as inference calls
-    it between batches (a server checks its deadline there).
+    it between batches (a server checks its deadline there). A recording with held holes gets one
+    filter per stretch between them (``ftin.filter.holes``).
     """
     config = config or FilterConfig()
     if seq.q_world_device_wxyz is None:
         raise ValueError(f"{seq.name!r} has no orientation to start the filter from")
-    n, t = len(seq), seq.t_s
+    n = len(seq)
     if n < window + 1:
         raise ValueError(
             f"{seq.name!r} is too short for the filter: {n} samples, a window needs {window + 1}"
         )
-    session = FilterSession(
-        network,
-        window,
-        config,
-        start_q_wxyz=seq.q_world_device_wxyz[0],
-        start_position_m=start_position_m,
-        measure=measure,
-        on_update=None if progress is None else (lambda k: progress(k, n)),
-    )
-    session.update(t, seq.gyro_rad_s, seq.acc_m_s2, heading_ref_rad)
-    return session.result()
+
+    def run_stretch(piece: ImuSequence, position, heading, offset: int) -> FilterRun:
+        session = FilterSession(
+            network,
+            window,
+            config,
+            start_q_wxyz=piece.q_world_device_wxyz[0],
+            start_position_m=position,
+            measure=measure,
+            on_update=None if progress is None else (lambda k: progress(offset + k, n)),
+        )
+        session.update(piece.t_s, piece.gyro_rad_s, piece.acc_m_s2, heading)
+        return session.result()
+
+    if len(holes_of(seq)):  # never one filter across invented samples (ftin.filter.holes)
+        start = np.zeros(3) if start_position_m is None else start_position_m
+        return run_around_holes(seq, window, start, heading_ref_rad, run_stretch)
+    return run_stretch(seq, start_position_m, heading_ref_rad, 0)
 
 
 def reference_heading(seq: ImuSequence, causal: bool = False) -> np.ndarray | None:
