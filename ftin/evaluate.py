@@ -18,6 +18,11 @@ The result stands beside the prediction (``Scored``), which it never changes, as
 returns a result and leaves the reference alone. Path lengths are compared over the model's window
 (``ftin.metrics.definitions``).
 
+``filter="ekf"`` (``ftin.filter.choice``) scores the model inside the EKF instead of alone: the
+filter's trajectory, and its own covariance as the uncertainty. With either, where the ground truth
+carries an orientation (motion capture), each sequence's mean **tilt error** of the orientation the
+answer used (the attitude filter's or the EKF's) against it, in degrees.
+
 Beside the metrics, each sequence's uncertainty coverage (``ftin.uncertainty.coverage``): the share of
 samples whose true position lies inside the 1- and 2-sigma ellipse of the path's covariance
 (``ftin.uncertainty``, start-aligned) and whether the true end lies within ``end_radius_95_m``.
@@ -32,6 +37,8 @@ from typing import Any
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence, Trajectory
+from ftin.filter.choice import EKF, NONE, ekf_prediction, parse_filter
+from ftin.filter.consistency import tilt_error_deg
 from ftin.infer import Prediction, predict_trajectory
 from ftin.metrics import (
     Alignment,
@@ -62,6 +69,7 @@ class SequenceResult:
         None  # requested, source, reason (ftin.data.orientation_option)
     )
     coverage: Coverage | None = None  # how well the path's uncertainty holds the truth (None: no uncertainty)
+    tilt_error_deg: float | None = None  # mean, against the ground truth's orientation (None: it has none)
 
 
 def _values(m: TrajectoryMetrics | None) -> dict[str, Any] | None:
@@ -82,6 +90,13 @@ class EvaluationReport:
     sequences: list[SequenceResult]
     mean: TrajectoryMetrics
     stand_still: TrajectoryMetrics | None = None  # mean of the sequences' stand-still metrics
+    filter: str = NONE  # the model alone (none) or inside the EKF (ekf)
+
+    @property
+    def tilt_error_deg(self) -> float | None:
+        """The sequences' mean tilt error, over those whose ground truth has an orientation."""
+        tilts = [r.tilt_error_deg for r in self.sequences if r.tilt_error_deg is not None]
+        return sum(tilts) / len(tilts) if tilts else None
 
     def describe(self) -> str:
         """The sentence stating the convention, for every table of these numbers."""
@@ -103,9 +118,12 @@ class EvaluationReport:
                     "stand_still": _values(r.stand_still),
                     "orientation_choice": r.orientation_choice,
                     "uncertainty_coverage": None if r.coverage is None else r.coverage.to_json(),
+                    "tilt_error_deg": r.tilt_error_deg,
                 }
                 for r in self.sequences
             ],
+            "filter": self.filter,
+            "tilt_error_deg": self.tilt_error_deg,
             "uncertainty_coverage": None if self.coverage is None else self.coverage.to_json(),
             "mean": _values(self.mean),
             "stand_still": _values(self.stand_still),
@@ -193,8 +211,10 @@ def evaluate_checkpoint(
     yaw_copies: int | None = None,
     cyclic_turns: bool | None = None,
     precision: str = "fp32",
+    filter: str = NONE,
 ) -> EvaluationReport:
     """Predict every sequence and score it against its ground truth (``DataFormatError`` if none).
+    ``filter`` (``none`` or ``ekf``, module docstring) puts the model inside the EKF.
 
     ``orientation`` (``ftin.data.orientation_option``) is applied to each sequence before the model;
     ``None`` keeps each sequence's own.
@@ -206,22 +226,29 @@ def evaluate_checkpoint(
     if alignment is not None:
         convention = convention_for(alignment)
     convention = Convention(convention)
+    filter = parse_filter(filter)
     results: list[SequenceResult] = []
     for seq in sequences:
         if seq.gt is None:
             raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
         if on_sequence is not None:
             on_sequence(seq.name)
-        prediction = predict_trajectory(
-            loaded,
-            seq,
-            precision=precision,  # ftin.precision; reported numbers are fp32 unless asked
-            stride=stride,
-            keep_prepared=False,
-            orientation=orientation,
-            yaw_copies=yaw_copies,
-            cyclic_turns=cyclic_turns,
-        )
+        if filter == EKF:  # the filter runs the model its own way: one window at a time, four turns
+            try:
+                prediction = ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
+            except ValueError as exc:  # a streaming model, a recording shorter than a window
+                raise DataFormatError(f"filter ekf: {exc}") from None
+        else:
+            prediction = predict_trajectory(
+                loaded,
+                seq,
+                precision=precision,  # ftin.precision; reported numbers are fp32 unless asked
+                stride=stride,
+                keep_prepared=False,
+                orientation=orientation,
+                yaw_copies=yaw_copies,
+                cyclic_turns=cyclic_turns,
+            )
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(scored.warnings[-1:])}")
@@ -236,6 +263,7 @@ def evaluate_checkpoint(
                 scored.stand_still,
                 prediction.orientation_choice,
                 uncertainty_coverage(prediction, loaded.name, seq),
+                mean_tilt_error_deg(prediction),
             )
         )
     if not results:
@@ -248,7 +276,19 @@ def evaluate_checkpoint(
         sequences=results,
         mean=mean_metrics([r.metrics for r in results]),
         stand_still=mean_metrics(stills) if stills else None,
+        filter=filter,
     )
+
+
+def mean_tilt_error_deg(prediction: Prediction) -> float | None:
+    """Mean angle (deg) between the gravity direction of the orientation the answer used and the
+    ground truth's, over its tracked samples; None where the truth has no orientation."""
+    truth, q = prediction.truth, prediction.trajectory.q_world_body_wxyz
+    if truth is None or truth.q_world_body_wxyz is None or q is None or len(q) != len(truth.t_s):
+        return None
+    tracked = slice(None) if truth.tracked is None else truth.tracked
+    errors = tilt_error_deg(q[tracked], truth.q_world_body_wxyz[tracked])
+    return float(errors.mean()) if len(errors) else None
 
 
 def uncertainty_coverage(prediction: Prediction, checkpoint: str, seq: ImuSequence) -> Coverage | None:

@@ -31,7 +31,7 @@ from ftin.cli.common import (
     progress_bar,
     user_errors,
 )
-from ftin.cli.predict import PrecisionOption
+from ftin.cli.predict import EKF_TEXT, FilterName, FilterOption, PrecisionOption
 from ftin.data.loading import load_sequences
 from ftin.data.orientation_option import Orientation
 from ftin.evaluate import evaluate_checkpoint
@@ -57,10 +57,12 @@ def evaluate_command(
     yaw_copies: YawCopiesOption = None,
     cyclic_turns: CyclicTurnsOption = None,
     precision: PrecisionOption = PrecisionSetting.FP32,
+    filter: FilterOption = FilterName.NONE,
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
     sequence and their mean, under a stated convention (in fp32 unless ``--precision`` says otherwise,
-    so that reported numbers stay comparable)."""
+    so that reported numbers stay comparable); with ``--filter ekf`` the model inside the EKF. Where the
+    ground truth has an orientation, the tilt error of the orientation used against it."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
         chosen = choose(precision, loaded.model_name)
@@ -79,6 +81,7 @@ def evaluate_command(
                 "yaw_copies": yaw_copies,
                 "cyclic_turns": cyclic_turns,
                 "precision": chosen.precision.value,
+                "filter": filter.value,
             }
             if workers is not None or address is not None:  # one Ray task per recording
                 report = evaluate_checkpoint_on_ray(
@@ -121,6 +124,20 @@ def evaluate_command(
     if coverage is not None:
         console.print(coverage)
     console.print(report.describe(), highlight=False, soft_wrap=True)
+    if report.filter == FilterName.EKF.value:
+        console.print(f"filter: {EKF_TEXT}", highlight=False, soft_wrap=True)
+    if report.tilt_error_deg is not None:
+        tilts = "; ".join(
+            f"{r.name} {r.tilt_error_deg:.2f}°" for r in report.sequences if r.tilt_error_deg is not None
+        )
+        console.print(
+            escape(
+                f"tilt against the ground truth's orientation (mean angle between the gravity directions): "
+                f"mean {report.tilt_error_deg:.2f}° ({tilts})"
+            ),
+            highlight=False,
+            soft_wrap=True,
+        )
     console.print(f"precision: {chosen.precision.value} ({chosen.reason})", highlight=False, soft_wrap=True)
     aligned = [r for r in report.sequences if r.metrics.alignment is not None]
     if aligned:

@@ -81,14 +81,16 @@ def ekf_prediction(
     seq: ImuSequence,
     config: FilterConfig | None = None,
     *,
+    orientation: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     keep_prepared: bool = True,
 ) -> Prediction:
     """``seq`` (oriented, or oriented here as inference would) through the EKF with ``loaded`` as its
-    measurement; a ``Prediction`` carrying the filter's uncertainty and series in ``features``.
+    measurement (``orientation``: the choice to apply first, as inference takes it); a ``Prediction``
+    carrying the filter's uncertainty and series in ``features``.
     ``ValueError`` for a streaming model (the EKF needs a window model) or a recording too short."""
     config = config or FilterConfig()
-    prediction, run = filter_prediction(loaded, seq, config, progress=progress)
+    prediction, run = filter_prediction(loaded, seq, config, orientation, progress)
     q_input = prediction.prepared.seq.q_world_device_wxyz
     prediction.features = {
         "filter_uncertainty": ekf_uncertainty(run, config, sigma_source(loaded, config)),

@@ -1,0 +1,101 @@
+"""Table 1's phone-only rows with the EKF: a checkpoint scored alone and inside the filter on every
+dataset's test walks, as ``ftin evaluate --filter`` scores them (issue 36, "scored as Table 1 scores").
+
+Per dataset (OxIOD, RIDI, Inria test parts: ``ftin.protocol.split_paths(root, d, "test")``), phone only
+(``auto`` orientation), RoNIN convention with each sequence's default alignment (what Table 1 and
+``ftin evaluate`` use), three rows: the model on the ground truth's orientation (Table 1's row), the
+model alone on ``auto``, the model inside the EKF on ``auto``; the mean ATE, the ratio to the
+ground-truth row, and the tilt of the orientation used against motion capture
+(``ftin.evaluate.mean_tilt_error_deg``).
+
+    nice -n 10 python -m experiments.ekf_rows --out docs/results/probes/ekf_rows.md
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from experiments.common import argument_parser, parse, write_report
+from ftin import protocol
+from ftin.checkpoint import load_model
+from ftin.data.loading import load_sequences
+from ftin.evaluate import evaluate_checkpoint
+from ftin.files import DEFAULT_DATA_ROOT
+
+CACHE = Path("runs/probes/ekf_rows")
+ROWS = (("ground truth", "ground_truth", "none"), ("auto", "auto", "none"), ("auto + EKF", "auto", "ekf"))
+
+
+def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
+    """Every sequence of ``dataset``'s test part under the three rows (cached per row)."""
+    loaded = load_model(checkpoint)
+    paths = protocol.split_paths(data_root, dataset, "test")
+    out = []
+    for label, orientation, filter in ROWS:
+        cache = CACHE / f"{loaded.name}-{dataset}-{orientation}-{filter}.json"
+        if cache.exists():
+            report = json.loads(cache.read_text())
+        else:
+            sequences = load_sequences(paths, f"{dataset} test", orientation)
+            report = evaluate_checkpoint(loaded, sequences, orientation=orientation, filter=filter).to_json()
+            CACHE.mkdir(parents=True, exist_ok=True)
+            cache.write_text(json.dumps(report))
+        print(f"{loaded.name} {dataset} {label}: ATE {report['mean']['ate']:.3f}", flush=True)
+        for r in report["sequences"]:
+            out.append(
+                {
+                    "checkpoint": loaded.name,
+                    "dataset": dataset,
+                    "row": label,
+                    "sequence": r["name"],
+                    "ate": r["ate"],
+                    "tilt": r.get("tilt_error_deg"),
+                }
+            )
+    return out
+
+
+def table(rows: list[dict]) -> list[str]:
+    by: dict[tuple[str, str, str], list[dict]] = defaultdict(list)
+    for r in rows:
+        by[(r["checkpoint"], r["dataset"], r["row"])].append(r)
+    lines = [
+        "| checkpoint | dataset | row | n | mean ATE | / ground-truth row | tilt vs motion capture |",
+        "|---|---|---|--:|--:|--:|--:|",
+    ]
+    for (ckpt, dataset, row), rs in by.items():
+        ate = float(np.mean([r["ate"] for r in rs]))
+        truth = float(np.mean([r["ate"] for r in by[(ckpt, dataset, "ground truth")]]))
+        tilts = [r["tilt"] for r in rs if r["tilt"] is not None]
+        tilt = f"{np.mean(tilts):.2f}°" if tilts else "-"
+        lines.append(f"| {ckpt} | {dataset} | {row} | {len(rs)} | {ate:.3f} | {ate / truth:.2f}x | {tilt} |")
+    return lines
+
+
+def main() -> None:
+    parser = argument_parser(__doc__)
+    parser.add_argument("--checkpoint", type=Path, action="append", default=None)
+    parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
+    parser.add_argument("--datasets", nargs="+", default=[protocol.OXIOD, protocol.INRIA, protocol.RIDI])
+    parser.add_argument("--out", type=Path, default=None)
+    args = parse(parser)
+    checkpoints = args.checkpoint or [Path("checkpoints/ronin_resnet-walking")]
+    rows = [r for c in checkpoints for d in args.datasets for r in rows_for(c, args.data_root, d)]
+    lines = [
+        "# Table 1's phone-only rows with the EKF",
+        "",
+        "Made by `python -m experiments.ekf_rows` (its docstring: method). Test walks of each dataset, RoNIN",
+        "convention with each recording's default alignment (as Table 1 and `ftin evaluate`); tilt: mean",
+        "angle between the gravity direction of the orientation used and motion capture's.",
+        "",
+        *table(rows),
+    ]
+    write_report(args.out, lines)
+
+
+if __name__ == "__main__":
+    main()
