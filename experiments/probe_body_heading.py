@@ -48,9 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.probe_new_oxiod_walks import NEW_WALKS, group_of
-from experiments.probe_step_speed import CHECKPOINT, _prediction_for_scoring, walk_record
-from ftin import protocol
+from experiments.probe_step_speed import CHECKPOINT, _prediction_for_scoring, probe_sets, summary, walk_record
 from ftin.body_heading import LOCK_BELOW, gait_forward, lock_to_phone, phone_heading, span_heading, steadiness
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
@@ -63,7 +61,7 @@ CACHE = Path("runs/probes/body_heading")
 SMOOTH = (10.0, 30.0)
 GATES = (0.3, 0.5)
 WALK_GATES = (LOCK_BELOW, 0.45)
-LOW, HIGH = 0.8, 1.2
+STARTED = (("ATE start-aligned", "ate_start"),)  # the summary's column beside the RoNIN-convention ATE
 
 
 def arms_of(record: dict, prepared, rate_hz: float) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -154,27 +152,6 @@ def score_set(model, paths: list[Path], keys: list[str], groups: list[str], labe
     return rows
 
 
-def summary(rows: list[dict], by: str) -> list[str]:
-    groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
-    for r in rows:
-        groups[(r[by], r["arm"])].append(r)
-    lines = [
-        f"| {by} | arm | walks | mean ATE | ATE / still | ATE start-aligned | ratio (min-max) | in 0.8-1.2 |",
-        "|---|---|--:|--:|--:|--:|---|--:|",
-    ]
-    for (name, arm), rs in groups.items():
-        ate = np.mean([r["ate"] for r in rs])
-        started = np.mean([r["ate_start"] for r in rs])
-        still = np.mean([r["still"] for r in rs])
-        ratios = np.array([r["ratio"] for r in rs])
-        inside = int(((ratios >= LOW) & (ratios <= HIGH)).sum())
-        lines.append(
-            f"| {name} | {arm} | {len(rs)} | {ate:.2f} | {ate / still:.2f} | {started:.2f} | "
-            f"{ratios.min():.2f}-{ratios.max():.2f} | {inside} of {len(rs)} |"
-        )
-    return lines
-
-
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
@@ -183,22 +160,8 @@ def main() -> None:
     args = parse(parser)
     model = load_model(CHECKPOINT)
     rows: list[dict] = []
-    if "val" in args.sets:
-        for dataset in (protocol.OXIOD, protocol.RIDI, protocol.INRIA):
-            paths = protocol.split_paths(args.data_root, dataset, "val")
-            keys = [str(p.relative_to(args.data_root)) for p in paths]
-            rows += score_set(
-                model, paths, keys, [protocol.DATASET_LABELS[dataset]] * len(paths), "validation"
-            )
-    if "new" in args.sets:
-        root = args.data_root / protocol.DATA_FOLDERS[protocol.OXIOD]
-        rows += score_set(
-            model,
-            [root / r for r in NEW_WALKS],
-            [r.removesuffix(".csv.xz") for r in NEW_WALKS],
-            [group_of(r) for r in NEW_WALKS],
-            "new OxIOD walks",
-        )
+    for paths, keys, groups, label in probe_sets(args.data_root, args.sets):
+        rows += score_set(model, paths, keys, groups, label)
     CACHE.mkdir(parents=True, exist_ok=True)
     (CACHE / "rows.json").write_text(json.dumps(rows))
     arms = list(dict.fromkeys(r["arm"] for r in rows))
@@ -212,11 +175,11 @@ def main() -> None:
         "",
         "## By set",
         "",
-        *summary(rows, "set"),
+        *summary(rows, "set", STARTED),
         "",
         "## By group",
         "",
-        *summary(rows, "group"),
+        *summary(rows, "group", STARTED),
         "",
         "## Per walk",
         "",

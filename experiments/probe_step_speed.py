@@ -247,24 +247,43 @@ def _prediction_for_scoring(model, record: dict) -> Prediction:
     )
 
 
-def summary(rows: list[dict], by: str) -> list[str]:
+def summary(rows: list[dict], by: str, extra: tuple[tuple[str, str], ...] = ()) -> list[str]:
+    """Per ``by`` and arm: walks, mean ATE, over standing still, ``extra`` means (header, row key)
+    after it, the ratio's range and how many walks lie within bounds."""
     groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
     for r in rows:
         groups[(r[by], r["arm"])].append(r)
+    headers = "".join(f" {header} |" for header, _ in extra)
     lines = [
-        f"| {by} | arm | walks | mean ATE | ATE / still | ratio (min-max) | in 0.8-1.2 |",
-        "|---|---|--:|--:|--:|---|--:|",
+        f"| {by} | arm | walks | mean ATE | ATE / still |{headers} ratio (min-max) | in 0.8-1.2 |",
+        "|---|---|--:|--:|--:|" + "--:|" * len(extra) + "---|--:|",
     ]
     for (name, arm), rs in groups.items():
         ate = np.mean([r["ate"] for r in rs])
         still = np.mean([r["still"] for r in rs])
+        means = "".join(f" {np.mean([r[key] for r in rs]):.2f} |" for _, key in extra)
         ratios = np.array([r["ratio"] for r in rs])
         inside = int(((ratios >= LOW) & (ratios <= HIGH)).sum())
         lines.append(
-            f"| {name} | {arm} | {len(rs)} | {ate:.2f} | {ate / still:.2f} | "
+            f"| {name} | {arm} | {len(rs)} | {ate:.2f} | {ate / still:.2f} |{means} "
             f"{ratios.min():.2f}-{ratios.max():.2f} | {inside} of {len(rs)} |"
         )
     return lines
+
+
+def probe_sets(data_root: Path, sets: list[str]):
+    """``(paths, keys, groups, label)`` of each set a probe scores: the validation walkers of OxIOD,
+    RIDI and Inria (``val``), the 30 new OxIOD walks (``new``)."""
+    if "val" in sets:
+        for dataset in (protocol.OXIOD, protocol.RIDI, protocol.INRIA):
+            paths = protocol.split_paths(data_root, dataset, "val")
+            keys = [str(p.relative_to(data_root)) for p in paths]
+            yield paths, keys, [protocol.DATASET_LABELS[dataset]] * len(paths), "validation"
+    if "new" in sets:
+        root = data_root / protocol.DATA_FOLDERS[protocol.OXIOD]
+        paths = [root / r for r in NEW_WALKS]
+        keys = [r.removesuffix(".csv.xz") for r in NEW_WALKS]
+        yield paths, keys, [group_of(r) for r in NEW_WALKS], "new OxIOD walks"
 
 
 def main() -> None:
@@ -283,23 +302,8 @@ def main() -> None:
     print("step length fit", fit, flush=True)
     model = load_model(CHECKPOINT)
     rows: list[dict] = []
-    if "val" in args.sets:
-        for dataset in (protocol.OXIOD, protocol.RIDI, protocol.INRIA):
-            paths = protocol.split_paths(args.data_root, dataset, "val")
-            keys = [str(p.relative_to(args.data_root)) for p in paths]
-            rows += score_set(
-                model, fit, paths, keys, [protocol.DATASET_LABELS[dataset]] * len(paths), "validation"
-            )
-    if "new" in args.sets:
-        root = args.data_root / protocol.DATA_FOLDERS[protocol.OXIOD]
-        rows += score_set(
-            model,
-            fit,
-            [root / r for r in NEW_WALKS],
-            [r.removesuffix(".csv.xz") for r in NEW_WALKS],
-            [group_of(r) for r in NEW_WALKS],
-            "new OxIOD walks",
-        )
+    for paths, keys, groups, label in probe_sets(args.data_root, args.sets):
+        rows += score_set(model, fit, paths, keys, groups, label)
     (CACHE / "rows.json").write_text(json.dumps(rows))
     lines = [
         "# Step-informed speed: a step-length floor under the network's speed (a probe, no training)",

@@ -7,10 +7,8 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pandas as pd
 import pytest
 
-from app.settings import BUNDLED_SAMPLES_DIR
 from ftin.checkpoint import load_model
 from ftin.cli import app as cli
 from ftin.data.errors import DataFormatError
@@ -21,13 +19,6 @@ from tests.utils.cli import runner
 from tests.utils.paths import CHECKPOINTS
 
 CHECKPOINT = ["--checkpoint", str(CHECKPOINTS / "ronin_resnet-walking.json")]
-
-
-@pytest.fixture(scope="module")
-def short_walk(tmp_path_factory: pytest.TempPathFactory):
-    path = tmp_path_factory.mktemp("walk") / "handheld_30s.csv"
-    pd.read_csv(BUNDLED_SAMPLES_DIR / "sim_handheld.csv", nrows=3000).to_csv(path, index=False)
-    return path
 
 
 def test_evaluate_with_the_ekf_scores_the_filters_path(short_walk, tmp_path) -> None:

@@ -4,23 +4,12 @@ shipped default model inside the EKF on the first 30 s of a bundled walk, and a 
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
-import pytest
 
-from app.settings import BUNDLED_SAMPLES_DIR
 from ftin.cli import app as cli
 from tests.utils.cli import runner
 from tests.utils.paths import CHECKPOINTS
 
 CHECKPOINT = ["--checkpoint", str(CHECKPOINTS / "ronin_resnet-walking.json")]
-
-
-@pytest.fixture(scope="module")
-def short_walk(tmp_path_factory: pytest.TempPathFactory):
-    """30 s of the bundled handheld walk with its ground truth (the EKF runs sample by sample)."""
-    path = tmp_path_factory.mktemp("walk") / "handheld_30s.csv"
-    pd.read_csv(BUNDLED_SAMPLES_DIR / "sim_handheld.csv", nrows=3000).to_csv(path, index=False)
-    return path
 
 
 def rows(path) -> np.ndarray:
