@@ -17,6 +17,8 @@ correlation with the vertical jerk: the body pushes forward as it rises), averag
 
 ``LOCK_BELOW`` sits under every walker-held-out validation walk's steadiness (lowest 0.38: an Inria
 swinging walk, which the lock would make worse), so it changes no walk the models were chosen on.
+It is not free: walkers going to and fro in a small room with the phone held up (Inria's test AR and
+swinging walks, steadiness 0.22-0.34) are locked too and read worse (``docs/metrics.md``).
 Applied to phone-only orientations only (an attitude filter's or the phone's own); not to live
 sessions, which have no whole walk to judge (``docs/metrics.md``, "Body-locked heading").
 """
