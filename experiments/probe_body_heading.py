@@ -48,7 +48,13 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.probe_step_speed import CHECKPOINT, _prediction_for_scoring, probe_sets, summary, walk_record
+from experiments.probe_step_speed import (
+    CHECKPOINT,
+    _prediction_for_scoring,
+    probe_sets,
+    summary_sections,
+    walk_record,
+)
 from ftin.body_heading import LOCK_BELOW, gait_forward, lock_to_phone, phone_heading, span_heading, steadiness
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
@@ -173,13 +179,7 @@ def main() -> None:
         "other probes score it; start-aligned: heading and start fitted on the first 10 s), ratio =",
         "predicted over walked distance.",
         "",
-        "## By set",
-        "",
-        *summary(rows, "set", STARTED),
-        "",
-        "## By group",
-        "",
-        *summary(rows, "group", STARTED),
+        *summary_sections(rows, STARTED),
         "",
         "## Per walk",
         "",

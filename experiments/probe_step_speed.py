@@ -271,6 +271,19 @@ def summary(rows: list[dict], by: str, extra: tuple[tuple[str, str], ...] = ()) 
     return lines
 
 
+def summary_sections(rows: list[dict], extra: tuple[tuple[str, str], ...] = ()) -> list[str]:
+    """The report's "By set" and "By group" sections (``summary`` of each)."""
+    return [
+        "## By set",
+        "",
+        *summary(rows, "set", extra),
+        "",
+        "## By group",
+        "",
+        *summary(rows, "group", extra),
+    ]
+
+
 def probe_sets(data_root: Path, sets: list[str]):
     """``(paths, keys, groups, label)`` of each set a probe scores: the validation walkers of OxIOD,
     RIDI and Inria (``val``), the 30 new OxIOD walks (``new``)."""
@@ -318,13 +331,7 @@ def main() -> None:
         f"{fit['residual_rms_m']:.3f} m, cadence 5-95 % "
         f"{fit['cadence_range'][0]:.0f}-{fit['cadence_range'][1]:.0f}.",
         "",
-        "## By set",
-        "",
-        *summary(rows, "set"),
-        "",
-        "## By group",
-        "",
-        *summary(rows, "group"),
+        *summary_sections(rows),
         "",
         "## Per walk (ratio: network alone / floor 1 / bout 1; share of confident windows)",
         "",
