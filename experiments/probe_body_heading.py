@@ -40,7 +40,6 @@ steadiness is under 0.35).
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from collections import defaultdict
 from pathlib import Path
@@ -54,6 +53,7 @@ from experiments.probe_step_speed import (
     probe_sets,
     summary_sections,
     walk_record,
+    with_velocities,
 )
 from ftin.body_heading import LOCK_BELOW, gait_forward, lock_to_phone, phone_heading, span_heading, steadiness
 from ftin.checkpoint import load_model
@@ -61,7 +61,6 @@ from ftin.data.loading import load_phone_only
 from ftin.data.prepare import prepare
 from ftin.evaluate import score
 from ftin.files import DEFAULT_DATA_ROOT
-from ftin.infer import integrate_spans
 
 CACHE = Path("runs/probes/body_heading")
 SMOOTH = (10.0, 30.0)
@@ -107,11 +106,7 @@ def scored(prediction, record: dict, velocity: np.ndarray) -> tuple[float, float
     """ATE as the probes score it (phone only: no alignment, the estimate starts in the truth's
     start frame), standing still's, the distance ratio, and the ATE with heading and start fitted on
     the first 10 s (issue 35's convention)."""
-    span = record["span"]
-    p = integrate_spans(record["t_s"], span[:, 0], span[:, 1], velocity, prediction.trajectory.p_world_m[0])
-    changed = dataclasses.replace(
-        prediction, trajectory=dataclasses.replace(prediction.trajectory, p_world_m=p)
-    )
+    changed = with_velocities(prediction, record, velocity)
     result = score(changed)
     values = result.metrics.values
     started = score(changed, alignment="start").metrics.values["ate"]

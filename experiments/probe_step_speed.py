@@ -164,16 +164,18 @@ def rule_speeds(
     return out
 
 
+def with_velocities(prediction: Prediction, record: dict, velocity: np.ndarray) -> Prediction:
+    """``prediction`` with its trajectory integrated from ``velocity`` over the record's spans, as the
+    app integrates (a rule's arm, scored like the rest)."""
+    span = record["span"]
+    p = integrate_spans(record["t_s"], span[:, 0], span[:, 1], velocity, prediction.trajectory.p_world_m[0])
+    return dataclasses.replace(prediction, trajectory=dataclasses.replace(prediction.trajectory, p_world_m=p))
+
+
 def scored(prediction: Prediction, record: dict, speeds: np.ndarray) -> tuple[float, float, float]:
     speed = np.linalg.norm(record["velocity"][:, :2], axis=1)
     scale = np.where(speed > 1e-6, speeds / np.maximum(speed, 1e-6), 1.0)
-    velocity = record["velocity"] * scale[:, None]
-    span = record["span"]
-    p = integrate_spans(record["t_s"], span[:, 0], span[:, 1], velocity, prediction.trajectory.p_world_m[0])
-    changed = dataclasses.replace(
-        prediction, trajectory=dataclasses.replace(prediction.trajectory, p_world_m=p)
-    )
-    result = score(changed)
+    result = score(with_velocities(prediction, record, record["velocity"] * scale[:, None]))
     values = result.metrics.values
     return values["ate"], result.stand_still.values["ate"], values.get("distance_ratio", float("nan"))
 
