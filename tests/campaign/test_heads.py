@@ -13,7 +13,7 @@ from safetensors.torch import load_file, save_file
 from ftin.campaign.heads import SECTION_TITLE, HeadShipError, ship_head
 from ftin.checkpoint import load_model
 from ftin.train import train
-from tests.utils.checkpoints import tiny_model_kwargs, tiny_train_config, write_checkpoint
+from tests.utils.checkpoints import head_train_config, tiny_model_kwargs, write_checkpoint
 
 KWARGS = tiny_model_kwargs("ronin_resnet")
 STEM = "ronin_resnet"
@@ -24,14 +24,7 @@ def shipped_and_run(tmp_path, sim_sequences):
     shipped = tmp_path / "checkpoints"
     source = write_checkpoint(shipped / STEM, "ronin_resnet", seed=5, model_kwargs=KWARGS, story="as shipped")
     (shipped / f"{STEM}.md").write_text("# the card\n\nTable 1 row.\n")
-    config = tiny_train_config(
-        tmp_path / "run",
-        model="ronin_resnet",
-        model_kwargs={**KWARGS, "uncertainty_head": True},
-        init_from=str(source),
-        train_only=("log_std_head",),
-        max_epochs=1,
-    )
+    config = head_train_config(tmp_path / "run", source, max_epochs=1)
     train(config, sim_sequences, progress=False)
     return shipped, tmp_path / "run"
 

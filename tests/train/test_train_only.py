@@ -7,21 +7,14 @@ import torch
 
 from ftin.checkpoint import load_model
 from ftin.train import ConfigError, train
-from tests.utils.checkpoints import tiny_model_kwargs, tiny_train_config, write_checkpoint
+from tests.utils.checkpoints import head_train_config, tiny_model_kwargs, tiny_train_config, write_checkpoint
 
 KWARGS = tiny_model_kwargs("ronin_resnet")
 
 
 def test_only_the_new_head_trains(tmp_path, sim_sequences):
     source = write_checkpoint(tmp_path / "source", "ronin_resnet", seed=3, model_kwargs=KWARGS)
-    config = tiny_train_config(
-        tmp_path / "run",
-        model="ronin_resnet",
-        model_kwargs={**KWARGS, "uncertainty_head": True},
-        init_from=str(source),
-        train_only=("log_std_head",),
-        max_epochs=2,
-    )
+    config = head_train_config(tmp_path / "run", source, max_epochs=2)
     result = train(config, sim_sequences, progress=False)
     assert result.steps > 0
     trained = load_model(result.checkpoint)

@@ -75,3 +75,16 @@ def tiny_train_config(out_dir: Path, **changes: Any) -> TrainConfig:
         seed=7,
     )
     return TrainConfig(**{**base, **changes})
+
+
+def head_train_config(out_dir: Path, source: Path, max_epochs: int) -> TrainConfig:
+    """Stage three's recipe on a tiny RoNIN ResNet: a log-std head trained alone on the frozen
+    network of the checkpoint at ``source`` (``ftin train --train-only log_std_head --init-from``)."""
+    return tiny_train_config(
+        out_dir,
+        model="ronin_resnet",
+        model_kwargs={**tiny_model_kwargs("ronin_resnet"), "uncertainty_head": True},
+        init_from=str(source),
+        train_only=("log_std_head",),
+        max_epochs=max_epochs,
+    )
