@@ -1,7 +1,8 @@
 """An error-state EKF after TLIO (Liu et al., RSS 2020): the raw IMU integrated, a network's mean
 velocity over a window as the measurement (``docs/filter.md`` has the equations).
 
-The error state is ``[dtheta, dv, dp, dbg, dba]`` (15) for the evolving state, then ``[dtheta, dp]``
+The error state is ``[dtheta, dv, dp, dbg, dba]`` (15; then the network's speed scale where
+``FilterConfig.speed_scale_std`` asks for it) for the evolving state, then ``[dtheta, dp]``
 (6) per stochastic clone taken at a window's start; the window's end is the evolving state itself
 (the update runs at that sample). The measurement is expressed in the clone's heading frame, so a
 heading error never shows in an innovation: heading is unobservable, and the filter must not turn
@@ -18,8 +19,8 @@ from ftin.filter.state import (
     BA,
     BG,
     CLONE,
-    EVOLVING,
     POS,
+    SCALE,
     THETA,
     VEL,
     FilterConfig,
@@ -44,8 +45,8 @@ def step(
     acc_next: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One IMU interval from ``state``: the next ``R``, ``v``, ``p``; the evolving error's transition
-    ``A`` ``(15, 15)``; and how the gyro and accelerometer white noise ``(6,)`` (per interval, rad/s
-    and m/s²) enters it, ``B`` ``(15, 6)``.
+    ``A`` ``(n, n)`` (n: 15, 16 with the speed scale, which the IMU leaves alone); and how the gyro and
+    accelerometer white noise ``(6,)`` (per interval, rad/s and m/s²) enters it, ``B`` ``(n, 6)``.
 
     Midpoint rule: the rate is the mean of the interval's two samples and the world acceleration the
     mean of the two ends' (each rotated by its own orientation). Without the next sample (``None``)
@@ -61,7 +62,7 @@ def step(
     a_dt = dv + np.array([0.0, 0.0, -gravity * dt])
     v_next = state.v + a_dt
     p_next = state.p + state.v * dt + 0.5 * a_dt * dt
-    A = np.eye(EVOLVING)
+    A = np.eye(state.evolving_dim)
     theta_bg = -R_next @ right_jacobian(phi) * dt  # how a gyro bias error turns R_next
     A[THETA, BG] = theta_bg
     A[VEL, THETA] = -hat(dv)
@@ -71,7 +72,7 @@ def step(
     A[POS, VEL] = np.eye(3) * dt
     A[POS, BG] = 0.5 * dt * A[VEL, BG]
     A[POS, BA] = 0.5 * dt * A[VEL, BA]
-    B = np.zeros((EVOLVING, 6))  # the noise moves R, v, p as a bias of this interval would
+    B = np.zeros((state.evolving_dim, 6))  # the noise moves R, v, p as a bias of this interval would
     B[: BG.start, 0:3] = A[: BG.start, BG]
     B[: BG.start, 3:6] = A[: BG.start, BA]
     return R_next, v_next, p_next, A, B
@@ -100,8 +101,11 @@ def boxplus(state: NominalState, dx: np.ndarray) -> NominalState:
     out.p = state.p + dx[POS]
     out.bg = state.bg + dx[BG]
     out.ba = state.ba + dx[BA]
+    if state.k is not None:
+        out.k = state.k + float(dx[SCALE])
+    first = state.evolving_dim
     for k in range(len(state.clone_index)):
-        block = dx[EVOLVING + CLONE * k : EVOLVING + CLONE * (k + 1)]
+        block = dx[first + CLONE * k : first + CLONE * (k + 1)]
         out.clone_R[k] = so3_exp(block[:3]) @ state.clone_R[k]
         out.clone_p[k] = state.clone_p[k] + block[3:]
     return out
@@ -109,29 +113,36 @@ def boxplus(state: NominalState, dx: np.ndarray) -> NominalState:
 
 def boxminus(truth: NominalState, estimate: NominalState) -> np.ndarray:
     """The error ``dx`` with ``boxplus(estimate, dx) == truth`` (evolving block only)."""
-    dx = np.zeros(EVOLVING)
+    dx = np.zeros(estimate.evolving_dim)
     dx[THETA] = so3_log(truth.R @ estimate.R.T)
     dx[VEL] = truth.v - estimate.v
     dx[POS] = truth.p - estimate.p
     dx[BG] = truth.bg - estimate.bg
     dx[BA] = truth.ba - estimate.ba
+    if estimate.k is not None:
+        dx[SCALE] = truth.k - estimate.k
     return dx
 
 
 def velocity_measurement(state: NominalState, clone: int, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """``(h, H)``: the mean velocity from clone ``clone`` to now, in the clone's heading frame
-    (``Rz(yaw(R_i))^T (p - p_i) / dt``), and its Jacobian ``(3, dim)`` with respect to the error state."""
+    (``Rz(yaw(R_i))^T (p - p_i) / dt``; its horizontal part times the speed scale ``k`` where the
+    filter estimates one), and its Jacobian ``(3, dim)`` with respect to the error state."""
     R_i, p_i = state.clone_R[clone], state.clone_p[clone]
     Rz = rot_z(yaw_of(R_i))
     local = Rz.T @ (state.p - p_i)
-    h = local / dt
-    dim = EVOLVING + CLONE * len(state.clone_index)
-    H = np.zeros((3, dim))
-    col = EVOLVING + CLONE * clone
+    scale = np.array([1.0, 1.0, 1.0]) if state.k is None else np.array([state.k, state.k, 1.0])
+    h = scale * local / dt
+    first = state.evolving_dim
+    H = np.zeros((3, first + CLONE * len(state.clone_index)))
+    col = first + CLONE * clone
     H[:, POS] = Rz.T / dt
     H[:, col + 3 : col + 6] = -Rz.T / dt
     # d(Rz(psi)^T d)/d psi = (l_y, -l_x, 0) for l = Rz^T d, times d psi / d dtheta_i.
     H[:, col : col + 3] = np.outer(np.array([local[1], -local[0], 0.0]), yaw_jacobian(R_i)) / dt
+    H *= scale[:, None]
+    if state.k is not None:
+        H[:2, SCALE] = local[:2] / dt
     return h, H
 
 
@@ -151,12 +162,14 @@ class ErrorStateEkf:
     def __init__(self, config: FilterConfig, R0: np.ndarray, p0: np.ndarray | None = None) -> None:
         self.config = config
         p = np.zeros(3) if p0 is None else np.asarray(p0, dtype=np.float64).copy()
-        self.state = NominalState(np.asarray(R0, dtype=np.float64).copy(), p=p)
+        k = None if config.speed_scale_std is None else 1.0
+        self.state = NominalState(np.asarray(R0, dtype=np.float64).copy(), p=p, k=k)
         self.P = config.initial_covariance()
+        self.evolving = config.evolving_dim
 
     @property
     def evolving_covariance(self) -> np.ndarray:
-        return self.P[:EVOLVING, :EVOLVING]
+        return self.P[: self.evolving, : self.evolving]
 
     def propagate(
         self,
@@ -173,12 +186,14 @@ class ErrorStateEkf:
         s = self.state
         s.R, s.v, s.p, A, B = step(s, gyro, acc, dt, cfg.gravity_m_s2, gyro_next, acc_next)
         noise = np.repeat([cfg.gyro_noise_rad_s_sqrt_hz**2 / dt, cfg.acc_noise_m_s2_sqrt_hz**2 / dt], 3)
-        P = self.P
-        P[:EVOLVING, :] = A @ P[:EVOLVING, :]
-        P[:, :EVOLVING] = P[:, :EVOLVING] @ A.T
-        P[:EVOLVING, :EVOLVING] += (B * noise) @ B.T
+        P, n = self.P, self.evolving
+        P[:n, :] = A @ P[:n, :]
+        P[:, :n] = P[:, :n] @ A.T
+        P[:n, :n] += (B * noise) @ B.T
         walk = np.repeat([cfg.gyro_bias_walk_rad_s_sqrt_s**2, cfg.acc_bias_walk_m_s2_sqrt_s**2], 3) * dt
         P[BG.start : BA.stop, BG.start : BA.stop] += np.diag(walk)
+        if s.k is not None:
+            P[SCALE, SCALE] += cfg.speed_scale_walk_per_sqrt_s**2 * dt
 
     def update_heading(self, psi_ref: float, std_rad: float) -> UpdateResult:
         """Update with a heading reference (an orientation filter's, ``ftin.filter.run``): ``h = psi(R)``,
@@ -215,7 +230,8 @@ class ErrorStateEkf:
         k = s.clone_index.index(index)
         for items in (s.clone_index, s.clone_R, s.clone_p):
             del items[k]
-        keep = np.r_[0 : EVOLVING + CLONE * k, EVOLVING + CLONE * (k + 1) : len(self.P)]
+        first = self.evolving
+        keep = np.r_[0 : first + CLONE * k, first + CLONE * (k + 1) : len(self.P)]
         self.P = self.P[np.ix_(keep, keep)]
 
     def update(self, index: int, z: np.ndarray, R_meas: np.ndarray, dt: float) -> UpdateResult:

@@ -48,7 +48,7 @@ def run_around_holes(
     position = np.asarray(start_position_m, dtype=np.float64).copy()
     pos_cov = np.zeros((2, 2))
     parts: list[FilterRun] = []
-    last = {"bg": np.zeros(3), "ba": np.zeros(3), "tilt_cov": np.zeros((2, 2))}
+    last = {"bg": np.zeros(3), "ba": np.zeros(3), "tilt_cov": np.zeros((2, 2)), "k": 1.0}
     held_from = 0  # first sample not covered by a stretch's run yet
     for a, b in stretches(seq.t_s, holes_of(seq)):
         if b - a < window + 1:
@@ -61,7 +61,12 @@ def run_around_holes(
         parts.append(run)
         position = run.p_world_m[-1].copy()
         pos_cov = run.position_cov_xy[-1].copy()
-        last = {"bg": run.gyro_bias_rad_s[-1], "ba": run.acc_bias_m_s2[-1], "tilt_cov": run.tilt_cov[-1]}
+        last = {
+            "bg": run.gyro_bias_rad_s[-1],
+            "ba": run.acc_bias_m_s2[-1],
+            "tilt_cov": run.tilt_cov[-1],
+            "k": float(run.speed_scale[-1]),
+        }
         held_from = b
     if not parts:
         raise ValueError(
@@ -93,7 +98,8 @@ def _held(
         velocity_m_s=np.zeros((0, 3)),
         nis=np.zeros(0),
         applied=np.zeros(0, dtype=bool),
-        covariance=np.zeros((0, 15, 15)),
+        covariance=np.zeros((0, 15, 15)),  # no update here; _joined keeps the runs' own
+        speed_scale=np.full(k, last["k"]),
     )
 
 
@@ -115,5 +121,6 @@ def _joined(parts: list[FilterRun]) -> FilterRun:
         velocity_m_s=np.concatenate([p.velocity_m_s.reshape(-1, dim) for p in parts]),
         nis=np.concatenate([p.nis for p in parts]),
         applied=np.concatenate([p.applied for p in parts]),
-        covariance=np.concatenate([p.covariance for p in parts]),
+        covariance=np.concatenate([p.covariance for p in parts if len(p.covariance)]),
+        speed_scale=np.concatenate([p.speed_scale for p in parts]),
     )

@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.filter.ekf import ErrorStateEkf
-from ftin.filter.state import EVOLVING, POS, THETA, FilterConfig, rot_z, yaw_of
+from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
 from ftin.live.incremental import Growing
 
 # measure(rows, start, end, R_start) -> (world velocity (3,), horizontal covariance (2, 2))
@@ -55,7 +55,8 @@ class FilterRun:
     velocity_m_s: np.ndarray  # (M, D) the network's world-frame velocity of each window
     nis: np.ndarray  # (M,) normalised innovation squared (3 dof)
     applied: np.ndarray  # (M,) bool: False where the gate refused the update
-    covariance: np.ndarray  # (M, 15, 15) evolving-state covariance after each update
+    covariance: np.ndarray  # (M, n, n) evolving-state covariance after each update (n: 15, 16 with k)
+    speed_scale: np.ndarray  # (N,) the network's speed scale the filter estimated (1 where it does not)
 
 
 class FilterSession:
@@ -103,10 +104,11 @@ class FilterSession:
         self._rows = Growing(6, np.float32)
         self._p, self._v, self._q = Growing(3), Growing(3), Growing(4)
         self._bg, self._ba, self._pos_cov, self._tilt_cov = Growing(3), Growing(3), Growing(4), Growing(4)
+        self._k = Growing(None)
         # Per update.
         self._span, self._velocity = Growing(2, np.int64), Growing(3)
         self._nis, self._applied = Growing(None), Growing(None, bool)
-        self._cov = Growing(EVOLVING * EVOLVING)
+        self._cov = Growing(self.config.evolving_dim**2)
 
     def __len__(self) -> int:
         return len(self._t)
@@ -133,11 +135,13 @@ class FilterSession:
         self._rows.extend(np.zeros((m, 6), dtype=np.float32))
         rows = self._rows.view()
         out = {name: np.zeros((m, 3)) for name in ("p", "v", "bg", "ba")}
-        pos_cov, tilt_cov = np.zeros((m, 4)), np.zeros((m, 4))
+        pos_cov, tilt_cov, k = np.zeros((m, 4)), np.zeros((m, 4)), np.ones(m)
         for i in range(m):
             heading = float(heading_rad[i]) if use_heading else None
             s, P = self._step(first + i, float(t_s[i]), gyro[i], acc[i], heading, rows)
             out["p"][i], out["v"][i], R[i], out["bg"][i], out["ba"][i] = s.p, s.v, s.R, s.bg, s.ba
+            if s.k is not None:
+                k[i] = s.k
             pos_cov[i], tilt_cov[i] = P[POS, POS][:2, :2].ravel(), P[THETA, THETA][:2, :2].ravel()
         q = frames.wxyz_from_rotation(Rotation.from_matrix(R))
         previous = self._q.view()[-1:]
@@ -153,6 +157,7 @@ class FilterSession:
             buffer.extend(out[name])
         self._pos_cov.extend(pos_cov)
         self._tilt_cov.extend(tilt_cov)
+        self._k.extend(k)
         return len(self._nis) - before
 
     def extend(self, t_s: np.ndarray, gyro: np.ndarray, acc: np.ndarray, q_wxyz: np.ndarray) -> int:
@@ -242,7 +247,8 @@ class FilterSession:
             velocity_m_s=self._velocity.view(),
             nis=self._nis.view(),
             applied=self._applied.view(),
-            covariance=self._cov.view().reshape(m, EVOLVING, EVOLVING),
+            covariance=self._cov.view().reshape(m, self.config.evolving_dim, self.config.evolving_dim),
+            speed_scale=self._k.view(),
         )
 
     @property

@@ -18,6 +18,7 @@ GRAVITY_M_S2 = 9.80665  # the simulator's and the readers' standard gravity (fti
 # Error-state layout: the evolving block first, then one (theta, p) pair per clone.
 THETA, VEL, POS, BG, BA = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15))
 EVOLVING = 15
+SCALE = 15  # the network's speed scale, after the biases, where the filter estimates one
 CLONE = 6
 
 
@@ -39,6 +40,12 @@ class FilterConfig:
     from tilt-coupled evidence. ``update_every`` is the spacing of network updates in samples
     (``None``: one window, so that successive measurements do not share samples and their errors are
     closer to independent).
+
+    ``speed_scale_std``: where set, the filter also estimates the network's speed scale ``k`` (the
+    measurement reads ``k`` times the true horizontal velocity; start 1 with this sigma, a random walk
+    of ``speed_scale_walk_per_sqrt_s``): a carry that damps the bounce is read slow by the network,
+    while the integrated IMU's velocity changes at turns, starts and stops keep the true scale. ``None``
+    (the default): no such state, the network's speed is taken as it is.
     """
 
     gyro_noise_rad_s_sqrt_hz: float = 1.0e-3
@@ -67,6 +74,8 @@ class FilterConfig:
     gate_chi2: float | None = None  # Mahalanobis gate on the NIS (None: every update is applied)
     gravity_m_s2: float = GRAVITY_M_S2
     correct_network_input: bool = True  # the network reads bias-corrected IMU
+    speed_scale_std: float | None = None
+    speed_scale_walk_per_sqrt_s: float = 2.0e-3
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -97,8 +106,13 @@ class FilterConfig:
         if self.update_every is not None and self.update_every < 1:
             raise ValueError(f"FilterConfig.update_every must be >= 1 sample, got {self.update_every}")
 
+    @property
+    def evolving_dim(self) -> int:
+        """Size of the evolving error state: 15, and 16 with the speed scale."""
+        return EVOLVING + (self.speed_scale_std is not None)
+
     def initial_covariance(self) -> np.ndarray:
-        """``(15, 15)`` covariance of the evolving error state at the start."""
+        """``(evolving_dim, evolving_dim)`` covariance of the evolving error state at the start."""
         tilt, yaw = self.init_tilt_std_rad**2, self.init_yaw_std_rad**2
         diag = np.concatenate(
             [
@@ -107,6 +121,7 @@ class FilterConfig:
                 np.full(3, self.init_position_std_m**2),
                 np.full(3, self.init_gyro_bias_std_rad_s**2),
                 np.full(3, self.init_acc_bias_std_m_s2**2),
+                [] if self.speed_scale_std is None else [self.speed_scale_std**2],
             ]
         )
         return np.diag(diag)
@@ -115,7 +130,8 @@ class FilterConfig:
 @dataclass
 class NominalState:
     """The nominal (estimated) state: orientation, velocity, position, gyro and accelerometer biases,
-    plus the clones (orientation and position at past window starts, keyed by sample index)."""
+    plus the clones (orientation and position at past window starts, keyed by sample index), and the
+    network's speed scale ``k`` where the filter estimates one (``None``: not a state)."""
 
     R: np.ndarray  # (3, 3) world <- body
     v: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -125,6 +141,11 @@ class NominalState:
     clone_index: list[int] = field(default_factory=list)  # sample index of each clone, in order
     clone_R: list[np.ndarray] = field(default_factory=list)
     clone_p: list[np.ndarray] = field(default_factory=list)
+    k: float | None = None
+
+    @property
+    def evolving_dim(self) -> int:
+        return EVOLVING + (self.k is not None)
 
     def copy(self) -> NominalState:
         return NominalState(
@@ -136,6 +157,7 @@ class NominalState:
             list(self.clone_index),
             [r.copy() for r in self.clone_R],
             [p.copy() for p in self.clone_p],
+            self.k,
         )
 
 

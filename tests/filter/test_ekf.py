@@ -26,11 +26,11 @@ SIM_NOISE = ImuNoise()
 DEFAULT_CHECKPOINT = REPO_ROOT / "checkpoints" / "ronin_resnet-walking"
 
 
-def random_state(rng: np.random.Generator, clones: int = 0) -> NominalState:
+def random_state(rng: np.random.Generator, clones: int = 0, speed_scale: float | None = None) -> NominalState:
     def rot() -> np.ndarray:
         return Rotation.from_rotvec(rng.normal(0.0, 1.0, 3)).as_matrix()
 
-    state = NominalState(rot(), *(rng.normal(0.0, s, 3) for s in (1.0, 5.0, 0.01, 0.1)))
+    state = NominalState(rot(), *(rng.normal(0.0, s, 3) for s in (1.0, 5.0, 0.01, 0.1)), k=speed_scale)
     for k in range(clones):
         state.clone_index.append(k)
         state.clone_R.append(rot())
@@ -38,31 +38,35 @@ def random_state(rng: np.random.Generator, clones: int = 0) -> NominalState:
     return state
 
 
-def test_propagation_jacobian_matches_finite_differences() -> None:
+@pytest.mark.parametrize("speed_scale", [None, 0.7])
+def test_propagation_jacobian_matches_finite_differences(speed_scale) -> None:
     rng = np.random.default_rng(1)
-    state = random_state(rng)
+    state = random_state(rng, speed_scale=speed_scale)
     gyro, acc, dt = np.array([0.8, -1.2, 0.5]), np.array([1.5, -0.7, 9.6]), 0.01
     samples = (gyro, acc, dt, 9.81, gyro + [0.3, 0.1, -0.2], acc + [0.5, -1.0, 0.4])
     _, _, _, A, B = step(state, *samples)
     nominal = propagate_nominal(state, *samples)
+    dim = state.evolving_dim
+    assert A.shape == (dim, dim) and dim == EVOLVING + (speed_scale is not None)
     eps = 1e-6
-    for j in range(EVOLVING):
-        d = np.zeros(EVOLVING)
+    for j in range(dim):
+        d = np.zeros(dim)
         d[j] = eps
         plus = boxminus(propagate_nominal(boxplus(state, d), *samples), nominal)
         minus = boxminus(propagate_nominal(boxplus(state, -d), *samples), nominal)
         np.testing.assert_allclose((plus - minus) / (2 * eps), A[:, j], atol=1e-6, err_msg=f"column {j}")
     for j in range(6):  # white noise n over the interval acts as a bias of the interval
-        d = np.zeros(EVOLVING)
+        d = np.zeros(dim)
         d[BG.start + j] = eps
         bumped = boxminus(propagate_nominal(boxplus(state, d), *samples), nominal)[: BG.start]
         np.testing.assert_allclose(bumped / eps, B[: BG.start, j], atol=1e-5, err_msg=f"noise column {j}")
     assert not B[BG.start :].any()  # white noise leaves the biases alone
 
 
-def test_measurement_jacobian_matches_finite_differences() -> None:
+@pytest.mark.parametrize("speed_scale", [None, 0.7])
+def test_measurement_jacobian_matches_finite_differences(speed_scale) -> None:
     rng = np.random.default_rng(2)
-    state = random_state(rng, clones=2)
+    state = random_state(rng, clones=2, speed_scale=speed_scale)
     dt = 1.0
     for clone in (0, 1):
         _, H = velocity_measurement(state, clone, dt)
@@ -148,6 +152,36 @@ def test_tilt_and_biases_converge_on_a_simulated_walk() -> None:
     assert len(run.nis) == (len(seq) - 1) // WINDOW and run.applied.all()
     assert run.position_cov_xy.shape == (len(seq), 2, 2)
     assert np.all(np.linalg.eigvalsh(run.position_cov_xy) > 0)
+
+
+def test_the_speed_scale_learns_a_network_that_reads_slow_and_keeps_the_walked_distance() -> None:
+    """A network that reads 0.6 of the true speed (a damped bounce): with the speed scale state the
+    filter finds 0.6 from the IMU's velocity changes and walks the true distance; without it the
+    filter follows the slow network."""
+    seq, motion, _ = sim_walk(seed=4, duration_s=90.0)
+    exact = perfect_measure(seq, motion, 0.05, 0.03, np.random.default_rng(0))
+
+    def slow(rows, start, end, R_start):
+        v, cov = exact(rows, start, end, R_start)
+        return np.array([0.6 * v[0], 0.6 * v[1], v[2]]), cov
+
+    def distance(p: np.ndarray) -> float:  # once a second: the steps' sway is no distance
+        return float(np.linalg.norm(np.diff(p[::100, :2], axis=0), axis=1).sum())
+
+    walked = distance(seq.gt.p_world_m)
+    ratios = {}
+    for std in (None, 0.3):
+        config = sim_config(speed_scale_std=std, velocity_std_m_s=0.05)
+        start = seq.gt.p_world_m[0]
+        run = run_filter(None, seq, WINDOW, config, start_position_m=start, measure=slow)
+        ratios[std] = distance(run.p_world_m) / walked
+        if std is None:
+            assert (run.speed_scale == 1.0).all() and run.covariance.shape[1:] == (EVOLVING, EVOLVING)
+        else:
+            assert run.speed_scale[0] == 1.0 and run.covariance.shape[1:] == (EVOLVING + 1, EVOLVING + 1)
+            assert run.speed_scale[-3000:] == pytest.approx(0.6, abs=0.05)
+    assert ratios[None] < 0.8
+    assert 0.85 < ratios[0.3] < 1.2
 
 
 def truth_state(seq, motion, errors, k: int) -> NominalState:
