@@ -3,8 +3,10 @@ dataset's test walks, as ``ftin evaluate --filter`` scores them (issue 36, "scor
 
 Per dataset (OxIOD, RIDI, Inria test parts: ``ftin.protocol.split_paths(root, d, "test")``), phone only
 (``auto`` orientation), RoNIN convention with each sequence's default alignment (what Table 1 and
-``ftin evaluate`` use), three rows: the model on the ground truth's orientation (Table 1's row), the
-model alone on ``auto``, the model inside the EKF on ``auto``; the mean ATE, the ratio to the
+``ftin evaluate`` use), four rows: the model on the ground truth's orientation (Table 1's row), the
+model alone on ``auto``, ``--filter ekf``'s answer (the model re-read on the EKF's orientation,
+``ftin.filter.levelled``: on ``auto``'s where the walk's mean NIS says the network and the IMU
+disagreed), and the EKF's own trajectory; the mean ATE, the ratio to the
 ground-truth row, and the tilt of the orientation used against motion capture
 (``ftin.evaluate.mean_tilt_error_deg``).
 
@@ -23,27 +25,62 @@ from experiments.common import argument_parser, parse, write_report
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
-from ftin.evaluate import evaluate_checkpoint
+from ftin.evaluate import evaluate_checkpoint, mean_tilt_error_deg, score
 from ftin.files import DEFAULT_DATA_ROOT
+from ftin.filter.levelled import levelled_prediction
+from ftin.filter.run import filter_prediction
 
 CACHE = Path("runs/probes/ekf_rows")
-ROWS = (("ground truth", "ground_truth", "none"), ("auto", "auto", "none"), ("auto + EKF", "auto", "ekf"))
+# (label, orientation, how): "none" is ``ftin evaluate``'s model alone; "ekf" the answer of
+# ``--filter ekf`` (the model re-read on the filter's orientation, ``ftin.filter.levelled``), scored as
+# ``ftin evaluate`` scores it, with whether the filter's orientation was read; "own" the filter's own
+# trajectory (``ftin.filter.run.filter_prediction``), what ``--filter ekf`` answered before.
+ROWS = (
+    ("ground truth", "ground_truth", "none"),
+    ("auto", "auto", "none"),
+    ("auto + EKF (`--filter ekf`)", "auto", "levelled"),
+    ("the EKF's own path", "auto", "own"),
+)
+
+
+def filter_rows(loaded, paths: list[Path], dataset: str, how: str) -> dict:
+    """A filter row per sequence, scored as ``ftin evaluate`` scores (default alignment)."""
+    sequences = []
+    for seq in load_sequences(paths, f"{dataset} test", "auto"):
+        if how == "levelled":
+            read = levelled_prediction(loaded, seq, orientation="auto")
+            prediction, run, levelled = read.prediction, read.run, read.levelled
+        else:
+            prediction, run = filter_prediction(loaded, seq, orientation="auto")
+            levelled = None
+        sequences.append(
+            {
+                "name": seq.name,
+                "ate": score(prediction).metrics.ate,
+                "tilt_error_deg": mean_tilt_error_deg(prediction),
+                "levelled": levelled,
+                "mean_nis": float(np.mean(run.nis)),
+            }
+        )
+    return {"mean": {"ate": float(np.mean([s["ate"] for s in sequences]))}, "sequences": sequences}
 
 
 def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
-    """Every sequence of ``dataset``'s test part under the three rows (cached per row)."""
+    """Every sequence of ``dataset``'s test part under each row (cached per row)."""
     loaded = load_model(checkpoint)
     paths = protocol.split_paths(data_root, dataset, "test")
     out = []
-    for label, orientation, filter in ROWS:
-        cache = CACHE / f"{loaded.name}-{dataset}-{orientation}-{filter}.json"
+    for label, orientation, how in ROWS:
+        cache = CACHE / f"{loaded.name}-{dataset}-{orientation}-{how}.json"
         if cache.exists():
             report = json.loads(cache.read_text())
-        else:
+        elif how == "none":
             sequences = load_sequences(paths, f"{dataset} test", orientation)
-            report = evaluate_checkpoint(loaded, sequences, orientation=orientation, filter=filter).to_json()
-            CACHE.mkdir(parents=True, exist_ok=True)
-            cache.write_text(json.dumps(report))
+            report = evaluate_checkpoint(loaded, sequences, orientation=orientation).to_json()
+        else:
+            report = filter_rows(loaded, paths, dataset, how)
+        CACHE.mkdir(parents=True, exist_ok=True)
+        cache.write_text(json.dumps(report))
         print(f"{loaded.name} {dataset} {label}: ATE {report['mean']['ate']:.3f}", flush=True)
         for r in report["sequences"]:
             out.append(
@@ -54,6 +91,7 @@ def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
                     "sequence": r["name"],
                     "ate": r["ate"],
                     "tilt": r.get("tilt_error_deg"),
+                    "levelled": r.get("levelled"),
                 }
             )
     return out
@@ -64,15 +102,22 @@ def table(rows: list[dict]) -> list[str]:
     for r in rows:
         by[(r["checkpoint"], r["dataset"], r["row"])].append(r)
     lines = [
-        "| checkpoint | dataset | row | n | mean ATE | / ground-truth row | tilt vs motion capture |",
-        "|---|---|---|--:|--:|--:|--:|",
+        "| checkpoint | dataset | row | n | mean ATE | / ground-truth row | / `auto` |"
+        " tilt vs motion capture |",
+        "|---|---|---|--:|--:|--:|--:|--:|",
     ]
     for (ckpt, dataset, row), rs in by.items():
         ate = float(np.mean([r["ate"] for r in rs]))
         truth = float(np.mean([r["ate"] for r in by[(ckpt, dataset, "ground truth")]]))
+        auto = float(np.mean([r["ate"] for r in by[(ckpt, dataset, "auto")]]))
         tilts = [r["tilt"] for r in rs if r["tilt"] is not None]
         tilt = f"{np.mean(tilts):.2f}°" if tilts else "-"
-        lines.append(f"| {ckpt} | {dataset} | {row} | {len(rs)} | {ate:.3f} | {ate / truth:.2f}x | {tilt} |")
+        kept = sum(r["levelled"] is False for r in rs)
+        label = f"{row}, {kept} of {len(rs)} kept `auto`'s tilt" if rs[0]["levelled"] is not None else row
+        lines.append(
+            f"| {ckpt} | {dataset} | {label} | {len(rs)} | {ate:.3f} | {ate / truth:.2f}x |"
+            f" {ate / auto - 1:+.0%} | {tilt} |"
+        )
     return lines
 
 

@@ -46,7 +46,9 @@ from ftin.evaluate import score
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.filter import FilterConfig, filter_prediction
 from ftin.filter.consistency import chi2_bounds, fraction_within, tilt_error_deg, tilt_nees
+from ftin.filter.levelled import MAX_MEAN_NIS
 from ftin.infer import predict_trajectory
+from ftin.uncertainty import path_uncertainty
 
 SETS = {
     "oxiod-test": (protocol.OXIOD, "test"),
@@ -68,7 +70,7 @@ def set_paths(data_root: Path, dataset: str, part: str) -> list[Path]:
 
 
 POSITION_EVERY_S = 10.0  # how often the position NEES is read (s): roughly independent checks
-WAYS = ("truth", "auto", "ekf", "net_on_ekf", "net_on_ekf_tilt")
+WAYS = ("truth", "auto", "ekf", "net_on_ekf", "net_on_ekf_tilt", "levelled")
 
 
 def parse_arm(items: list[str]) -> tuple[str, dict]:
@@ -111,11 +113,13 @@ def baseline(model, path: Path) -> dict:
     auto = predict_trajectory(model, phone)
     seq = auto.prepared.seq
     tracked = seq.gt.tracked_mask
+    auto_scored = score(auto, "start").metrics
     return {
         "name": phone.name,
         "minutes": round(phone.duration_s / 60.0, 2),
         "truth": score(predict_trajectory(model, truth), "start").metrics.ate,
-        "auto": score(auto, "start").metrics.ate,
+        "auto": auto_scored.ate,
+        "ratio_auto": _number(auto_scored.distance_ratio),
         "tilt_auto": float(
             tilt_error_deg(seq.q_world_device_wxyz[tracked], seq.gt.q_world_body_wxyz[tracked]).mean()
         ),
@@ -140,8 +144,19 @@ def with_filter(model, path: Path, config: FilterConfig) -> dict:
     nees = tilt_nees(q_ekf, q_true, run.tilt_cov[tracked])
     scored = score(prediction, "start")
     pos_nees = position_nees(scored.truth_in_estimate_frame(seq.gt), run.p_world_m, run.position_cov_xy)
+    # The re-read's own path uncertainty (ftin.uncertainty), as --filter ekf answers with it.
+    found = path_uncertainty(rerun, model.name, seq.meta.get("carry"))
+    rerun_nees = np.zeros(0)
+    if found is not None:
+        c = found.cov_m2
+        cov = np.stack([np.column_stack([c[:, 0], c[:, 1]]), np.column_stack([c[:, 1], c[:, 2]])], axis=1)
+        truth_there = score(rerun, "start").truth_in_estimate_frame(seq.gt)
+        rerun_nees = position_nees(truth_there, rerun.trajectory.p_world_m, cov)
+    half = len(run.speed_scale) // 2
     return {
         "ekf": scored.metrics.ate,
+        "ratio_ekf": _number(scored.metrics.distance_ratio),
+        "speed_scale": float(np.median(run.speed_scale[half:])),
         "net_on_ekf": score(rerun, "start").metrics.ate,
         "net_on_ekf_tilt": score(rerun_tilt, "start").metrics.ate,
         "tilt_ekf": float(tilt_error_deg(q_ekf, q_true).mean()),
@@ -152,10 +167,16 @@ def with_filter(model, path: Path, config: FilterConfig) -> dict:
         "pos_nees": float(pos_nees.mean()) if len(pos_nees) else float("nan"),
         "pos_nees_within": fraction_within(pos_nees, 2),
         "pos_nees_values": [round(float(v), 3) for v in pos_nees],
+        "net_on_ekf_nees_values": [round(float(v), 3) for v in rerun_nees],
         "rejected": int((~run.applied).sum()),
         "seconds": round(seconds, 1),
         "bias_end": {"gyro": run.gyro_bias_rad_s[-1].tolist(), "acc": run.acc_bias_m_s2[-1].tolist()},
     }
+
+
+def _number(value: float | None) -> float:
+    """A metric for the cache: nan where it is undefined (a walk too short for a distance ratio)."""
+    return float("nan") if value is None else float(value)
 
 
 def position_nees(
@@ -215,19 +236,23 @@ def main() -> None:
         paths = set_paths(args.data_root, dataset, part)[: args.limit]
         for path in tqdm(paths, desc=set_name, unit="walk"):
             key = f"{set_name}/{path.relative_to(args.data_root)}".replace("/", "__").replace(" ", "_")
-            base = cached(args.cache / "baseline", key, lambda p=path: baseline(model, p))
+            # baseline-v2: auto with the body-locked heading (ftin.body_heading), and its distance ratio
+            base = cached(args.cache / "baseline-v2", key, lambda p=path: baseline(model, p))
             for arm, overrides in arms.items():
                 if args.cached_only and not (args.cache / arm / f"{key}.json").exists():
                     continue
                 config = FilterConfig(**overrides)
                 result = cached(args.cache / arm, key, lambda p=path, c=config: with_filter(model, p, c))
                 result["overrides"] = overrides
+                # ftin.filter.levelled's rule from what is cached: net/ekf unless the walk's mean NIS is high
+                result["levelled"] = result["net_on_ekf"] if result["nis"] <= MAX_MEAN_NIS else base["auto"]
                 rows.setdefault(arm, {}).setdefault(set_name, []).append({**base, **result})
     write_report(args.out, render(args, rows, arms))
 
 
 def summary(records: list[dict]) -> dict:
-    keys = (*WAYS, "tilt_auto", "tilt_ekf", "nis", "nees", "nis_within", "nees_within")
+    keys = (*WAYS, "tilt_auto", "tilt_ekf", "nis", "nees", "nis_within", "nees_within", "ratio_auto")
+    keys += ("ratio_ekf", "speed_scale")
     # arms run before a column lack it: nan
     mean = {k: float(np.mean([r.get(k, np.nan) for r in records])) for k in keys}
     # Position NEES pooled over the set's checks (every POSITION_EVERY_S), not averaged per walk.
@@ -235,6 +260,11 @@ def summary(records: list[dict]) -> dict:
     mean["pos_nees"] = float(np.mean(pooled)) if pooled else float("nan")
     mean["pos_nees_within"] = fraction_within(np.array(pooled), 2) if pooled else float("nan")
     mean["pos_nees_n"] = len(pooled)
+    # The re-read's own path uncertainty (arms run before it was added: none).
+    pooled = [v for r in records for v in r.get("net_on_ekf_nees_values", [])]
+    mean["net_nees"] = float(np.mean(pooled)) if pooled else float("nan")
+    mean["net_nees_within"] = fraction_within(np.array(pooled), 2) if pooled else float("nan")
+    mean["net_nees_n"] = len(pooled)
     return mean
 
 
@@ -250,18 +280,27 @@ def render(args, rows: dict, arms: dict) -> list[str]:
         "ATE in metres (RoNIN convention, start-aligned), mean over recordings: the network on motion",
         "capture (`truth`), on `auto` (today's phone only), the EKF's own trajectory (`ekf`), the network",
         "re-run on the EKF's orientation (`net/ekf`) and on the EKF's tilt under `auto`'s heading",
-        "(`net/ekf tilt`); the ratios are over `truth`. Tilt: mean angle (deg) between the estimate's and",
+        "(`net/ekf tilt`), and `levelled` (`ftin.filter.levelled`: `net/ekf` where the walk's mean NIS is at",
+        f"most {MAX_MEAN_NIS:g}, else `auto`); the ratios are over `truth`, and `levelled`'s also over",
+        "`auto`.",
+        "Tilt: mean angle (deg) between the estimate's and",
         "motion capture's gravity direction. NIS (3 dof, expected 3, single-value 95 % bounds",
         f"{low3:.2f}-{high3:.2f}) and tilt NEES against motion capture (2 dof, expected 2, bounds",
         f"{low2:.2f}-{high2:.2f}): mean, and the share of values inside the bounds. Position NEES: the",
         "EKF's horizontal position error against the start-aligned ground truth every"
         f" {POSITION_EVERY_S:.0f} s with its own",
         "position covariance (2 dof, same bounds; no motion-capture mounting enters it), pooled over the",
-        "set's checks: mean, share inside the bounds, number of checks (arms run before it was added: -).",
+        "set's checks: mean, share inside the bounds, number of checks (arms run before it was added: -);",
+        "`net/ekf NEES` the same for the re-read path with the model's own path uncertainty",
+        "(`ftin.uncertainty`), what `--filter ekf` answers with.",
+        "Distance: the distance ratio (`ftin.metrics`, predicted path / walked) of `auto` and of the EKF's",
+        "path, mean over recordings; k: the median speed scale the filter estimated over each walk's second",
+        "half (1 where it estimates none), mean over recordings.",
         "",
-        "| arm | set | n | truth | auto | ekf | net/ekf | net/ekf tilt | over truth: auto / ekf / net/ekf /"
-        " net/ekf tilt | tilt VQF / EKF | NIS (in) | tilt NEES (in) | position NEES (in, checks) |",
-        "|---|---|--:|--:|--:|--:|--:|--:|---|---|---|---|---|",
+        "| arm | set | n | truth | auto | ekf | net/ekf | net/ekf tilt | levelled | over truth: auto / ekf /"
+        " net/ekf / net/ekf tilt / levelled | levelled / auto | tilt VQF / EKF | NIS (in) | tilt NEES (in) |"
+        " position NEES (in, checks) | net/ekf NEES (in, checks) | distance auto / ekf | k |",
+        "|---|---|--:|--:|--:|--:|--:|--:|--:|---|--:|---|---|---|---|---|---|--:|",
     ]
     for arm in args.report_arms or list(rows):
         for set_name, records in rows.get(arm, {}).items():
@@ -273,18 +312,25 @@ def render(args, rows: dict, arms: dict) -> list[str]:
                 if m["pos_nees_n"]
                 else "- |"
             )
+            position += (
+                f" {m['net_nees']:.2f} ({m['net_nees_within']:.0%}, {m['net_nees_n']}) |"
+                if m["net_nees_n"]
+                else " - |"
+            )
             lines.append(
                 f"| {arm} | {set_name} | {len(records)} | {ates} | {ratios} |"
+                f" {m['levelled'] / m['auto'] - 1:+.1%} |"
                 f" {m['tilt_auto']:.2f} / {m['tilt_ekf']:.2f} |"
                 f" {m['nis']:.2f} ({m['nis_within']:.0%}) | {m['nees']:.1f} ({m['nees_within']:.0%}) |"
-                f" {position}"
+                f" {position} {m['ratio_auto']:.2f} / {m['ratio_ekf']:.2f} | {m['speed_scale']:.2f} |"
             )
     lines += ["", "Arms (`FilterConfig` overrides of the defaults):", ""]
     for arm in args.report_arms or list(rows):
         lines.append(f"- `{arm}`: {arms.get(arm) or 'the defaults'}")
     lines += [
         "",
-        "Per recording (ATE truth / auto / ekf / net/ekf / net/ekf tilt; tilt VQF / EKF; auto's source):",
+        "Per recording (ATE truth / auto / ekf / net/ekf / net/ekf tilt / levelled; tilt VQF / EKF; auto's"
+        " source; mean NIS):",
         "",
     ]
     for arm in args.report_arms or list(rows):
@@ -293,7 +339,9 @@ def render(args, rows: dict, arms: dict) -> list[str]:
                 ates = " / ".join(f"{r.get(w, np.nan):.2f}" for w in WAYS)
                 lines.append(
                     f"- {arm}, {set_name}, {r['name']} ({r['minutes']} min): {ates};"
-                    f" tilt {r['tilt_auto']:.2f} / {r['tilt_ekf']:.2f}; {r['source']}"
+                    f" tilt {r['tilt_auto']:.2f} / {r['tilt_ekf']:.2f}; {r['source']}; NIS {r['nis']:.1f};"
+                    f" distance {r.get('ratio_auto', np.nan):.2f} / {r.get('ratio_ekf', np.nan):.2f},"
+                    f" k {r.get('speed_scale', np.nan):.2f}"
                 )
     return lines
 

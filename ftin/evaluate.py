@@ -18,10 +18,10 @@ The result stands beside the prediction (``Scored``), which it never changes, as
 returns a result and leaves the reference alone. Path lengths are compared over the model's window
 (``ftin.metrics.definitions``).
 
-``filter="ekf"`` (``ftin.filter.choice``) scores the model inside the EKF instead of alone: the
-filter's trajectory, and its own covariance as the uncertainty. With either, where the ground truth
-carries an orientation (motion capture), each sequence's mean **tilt error** of the orientation the
-answer used (the attitude filter's or the EKF's) against it, in degrees.
+``filter="ekf"`` (``ftin.filter.choice``) scores the model with the EKF instead of alone: the model
+re-read on the filter's orientation (``ftin.filter.levelled``), as an upload's answer. With either, where
+the ground truth carries an orientation (motion capture), each sequence's mean **tilt error** of the
+orientation the answer used (the attitude filter's or the EKF's) against it, in degrees.
 
 Beside the metrics, each sequence's uncertainty coverage (``ftin.uncertainty.coverage``): the share of
 samples whose true position lies inside the 1- and 2-sigma ellipse of the path's covariance
@@ -233,7 +233,7 @@ def evaluate_checkpoint(
             raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
         if on_sequence is not None:
             on_sequence(seq.name)
-        if filter == EKF:  # the filter runs the model its own way: one window at a time, four turns
+        if filter == EKF:  # the filter levels the phone, the model reads it again (ftin.filter.levelled)
             try:
                 prediction = ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
             except ValueError as exc:  # a streaming model, a recording shorter than a window

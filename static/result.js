@@ -170,7 +170,7 @@ function showFilter(result) {
   const ekf = result && result.filter === "ekf";
   box.hidden = !ekf;
   box.textContent = ekf
-    ? "Filter: EKF — the trajectory, tilt and uncertainty are the filter's (the model's velocity is its measurement)."
+    ? "Filter: EKF — the model re-read on the filter's tilt (the model's velocity is its measurement; the notes say where its tilt was not used)."
     : "";
 }
 

@@ -61,7 +61,8 @@ def evaluate_command(
 ) -> None:
     """Every registered metric (ATE in both conventions, RTE, drift, path ratio) of a checkpoint per
     sequence and their mean, under a stated convention (in fp32 unless ``--precision`` says otherwise,
-    so that reported numbers stay comparable); with ``--filter ekf`` the model inside the EKF. Where the
+    so that reported numbers stay comparable); with ``--filter ekf`` the model re-read on the EKF's
+    orientation (the upload's answer). Where the
     ground truth has an orientation, the tilt error of the orientation used against it."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)

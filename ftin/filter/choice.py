@@ -1,11 +1,14 @@
 """``filter=none|ekf``: the choice every door offers (API, CLI, page, scene), parsed once here, and the
 EKF's prediction as the doors use it (``docs/filter.md``, "At every door").
 
-With ``ekf`` the answer's trajectory and orientation are the filter's (``filter_prediction``), and the
-filter's own horizontal position covariance (its ``P``) is the path's uncertainty in place of the
-default model's (``ftin.uncertainty``): ``Prediction.features`` carries it as ``filter_uncertainty``
-(which ``ftin.uncertainty.path_uncertainty`` returns as it is) and the tilt and bias estimates as
-``filter_series`` for the scene's timeline. ``none`` leaves inference as it always was.
+With ``ekf`` an upload's answer is the model re-read on the filter's orientation (``ftin.filter.levelled``:
+the filter levels the phone, the network reads the levelled IMU as inference reads it; the orientation it
+started from where the walk's NIS says the network and the IMU disagreed), with the model's own path
+uncertainty (``ftin.uncertainty``) since the path is the integrated network's; ``Prediction.features``
+carries the filter's tilt and bias estimates as ``filter_series`` for the scene's timeline. A live
+session streams the filter's own path, and its position covariance (``ekf_uncertainty``: its ``P``,
+``filter_uncertainty``, which ``ftin.uncertainty.path_uncertainty`` returns as it is), as its uncertainty.
+``none`` leaves inference as it always was.
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ import numpy as np
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence
 from ftin.filter.consistency import tilt_error_deg
-from ftin.filter.run import FilterRun, filter_prediction, measurement_source
+from ftin.filter.levelled import levelled_prediction
+from ftin.filter.run import FilterRun
 from ftin.filter.state import FilterConfig
 from ftin.infer import Prediction
 from ftin.uncertainty import PathUncertainty
@@ -56,12 +60,6 @@ def ekf_uncertainty(run: FilterRun, config: FilterConfig, source: str = "fixed")
     return PathUncertainty(cov, radius_holding(P[-1], 0.95), how)
 
 
-def sigma_source(loaded: LoadedModel, config: FilterConfig) -> str:
-    """The measurement sigma ``config`` gives ``loaded`` inside the filter."""
-    has_head = bool(getattr(loaded.model, "has_uncertainty", False))
-    return measurement_source(config.measurement_sigma, has_head, loaded.name)
-
-
 def ekf_series(run: FilterRun, q_input_wxyz: np.ndarray) -> dict[str, np.ndarray]:
     """What the scene's timeline plots of an EKF run, per sample: the device's tilt from level (deg),
     how far the EKF moved it from the orientation it started from (deg), both bias estimates."""
@@ -86,16 +84,14 @@ def ekf_prediction(
     keep_prepared: bool = True,
 ) -> Prediction:
     """``seq`` (oriented, or oriented here as inference would) through the EKF with ``loaded`` as its
-    measurement (``orientation``: the choice to apply first, as inference takes it); a ``Prediction``
-    carrying the filter's uncertainty and series in ``features``.
-    ``ValueError`` for a streaming model (the EKF needs a window model) or a recording too short."""
-    config = config or FilterConfig()
-    prediction, run = filter_prediction(loaded, seq, config, orientation, progress)
-    q_input = prediction.prepared.seq.q_world_device_wxyz
-    prediction.features = {
-        "filter_uncertainty": ekf_uncertainty(run, config, sigma_source(loaded, config)),
-        "filter_series": ekf_series(run, q_input),
-    }
+    measurement (``orientation``: the choice to apply first, as inference takes it), then re-read on the
+    filter's orientation (module docstring); a ``Prediction`` carrying the filter's series in
+    ``features``. ``ValueError`` for a streaming model (the EKF needs a window model) or a recording too
+    short."""
+    read = levelled_prediction(loaded, seq, config or FilterConfig(), orientation, progress)
+    prediction = read.prediction
+    series = ekf_series(read.run, read.q_start_wxyz)
+    prediction.features = {**(prediction.features or {}), "filter_series": series}
     if not keep_prepared:
         prediction.prepared = None
     return prediction

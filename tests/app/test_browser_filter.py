@@ -35,9 +35,9 @@ def test_the_filter_select_runs_the_ekf_and_the_result_says_so(
     page.wait_for_selector(RESULT, timeout=60_000)
     page.wait_for_selector("#filter-text:not([hidden])", timeout=10_000)
     assert "Filter: EKF" in page.inner_text("#filter-text")
-    # The uncertainty the page quotes is the filter's (its calibration line says so).
+    # The answer says which orientation the model read (the filter's, or why not: ftin.filter.levelled).
     assert page.evaluate("state.result.filter") == "ekf"
-    assert "EKF" in page.evaluate("state.result.uncertainty.calibration")
+    assert any("EKF's orientation" in note for note in page.evaluate("state.result.notes"))
 
     page.select_option("#filter-select", "none")
     page.click("#run-button")

@@ -1,9 +1,10 @@
 """``filter=none|ekf`` on ``POST /predict`` (``ftin.filter.choice``; docs/filter.md, "At every door"):
-the answer names the filter, its trajectory is the EKF's, the EKF's covariance is its uncertainty; a
-bad value is a 422 naming the field; without the field the answer is what it always was.
+the answer names the filter and says what the filter gave (the model re-read on its orientation, or why
+not); a bad value is a 422 naming the field; without the field the answer is what it always was.
 
-The fixture checkpoints are tiny and untrained, so the EKF's trajectory is not scored here (the probe
-scores the default model on real walks); what is checked is that the door runs the filter."""
+The fixture checkpoints are tiny and untrained, so the paths are not scored here (the probes score the
+default model on real walks); what is checked is that the door runs the filter and answers with the
+model read on the orientation ``ftin.filter.levelled`` chose."""
 
 from __future__ import annotations
 
@@ -13,7 +14,6 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from ftin.uncertainty.radius import radius_holding
 from tests.app.routes.helpers import upload
 
 
@@ -27,32 +27,43 @@ def path(answer: dict) -> np.ndarray:
     return np.column_stack([traj["x"], traj["y"]])
 
 
-def test_ekf_answer_names_the_filter_and_carries_its_own_covariance(
+def ekf_answer(client: TestClient, csv: bytes) -> dict:
+    response = client.post("/predict", files={"file": ("phone.csv", csv, "text/csv")}, data={"filter": "ekf"})
+    assert response.status_code == 200, response.text
+    return response.json()
+
+
+def test_ekf_answer_names_the_filter_and_is_the_model_read_on_its_orientation(
     client: TestClient, csv_without_gt: bytes
 ) -> None:
     plain = upload(client, csv_without_gt, "phone.csv").json()
-    response = client.post(
-        "/predict", files={"file": ("phone.csv", csv_without_gt, "text/csv")}, data={"filter": "ekf"}
-    )
-    assert response.status_code == 200, response.text
-    ekf = response.json()
+    ekf = ekf_answer(client, csv_without_gt)
     assert ekf["filter"] == "ekf"
     assert "filter" not in plain  # not asked: not named, the answer as before
     assert len(ekf["trajectory"]["t"]) == len(plain["trajectory"]["t"])
-    # The filter's trajectory is its own: not the integrated network's.
-    assert np.abs(path(ekf) - path(plain)).max() > 0.01
-    cov = covariances(ekf)
-    assert np.all(cov[1:, 0] > 0) and np.all(cov[1:, 2] > 0)
-    assert np.all(cov[:, 0] * cov[:, 2] - cov[:, 1] ** 2 >= -1e-12)  # each a covariance
-    assert not np.allclose(cov, covariances(plain))  # the EKF's P, not the path model's
-    end = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
-    assert ekf["uncertainty"]["end_radius_95_m"] == pytest.approx(radius_holding(end), abs=0.01)
-    assert "EKF" in ekf["uncertainty"]["calibration"]
-    assert any("EKF" in note for note in ekf["notes"]) or ekf["orientation_source"]
+    assert any(note.startswith("read on the EKF's orientation (mean NIS") for note in ekf["notes"])
+    assert not np.allclose(path(ekf), path(plain), atol=1e-5)  # another orientation read: another path
+    # The path is the integrated model's, so its uncertainty is the model's own, as without the filter.
+    assert ekf["uncertainty"]["calibration"] == plain["uncertainty"]["calibration"]
+    assert np.all(covariances(ekf)[1:, 0] > 0)
     # The run keeps its filter: metrics.json names it where the run's options are kept.
     metrics = client.get(ekf["metrics_url"]).json()
     assert metrics["orientation_filter"] == "ekf"
     assert metrics["uncertainty"]["end_radius_95_m"] == ekf["uncertainty"]["end_radius_95_m"]
+
+
+def test_where_the_network_disagreed_with_the_imu_the_answer_keeps_the_starting_orientation(
+    client: TestClient, csv_without_gt: bytes, monkeypatch
+) -> None:
+    from ftin.filter import levelled
+
+    monkeypatch.setattr(levelled, "MAX_MEAN_NIS", 0.0)  # every walk "disagrees"
+    plain = upload(client, csv_without_gt, "phone.csv").json()
+    ekf = ekf_answer(client, csv_without_gt)
+    assert ekf["filter"] == "ekf"
+    [why] = [note for note in ekf["notes"] if "EKF's orientation not used" in note]
+    assert "mean NIS" in why
+    np.testing.assert_allclose(path(ekf), path(plain), atol=1e-6)
 
 
 def test_the_query_parameter_works_for_a_json_body_too(client: TestClient, csv_with_gt: bytes) -> None:

@@ -17,7 +17,7 @@ def rows(path) -> np.ndarray:
         line.startswith("#") for line in path.read_text().splitlines()))  # fmt: skip
 
 
-def test_predict_with_the_ekf_writes_the_filters_trajectory(short_walk, tmp_path) -> None:
+def test_predict_with_the_ekf_writes_the_model_read_on_the_filters_orientation(short_walk, tmp_path) -> None:
     plain, ekf = tmp_path / "plain.csv", tmp_path / "ekf.csv"
     first = runner.invoke(cli, ["predict", *CHECKPOINT, str(short_walk), "--out", str(plain)])
     assert first.exit_code == 0, first.output
@@ -27,14 +27,17 @@ def test_predict_with_the_ekf_writes_the_filters_trajectory(short_walk, tmp_path
     )
     assert result.exit_code == 0, result.output
     assert "filter: ekf" in result.stdout
+    assert "re-read on the EKF's orientation" in result.stdout
+    # The filter agreed with the network on this walk, and says so: its orientation was read.
+    assert "read on the EKF's orientation (mean NIS" in result.output
     [line] = [line for line in result.stdout.splitlines() if line.startswith("uncertainty: ")]
-    assert "EKF's own position covariance" in line
+    assert "fitted for ronin_resnet-walking" in line  # the model's own path uncertainty: its path
     assert "ATE" in result.stdout  # scored against the walk's ground truth like any prediction
     assert any(line.startswith("# filter: ekf") for line in ekf.read_text().splitlines())  # the header
     a, b = rows(plain), rows(ekf)
     assert a.shape == b.shape
     np.testing.assert_allclose(b[0, 1:3], a[0, 1:3], atol=1e-6)  # both start at the ground truth's start
-    assert np.abs(a[:, 1:3] - b[:, 1:3]).max() > 0.01  # the filter's path, not the integrated network's
+    assert np.abs(a[:, 1:3] - b[:, 1:3]).max() > 0.01  # read on another orientation: another path
 
 
 def test_an_unknown_filter_is_refused_with_the_choices(short_walk, tmp_path) -> None:
