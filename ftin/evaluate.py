@@ -234,10 +234,7 @@ def evaluate_checkpoint(
         if on_sequence is not None:
             on_sequence(seq.name)
         if filter == EKF:  # the filter levels the phone, the model reads it again (ftin.filter.levelled)
-            try:
-                prediction = ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
-            except ValueError as exc:  # a streaming model, a recording shorter than a window
-                raise DataFormatError(f"filter ekf: {exc}") from None
+            prediction = ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
         else:
             prediction = predict_trajectory(
                 loaded,

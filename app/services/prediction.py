@@ -328,10 +328,7 @@ class PredictionService:
                 steps = _FIGURES.submit(detect_steps, seq.t_s, seq.acc_m_s2, seq.gyro_rad_s)
                 # through the module, so that a test can hold inference (tests/app/test_server.py)
                 if filter == EKF:  # sample by sample: progress (and the deadline) at every update
-                    try:
-                        prediction = ekf_prediction(entry.loaded, seq, progress=progress, keep_prepared=False)
-                    except ValueError as exc:  # too short for one window, no orientation: the input's fault
-                        raise DataFormatError(str(exc)) from None
+                    prediction = ekf_prediction(entry.loaded, seq, progress=progress, keep_prepared=False)
                 else:
                     prediction = infer.predict_trajectory(
                         entry.loaded,

@@ -118,11 +118,8 @@ def predict_command(
                     task = bar.add_task("predicting", total=total, visible=total >= PROGRESS_MIN_WINDOWS)
                 bar.update(task, completed=done)
 
-            if filter is FilterName.EKF:
-                try:
-                    prediction = ekf_prediction(loaded, seq, progress=report)
-                except ValueError as exc:  # a streaming model, a recording shorter than one window
-                    raise DataFormatError(f"--filter ekf: {exc}") from None
+            if filter is FilterName.EKF:  # what it cannot run is a DataFormatError naming the filter
+                prediction = ekf_prediction(loaded, seq, progress=report)
             else:
                 prediction = predict_trajectory(
                     loaded,

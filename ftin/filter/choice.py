@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ftin.checkpoint import LoadedModel
+from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
 from ftin.filter.consistency import tilt_error_deg
 from ftin.filter.levelled import levelled_prediction
@@ -86,9 +87,12 @@ def ekf_prediction(
     """``seq`` (oriented, or oriented here as inference would) through the EKF with ``loaded`` as its
     measurement (``orientation``: the choice to apply first, as inference takes it), then re-read on the
     filter's orientation (module docstring); a ``Prediction`` carrying the filter's series in
-    ``features``. ``ValueError`` for a streaming model (the EKF needs a window model) or a recording too
-    short."""
-    read = levelled_prediction(loaded, seq, config or FilterConfig(), orientation, progress)
+    ``features``. A ``DataFormatError`` beginning "filter ekf:" for what the filter cannot run (a
+    streaming model: the EKF needs a window model; a recording shorter than a window), at every door."""
+    try:
+        read = levelled_prediction(loaded, seq, config or FilterConfig(), orientation, progress)
+    except ValueError as exc:
+        raise DataFormatError(f"filter ekf: {exc}") from None
     prediction = read.prediction
     series = ekf_series(read.run, read.q_start_wxyz)
     prediction.features = {**(prediction.features or {}), "filter_series": series}

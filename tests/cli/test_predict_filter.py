@@ -56,3 +56,19 @@ def test_help_lists_the_filter() -> None:
     assert result.exit_code == 0
     text = " ".join(result.output.split())
     assert "--filter" in text and "ekf" in text
+
+
+def test_a_streaming_model_with_the_ekf_is_refused_with_a_message(
+    short_walk, tmp_path, make_checkpoint
+) -> None:
+    """What the filter cannot run is one message naming it (``ftin.filter.choice.ekf_prediction``), the
+    same at every door: a data error here, a 4xx at the API."""
+    checkpoint = make_checkpoint("tiny", "ronin_tcn")
+    out = tmp_path / "t.csv"
+    args = ["predict", "--checkpoint", str(checkpoint), str(short_walk), "--out", str(out), "--filter", "ekf"]
+    result = runner.invoke(cli, args)
+    assert result.exit_code != 0
+    text = " ".join(result.output.split())
+    assert "filter ekf:" in text and "streaming" in text and "window model" in text
+    assert "Traceback" not in result.output
+    assert not out.exists()
