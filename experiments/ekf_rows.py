@@ -29,6 +29,7 @@ from ftin.evaluate import evaluate_checkpoint, mean_tilt_error_deg, score
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.filter.levelled import levelled_prediction
 from ftin.filter.run import filter_prediction
+from ftin.report.crossval_tables import carry_of
 
 CACHE = Path("runs/probes/ekf_rows")
 # (label, orientation, how): "none" is ``ftin evaluate``'s model alone; "ekf" the answer of
@@ -89,6 +90,7 @@ def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
                     "dataset": dataset,
                     "row": label,
                     "sequence": r["name"],
+                    "carry": carry_of(dataset, r["name"]),
                     "ate": r["ate"],
                     "tilt": r.get("tilt_error_deg"),
                     "levelled": r.get("levelled"),
@@ -121,6 +123,35 @@ def table(rows: list[dict]) -> list[str]:
     return lines
 
 
+def carry_table(rows: list[dict]) -> list[str]:
+    """Per checkpoint, dataset and carry mode: `auto`, `--filter ekf`'s answer and the filter's own path
+    (mean ATE, change against `auto`), and the tilt of `auto` and of the answer."""
+    by: dict[tuple[str, str, str], dict[str, list[dict]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        by[(r["checkpoint"], r["dataset"], r["carry"])][r["row"]].append(r)
+    answer, own = ROWS[2][0], ROWS[3][0]
+    lines = [
+        "| checkpoint | dataset | carry | n | `auto` | `--filter ekf` | the filter's own path |"
+        " tilt `auto` / `--filter ekf` |",
+        "|---|---|---|--:|--:|--:|--:|--:|",
+    ]
+    for (ckpt, dataset, carry), rs in sorted(by.items()):
+        auto = float(np.mean([r["ate"] for r in rs["auto"]]))
+        cells = []
+        for label in (answer, own):
+            ate = float(np.mean([r["ate"] for r in rs[label]]))
+            cells.append(f"{ate:.3f} ({ate / auto - 1:+.0%})")
+        tilts = [
+            f"{np.mean([r['tilt'] for r in rs[label]]):.2f}°" if rs[label][0]["tilt"] is not None else "-"
+            for label in ("auto", answer)
+        ]
+        lines.append(
+            f"| {ckpt} | {dataset} | {carry} | {len(rs['auto'])} | {auto:.3f} | {' | '.join(cells)} |"
+            f" {' / '.join(tilts)} |"
+        )
+    return lines
+
+
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--checkpoint", type=Path, action="append", default=None)
@@ -138,6 +169,12 @@ def main() -> None:
         "angle between the gravity direction of the orientation used and motion capture's.",
         "",
         *table(rows),
+        "",
+        "## By carry mode",
+        "",
+        "`ftin.report.crossval_tables.carry_of`: Inria's motion, OxIOD's and RIDI's folders.",
+        "",
+        *carry_table(rows),
     ]
     write_report(args.out, lines)
 
