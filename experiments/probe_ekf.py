@@ -49,6 +49,7 @@ from ftin.filter.consistency import chi2_bounds, fraction_within, tilt_error_deg
 from ftin.filter.levelled import MAX_MEAN_NIS
 from ftin.infer import predict_trajectory
 from ftin.uncertainty import path_uncertainty
+from ftin.uncertainty.radius import mahalanobis_sq
 
 SETS = {
     "oxiod-test": (protocol.OXIOD, "test"),
@@ -143,21 +144,22 @@ def with_filter(model, path: Path, config: FilterConfig) -> dict:
     rerun_tilt = predict_trajectory(model, seq.with_(q_world_device_wxyz=tilt_only))
     nees = tilt_nees(q_ekf, q_true, run.tilt_cov[tracked])
     scored = score(prediction, "start")
-    pos_nees = position_nees(scored.truth_in_estimate_frame(seq.gt), run.p_world_m, run.position_cov_xy)
+    P = run.position_cov_xy
+    filter_cov = np.column_stack([P[:, 0, 0], P[:, 0, 1], P[:, 1, 1]])
+    pos_nees = position_nees(scored.truth_in_estimate_frame(seq.gt), run.p_world_m, filter_cov)
     # The re-read's own path uncertainty (ftin.uncertainty), as --filter ekf answers with it.
+    rerun_scored = score(rerun, "start")
     found = path_uncertainty(rerun, model.name, seq.meta.get("carry"))
     rerun_nees = np.zeros(0)
     if found is not None:
-        c = found.cov_m2
-        cov = np.stack([np.column_stack([c[:, 0], c[:, 1]]), np.column_stack([c[:, 1], c[:, 2]])], axis=1)
-        truth_there = score(rerun, "start").truth_in_estimate_frame(seq.gt)
-        rerun_nees = position_nees(truth_there, rerun.trajectory.p_world_m, cov)
+        truth_there = rerun_scored.truth_in_estimate_frame(seq.gt)
+        rerun_nees = position_nees(truth_there, rerun.trajectory.p_world_m, found.cov_m2)
     half = len(run.speed_scale) // 2
     return {
         "ekf": scored.metrics.ate,
         "ratio_ekf": _number(scored.metrics.distance_ratio),
         "speed_scale": float(np.median(run.speed_scale[half:])),
-        "net_on_ekf": score(rerun, "start").metrics.ate,
+        "net_on_ekf": rerun_scored.metrics.ate,
         "net_on_ekf_tilt": score(rerun_tilt, "start").metrics.ate,
         "tilt_ekf": float(tilt_error_deg(q_ekf, q_true).mean()),
         "nis": float(run.nis.mean()),
@@ -180,18 +182,17 @@ def _number(value: float | None) -> float:
 
 
 def position_nees(
-    truth, p_m: np.ndarray, cov_xy: np.ndarray, every_s: float = POSITION_EVERY_S
+    truth, p_m: np.ndarray, cov_m2: np.ndarray, every_s: float = POSITION_EVERY_S
 ) -> np.ndarray:
     """The filter's horizontal position NEES (2 dof) against the ground truth (already moved into the
     estimate's frame by the start alignment) every ``every_s`` seconds of tracked truth after the
-    start: no motion-capture mounting enters it, only where the device was."""
+    start: no motion-capture mounting enters it, only where the device was. ``cov_m2`` ``(N, 3)``:
+    ``[xx, xy, yy]`` per sample, as ``ftin.uncertainty`` gives it."""
     t = truth.t_s
     marks = np.arange(t[0] + every_s, t[-1], every_s)
     idx = np.unique(np.clip(np.searchsorted(t, marks), 0, len(t) - 1))
     idx = idx[truth.tracked_mask[idx]]
-    e = truth.p_world_m[idx, :2] - p_m[idx, :2]
-    P = cov_xy[idx]
-    return np.einsum("ni,ni->n", e, np.linalg.solve(P, e[..., None])[..., 0])
+    return mahalanobis_sq(truth.p_world_m[idx, :2] - p_m[idx, :2], cov_m2[idx])
 
 
 def heading_of(heading_from: np.ndarray, tilt_from: np.ndarray) -> np.ndarray:
