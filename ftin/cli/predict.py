@@ -55,8 +55,8 @@ FilterOption = Annotated[
     typer.Option(
         "--filter",
         help="none (the model's velocities integrated) or ekf (the model inside an EKF that integrates the "
-        "raw IMU and corrects tilt and biases, then re-read on the EKF's orientation; a window model "
-        "only; docs/filter.md). --stride, --yaw-copies and --cyclic-turns are the model's alone.",
+        "raw IMU and corrects tilt and biases in two passes, then re-read on the EKF's orientation; a window "
+        "model only; docs/filter.md). --stride, --yaw-copies and --cyclic-turns are the model's alone.",
     ),
 ]
 PROGRESS_MIN_WINDOWS = 2000  # predict shows a progress bar from this many windows on

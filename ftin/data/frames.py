@@ -63,6 +63,13 @@ def yaw_rotation(yaw: np.ndarray | float) -> Rotation:
     return Rotation.from_rotvec(yaw_arr[..., None] * np.array([0.0, 0.0, 1.0]))
 
 
+def with_heading_of(heading_from: np.ndarray, tilt_from: np.ndarray) -> np.ndarray:
+    """Scalar-first orientations, (4,) or (N, 4), with the heading (twist about world z, ``yaw_rad``)
+    of ``heading_from`` and the tilt of ``tilt_from``."""
+    turn = yaw_rad(heading_from) - yaw_rad(tilt_from)
+    return wxyz_from_rotation(yaw_rotation(turn) * rotation_from_wxyz(tilt_from))
+
+
 def rotate_about_z(v: np.ndarray, yaw: np.ndarray | float) -> np.ndarray:
     """Rotate vectors (N, 3) (or (3,)) about z by ``yaw`` radians (scalar or one per vector)."""
     return yaw_rotation(yaw).apply(np.asarray(v, dtype=np.float64))

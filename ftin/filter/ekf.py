@@ -159,11 +159,21 @@ class UpdateResult:
 class ErrorStateEkf:
     """The filter: ``propagate`` per IMU sample, ``clone`` at a window's start, ``update`` at its end."""
 
-    def __init__(self, config: FilterConfig, R0: np.ndarray, p0: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        config: FilterConfig,
+        R0: np.ndarray,
+        p0: np.ndarray | None = None,
+        biases: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """Start at orientation ``R0`` and position ``p0`` (zero), with gyro and accelerometer
+        ``biases`` (zero; their uncertainty is ``config``'s either way)."""
         self.config = config
         p = np.zeros(3) if p0 is None else np.asarray(p0, dtype=np.float64).copy()
         k = None if config.speed_scale_std is None else 1.0
         self.state = NominalState(np.asarray(R0, dtype=np.float64).copy(), p=p, k=k)
+        if biases is not None:
+            self.state.bg, self.state.ba = (np.asarray(b, dtype=np.float64).copy() for b in biases)
         self.P = config.initial_covariance()
         self.evolving = config.evolving_dim
 

@@ -3,8 +3,9 @@ inference integrates (``docs/filter.md``, "The levelled network").
 
 The EKF's own path follows one network window a second, integrated IMU between them; inference reads
 overlapping windows with its canonical looks and the body-locked heading (``ftin.infer``). The
-filter's gain is its tilt, so here the filter only levels the phone: ``predict_trajectory`` reads the
-recording once more with the filter's orientation in place of the orientation filter's. Where the
+filter's gain is its tilt, so here the filter only levels the phone: it runs twice (the second pass
+from where the first settled, ``ftin.filter.settle``), then ``predict_trajectory`` reads the recording
+once more with the filter's orientation in place of the orientation filter's. Where the
 network disagreed with the IMU all walk (mean NIS over ``MAX_MEAN_NIS``: running, AR, a walker or
 phone whose windows the network misreads), the filter's tilt was pulled by wrong velocities (worse than
 VQF's on such walks), so the orientation filter's is kept. Offline: the mean NIS is the whole walk's.
@@ -48,9 +49,10 @@ def levelled_prediction(
     progress: Callable[[int, int], None] | None = None,
 ) -> Levelled:
     """``loaded`` over ``seq`` (prepared with ``orientation`` as inference prepares it) read on the EKF's
-    orientation where the filter agreed with the network, else on the orientation it started from.
-    ``progress`` follows the filter (the re-read takes a few per cent of its time)."""
-    filtered, run = filter_prediction(loaded, seq, config, orientation, progress)
+    orientation (its second pass) where the filter agreed with the network, else on the orientation it
+    started from. ``progress`` follows the filter's passes (the re-read takes a few per cent of their
+    time)."""
+    filtered, run = filter_prediction(loaded, seq, config, orientation, progress, passes=2)
     prepared = filtered.prepared.seq
     mean_nis = float(np.mean(run.nis))
     levelled = mean_nis <= MAX_MEAN_NIS
@@ -58,7 +60,7 @@ def levelled_prediction(
     prediction = predict_trajectory(loaded, prepared.with_(q_world_device_wxyz=q))
     prediction.orientation_filter = "ekf"
     if levelled:
-        prediction.notes.append(f"read on the EKF's orientation (mean NIS {mean_nis:.1f})")
+        prediction.notes.append(f"read on the EKF's orientation (mean NIS {mean_nis:.1f}, its second pass)")
     else:
         prediction.notes.append(
             f"the EKF's orientation not used: the network disagreed with the IMU (mean NIS {mean_nis:.1f}"

@@ -26,6 +26,7 @@ from ftin.data.prepare import prepare
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.filter.holes import run_around_holes
 from ftin.filter.session import FilterRun, FilterSession
+from ftin.filter.settle import SETTLE_S, two_passes
 from ftin.filter.state import FilterConfig
 from ftin.infer import FRAME_DEVICE_WORLD, FRAME_GROUND_TRUTH, Prediction, run_windows
 from ftin.uncertainty.calibration import calibration_for
@@ -100,6 +101,7 @@ def run_filter(
     config: FilterConfig | None = None,
     *,
     start_position_m: np.ndarray | None = None,
+    start_biases: tuple[np.ndarray, np.ndarray] | None = None,
     measure=None,
     heading_ref_rad: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -109,11 +111,12 @@ def run_filter(
     ``measure(rows, start, end, R_start) -> (velocity (3,), covariance (2, 2))`` replaces the network
     where given (tests feed the truth through it; ``R_start`` is the filter's orientation the window's
     first row was built with, whose heading is the measurement's world); otherwise ``network``
-    measures each window. ``heading_ref_rad`` ``(N,)``: a causal heading reference in the start's world
-    (``reference_heading``), taken at every update when ``config.heading_std_rad`` is set.
-    ``progress(done, total)`` is called after every network update (in samples), as inference calls
-    it between batches (a server checks its deadline there). A recording with held holes gets one
-    filter per stretch between them (``ftin.filter.holes``).
+    measures each window. ``start_biases``: gyro and accelerometer biases to start from (zero; every
+    stretch between holes starts from them). ``heading_ref_rad`` ``(N,)``: a causal heading reference
+    in the start's world (``reference_heading``), taken at every update when
+    ``config.heading_std_rad`` is set. ``progress(done, total)`` is called after every network update
+    (in samples), as inference calls it between batches (a server checks its deadline there). A
+    recording with held holes gets one filter per stretch between them (``ftin.filter.holes``).
     """
     config = config or FilterConfig()
     if seq.q_world_device_wxyz is None:
@@ -131,6 +134,7 @@ def run_filter(
             config,
             start_q_wxyz=piece.q_world_device_wxyz[0],
             start_position_m=position,
+            start_biases=start_biases,
             measure=measure,
             on_update=None if progress is None else (lambda k: progress(offset + k, n)),
         )
@@ -178,10 +182,14 @@ def filter_prediction(
     config: FilterConfig | None = None,
     orientation: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    passes: int = 1,
 ) -> tuple[Prediction, FilterRun]:
     """``seq`` prepared as inference prepares it (``orientation``: its choice; the filter starts from
     that orientation's first sample), run through the filter with ``loaded`` as its measurement; the
-    ``Prediction`` carries the filter's trajectory and orientation for scoring."""
+    ``Prediction`` carries the filter's trajectory and orientation for scoring. ``passes=2``: offline,
+    the filter again from where its first pass settled (``ftin.filter.settle``); the second's run."""
+    if passes not in (1, 2):
+        raise ValueError(f"the filter runs in 1 or 2 passes, not {passes!r}")
     config = config or FilterConfig()
     prepared = prepare(seq, loaded.imu_rate_hz, loaded.window, loaded.stride, orientation)
     pseq = prepared.seq
@@ -189,15 +197,30 @@ def filter_prediction(
     start = gt.p_world_m[0] if gt is not None else np.zeros(3)
     causal = config.heading_reference == "causal"
     heading = reference_heading(pseq, causal) if config.heading_std_rad is not None else None
-    run = run_filter(
-        NetworkVelocity(loaded, config),
-        pseq,
-        loaded.window,
-        config,
-        start_position_m=start,
-        heading_ref_rad=heading,
-        progress=progress,
-    )
+    network = NetworkVelocity(loaded, config)
+
+    def one_pass(piece: ImuSequence, cfg: FilterConfig, biases, index: int) -> FilterRun:
+        # progress over every pass: samples done out of passes x the recording's
+        done = index * len(pseq)
+        on_update = None if progress is None else (lambda k, n: progress(done + k, passes * n))
+        return run_filter(
+            network,
+            piece,
+            loaded.window,
+            cfg,
+            start_position_m=start,
+            start_biases=biases,
+            heading_ref_rad=heading,
+            progress=on_update,
+        )
+
+    notes = ["trajectory and orientation from the EKF"]
+    if passes == 1:
+        run = one_pass(pseq, config, None, 0)
+    else:
+        run, settled = two_passes(pseq, config, one_pass)
+        carried = f"its tilt at {SETTLE_S:g} s carried back" if settled.carried else "its start"
+        notes.append(f"a second pass from the first's biases and {carried} (docs/filter.md)")
     p = run.p_world_m.copy()
     if loaded.out_dim < 3:
         p[:, 2] = start[2]  # as inference does for a 2-D model: the height is not estimated
@@ -219,7 +242,7 @@ def filter_prediction(
         orientation_filter="ekf",
         imu_world=run.imu_world,
         starts=spans[:, 0].copy(),
-        notes=[*pseq.meta.get("notes", []), *prepared.notes, "trajectory and orientation from the EKF"],
+        notes=[*pseq.meta.get("notes", []), *prepared.notes, *notes],
         orientation_choice=choice_of(pseq),
     )
     return prediction, run

@@ -62,6 +62,7 @@ class FilterRun:
 class FilterSession:
     """One stream through ``ErrorStateEkf`` with ``measure`` (or ``network(rows[start:end])``) as the
     window measurement. ``start_q_wxyz``: the start orientation (else ``extend``'s first sample);
+    ``start_biases``: the gyro and accelerometer biases to start from (zero; ``ftin.filter.settle``);
     ``on_update(k)`` is called after every network update (a server checks its deadline there)."""
 
     # What a live run's ModelInput needs (app.services.live): a window model, each window read in its
@@ -77,6 +78,7 @@ class FilterSession:
         *,
         start_q_wxyz: np.ndarray | None = None,
         start_position_m: np.ndarray | None = None,
+        start_biases: tuple[np.ndarray, np.ndarray] | None = None,
         measure: Measure | None = None,
         on_update: Callable[[int], None] | None = None,
     ) -> None:
@@ -93,6 +95,7 @@ class FilterSession:
         self.measure, self.on_update = measure, on_update
         self._start_q = None if start_q_wxyz is None else np.asarray(start_q_wxyz, dtype=np.float64)
         self._start_p = np.zeros(3) if start_position_m is None else np.asarray(start_position_m, float)
+        self._start_biases = start_biases
         self.ekf: ErrorStateEkf | None = None
         self._last: tuple[float, np.ndarray, np.ndarray] | None = None  # (t, gyro, acc) of sample k - 1
         self._clones: dict[int, tuple[np.ndarray, float]] = {}  # start -> the R and heading of its rows
@@ -186,7 +189,7 @@ class FilterSession:
         cfg = self.config
         if self.ekf is None:
             R0 = frames.rotation_from_wxyz(self._start_q).as_matrix()
-            self.ekf = ErrorStateEkf(cfg, R0, self._start_p)
+            self.ekf = ErrorStateEkf(cfg, R0, self._start_p, self._start_biases)
         else:
             t0, gyro0, acc0 = self._last
             self.ekf.propagate(gyro0, acc0, t - t0, gyro, acc)

@@ -174,3 +174,18 @@ def test_remove_heading_jumps_restores_gyro_consistent_heading():
     assert repair.jumps == (400,)
     assert repair.removed_deg[0] == pytest.approx(20.0, abs=0.01)
     assert _angle_deg(frames.rotation_from_wxyz(repair.q_world_body_wxyz), r_true).max() < 1e-6
+
+
+def test_with_heading_of_takes_one_orientations_heading_and_the_others_tilt() -> None:
+    rng = np.random.default_rng(11)
+    heading_from = frames.wxyz_from_rotation(Rotation.from_rotvec(rng.normal(0.0, 0.5, (20, 3))))
+    tilt_from = frames.wxyz_from_rotation(Rotation.from_rotvec(rng.normal(0.0, 0.5, (20, 3))))
+    q = frames.with_heading_of(heading_from, tilt_from)
+    np.testing.assert_allclose(frames.yaw_rad(q), frames.yaw_rad(heading_from), atol=1e-9)
+    # The tilt is the gravity direction in the body frame: world z seen from the device.
+    up = np.array([0.0, 0.0, 1.0])
+
+    def gravity_in_body(q_wxyz: np.ndarray) -> np.ndarray:
+        return frames.rotation_from_wxyz(q_wxyz).inv().apply(up)
+
+    np.testing.assert_allclose(gravity_in_body(q), gravity_in_body(tilt_from), atol=1e-9)
