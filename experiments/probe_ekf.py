@@ -328,7 +328,7 @@ def render(args, rows: dict, arms: dict) -> list[str]:
                 f" {m['nis']:.2f} ({m['nis_within']:.0%}) | {m['nees']:.1f} ({m['nees_within']:.0%}) |"
                 f" {position} {m['ratio_auto']:.2f} / {m['ratio_ekf']:.2f} | {m['speed_scale']:.2f} |"
             )
-    lines += ["", "Arms (`FilterConfig` overrides of the defaults):", ""]
+    lines += ["", "Arms (`FilterConfig` overrides of the defaults; `passes`: `filter_prediction`'s):", ""]
     for arm in args.report_arms or list(rows):
         lines.append(f"- `{arm}`: {arms.get(arm) or 'the defaults'}")
     lines += [
