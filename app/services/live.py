@@ -33,9 +33,10 @@ Decisions:
 - Latency: from a message's arrival to the publication of a trajectory that covers its last sample
   (what the service itself knows; a viewer draws it on its own time).
 - ``filter=ekf`` (``ftin.filter.choice``) on a session's first push runs it through the EKF
-  (``ftin.filter.session``, causal heading) instead of the incremental inference; the session keeps
-  the filter it started with (a later push's ``filter`` changes nothing). A streaming model is a 422
-  at once, as on ``POST /predict``.
+  (``ftin.filter.session``, causal heading) before the incremental inference, which reads it on the
+  filter's orientation (``ftin.live.session``); the session keeps the filter it started with (a
+  later push's ``filter`` changes nothing). A streaming model is a 422 at once, as on ``POST
+  /predict``.
 """
 
 from __future__ import annotations

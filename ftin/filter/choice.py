@@ -6,9 +6,8 @@ the filter levels the phone, the network reads the levelled IMU as inference rea
 started from where the walk's NIS says the network and the IMU disagreed), with the model's own path
 uncertainty (``ftin.uncertainty``) since the path is the integrated network's; ``Prediction.features``
 carries the filter's tilt and bias estimates as ``filter_series`` for the scene's timeline. A live
-session streams the filter's own path, and its position covariance (``ekf_uncertainty``: its ``P``,
-``filter_uncertainty``, which ``ftin.uncertainty.path_uncertainty`` returns as it is), as its uncertainty.
-``none`` leaves inference as it always was.
+session does the same causally (``ftin.live.session``: the model reads each chunk on the filter's
+orientation as it comes). ``none`` leaves inference as it always was.
 """
 
 from __future__ import annotations
@@ -26,8 +25,6 @@ from ftin.filter.levelled import levelled_prediction
 from ftin.filter.run import FilterRun
 from ftin.filter.state import FilterConfig
 from ftin.infer import Prediction
-from ftin.uncertainty import PathUncertainty
-from ftin.uncertainty.radius import radius_holding
 
 FILTERS = ("none", "ekf")
 NONE, EKF = FILTERS
@@ -46,19 +43,6 @@ def parse_filter(value: str | None) -> str:
 def filter_of(prediction: Any) -> str:
     """The filter a prediction was made with: ``ekf`` where the EKF made it, else ``none``."""
     return EKF if getattr(prediction, "orientation_filter", None) == EKF else NONE
-
-
-def ekf_uncertainty(run: FilterRun, config: FilterConfig, source: str = "fixed") -> PathUncertainty:
-    """The EKF's own horizontal position covariance per sample, as the path's uncertainty; ``source``:
-    the measurement sigma the filter took (``ftin.filter.run.measurement_source``)."""
-    P = run.position_cov_xy
-    cov = np.column_stack([P[:, 0, 0], P[:, 0, 1], P[:, 1, 1]])
-    sigma = {
-        "calibrated": f"{config.measurement_sigma_scale:g} x the calibrated window sigma a + b|v|",
-        "head": "the model's variance head, scaled as calibrated",
-    }.get(source, f"{config.velocity_std_m_s:g} m/s")
-    how = f"the EKF's own position covariance (its P, horizontal), measurement sigma {sigma} (docs/filter.md)"
-    return PathUncertainty(cov, radius_holding(P[-1], 0.95), how)
 
 
 def ekf_series(run: FilterRun, q_input_wxyz: np.ndarray) -> dict[str, np.ndarray]:

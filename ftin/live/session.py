@@ -10,10 +10,12 @@ moment the trajectory covers it, i.e. a window (or, for streaming models, a fram
 it was integrated and the result was handed on (``mark_effect``, called by whoever publishes it).
 Samples are counted on the gyroscope's stream; each entry is ``(latency, samples)``.
 
-``filter="ekf"``: the samples go through the EKF (``ftin.filter.session.FilterSession``) instead of
-the incremental inference, with the causal orientation as its start and heading reference; the
-trajectory, orientation and uncertainty are the filter's, and a sample is covered as soon as it was
-stepped (its estimate is final then), from the first network update on (``docs/filter.md``).
+``filter="ekf"``: the samples go through the EKF (``ftin.filter.session.FilterSession``) first, with
+the causal orientation as its start and heading reference, and the incremental inference reads them
+on the filter's orientation (an upload's levelled re-read, causal: the filter's estimate at a sample
+is final once stepped; the causal orientation while the walk's mean NIS so far is over the uploads'
+rule). The trajectory and its uncertainty are the model's, as without the filter; the filter's tilt
+and biases are the scene's EKF plots (``docs/filter.md``, "Live sessions").
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ import numpy as np
 
 from ftin.checkpoint import LoadedModel
 from ftin.data.types import ImuSequence, Trajectory
-from ftin.filter.choice import EKF, NONE, ekf_series, ekf_uncertainty
+from ftin.filter import levelled
+from ftin.filter.choice import EKF, NONE, ekf_series
 from ftin.filter.run import NetworkVelocity
 from ftin.filter.session import FilterSession
 from ftin.filter.state import FilterConfig
@@ -73,14 +76,14 @@ class LiveSession:
         self.window = int(loaded.window)
         self.out_dim = int(loaded.out_dim)
         self.filter = filter
-        self.predictor: IncrementalPredictor | FilterSession
-        if filter == EKF:  # the offline heading (auto's, forwards and backwards) does not exist live
-            self.filter_config = FilterConfig(heading_reference="causal")
-            network = NetworkVelocity(loaded, self.filter_config)  # ValueError for a streaming model
-            self.filter_sigma = network.sigma_source  # which measurement sigma, for the uncertainty's words
-            self.predictor = FilterSession(network, loaded.window, self.filter_config)
-        else:
-            self.predictor = IncrementalPredictor(loaded)
+        # With the EKF the model reads the filter's orientation (``_levelled``); the offline heading
+        # reference (auto's, forwards and backwards) does not exist live: the causal orientation's.
+        self.levelling: FilterSession | None = None
+        if filter == EKF:
+            config = FilterConfig(heading_reference="causal")
+            network = NetworkVelocity(loaded, config)  # ValueError for a streaming model
+            self.levelling = FilterSession(network, loaded.window, config)
+        self.predictor = IncrementalPredictor(loaded)
         self.step_detector = StepDetector(loaded.imu_rate_hz)  # the upload's detector, fed as samples come
         self.started_s = now_s
         self.last_message_s = now_s
@@ -125,9 +128,23 @@ class LiveSession:
         grew = False
         while (chunk := self.streams.take()) is not None:
             q = self.orientation.update(chunk)
+            if self.levelling is not None:
+                q = self._levelled(chunk.t_s, chunk.gyro_rad_s, chunk.acc_m_s2, q)
             grew |= self.predictor.extend(chunk.t_s, chunk.gyro_rad_s, chunk.acc_m_s2, q) > 0
             self.step_detector.update(chunk.t_s, chunk.acc_m_s2, chunk.gyro_rad_s)
         return grew
+
+    def _levelled(self, t_s: np.ndarray, gyro: np.ndarray, acc: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The chunk through the EKF, and the orientation the model reads it with: the EKF's (causal: its
+        estimate at a sample is final once stepped) while the network has agreed with the IMU so far
+        (mean NIS at most ``ftin.filter.levelled.MAX_MEAN_NIS``, the uploads' rule on the walk so far),
+        else the causal orientation ``q``."""
+        first = len(self.levelling)
+        self.levelling.extend(t_s, gyro, acc, q)
+        run = self.levelling.result()
+        if len(run.nis) and float(np.mean(run.nis)) > levelled.MAX_MEAN_NIS:
+            return q
+        return run.q_world_device_wxyz[first:]
 
     def mark_effect(self, covered_s: float | None, now_s: float) -> None:
         """The trajectory up to ``covered_s`` is shown now: settle the latency of the messages in it."""
@@ -216,8 +233,9 @@ class LiveSession:
 
     def sequence(self, name: str) -> ImuSequence:
         """What was received, on the model's clock (views; the run's sequence)."""
-        t = self.predictor.t_s()
-        gyro, acc, q = self.predictor.imu()
+        received = self.levelling or self.predictor  # the causal orientation, not the one the model read
+        t = received.t_s()
+        gyro, acc, q = received.imu()
         rate = self.model_rate_hz
         meta: dict[str, Any] = {
             "dataset": f"{self.push_format.name}-live",
@@ -234,47 +252,43 @@ class LiveSession:
         return ImuSequence(name, t, gyro, acc, q, None, meta)
 
     def prediction(self) -> Prediction:
-        if isinstance(self.predictor, FilterSession):
-            return self._filter_prediction(self.predictor)
         p = self.predictor
         t = p.t_s()
         mid, span_t = p.span_times()
         _, _, velocity = p.spans()
-        return Prediction(
+        # a variance head's per-window sigma, so a live walk's uncertainty is an upload's
+        features = None if (log_std := p.log_std()) is None else {"log_std": log_std}
+        prediction = Prediction(
             trajectory=Trajectory(t, p.positions(), p.imu()[2]),
             window_t_s=mid,
             velocity_m_s=velocity,
             orientation_source=self.orientation.source or "device",
             frame=FRAME_DEVICE_WORLD,
             warnings=self.warnings(),
-            # a variance head's per-window sigma, so a live walk's uncertainty is an upload's
-            features=None if (log_std := p.log_std()) is None else {"log_std": log_std},
+            features=features,
             span_t_s=span_t,
         )
+        if self.levelling is not None:
+            self._name_the_filter(prediction, self.levelling)
+        return prediction
 
-    def _filter_prediction(self, session: FilterSession) -> Prediction:
-        """The EKF's trajectory, orientation and horizontal position covariance so far (its ``P``, the
-        run's uncertainty: ``ftin.filter.choice.ekf_uncertainty``); views but for that covariance."""
+    def _name_the_filter(self, prediction: Prediction, session: FilterSession) -> None:
+        """A levelled live run (``_levelled``): named ``ekf`` as an upload's, the filter's tilt and bias
+        series for the scene's plots, and a note on whose orientation the model read."""
         run = session.result()
-        mid, span_t = session.span_times()
-        return Prediction(
-            trajectory=Trajectory(run.t_s, run.p_world_m, run.q_world_device_wxyz),
-            window_t_s=mid,
-            velocity_m_s=run.velocity_m_s[:, : self.out_dim],
-            orientation_source=self.orientation.source or "device",
-            frame=FRAME_DEVICE_WORLD,
-            warnings=self.warnings(),
-            features={
-                "filter_uncertainty": ekf_uncertainty(run, self.filter_config, self.filter_sigma),
-                "filter_series": ekf_series(run, session.imu()[2]),  # the scene's EKF plots
-            },
-            span_t_s=span_t,
-            window_s=self.window / self.model_rate_hz,
-            orientation_filter=EKF,
-            imu_world=run.imu_world,
-            starts=run.update_span[:, 0],
-            notes=["trajectory and orientation from the EKF, its heading held to the causal orientation's"],
-        )
+        prediction.orientation_filter = EKF
+        series = ekf_series(run, session.imu()[2])
+        prediction.features = {**(prediction.features or {}), "filter_series": series}
+        if not len(run.nis):
+            return
+        mean_nis = float(np.mean(run.nis))
+        if mean_nis <= levelled.MAX_MEAN_NIS:
+            prediction.notes.append(f"read on the EKF's causal orientation (mean NIS so far {mean_nis:.1f})")
+        else:
+            prediction.notes.append(
+                f"read on the causal orientation while the network disagrees with the IMU (mean NIS so far"
+                f" {mean_nis:.1f} > {levelled.MAX_MEAN_NIS:g}), on the EKF's while it agreed"
+            )
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:

@@ -69,8 +69,6 @@ def path_uncertainty(prediction: Any, checkpoint: str, carry: str | None = None)
     spans = getattr(prediction, "span_t_s", None)
     if spans is None or len(spans) == 0 or len(prediction.trajectory.t_s) < 2:
         return None
-    if (own := (prediction.features or {}).get("filter_uncertainty")) is not None:
-        return own  # a filter's own covariance (ftin.filter.choice): it replaces the path model's
     try:
         return uncertainty_of(prediction, checkpoint, carry)
     except KeyError:  # calibration.json holds neither this checkpoint nor the default
