@@ -76,6 +76,37 @@ def start_recipe() -> TrainConfig:
     return TrainConfig.from_json(json.loads(START.with_suffix(".json").read_text())["train_config"])
 
 
+def fine_tune_config(
+    folder: Path,
+    sequences: int,
+    augment: dict[str, float | None],
+    lr: float,
+    minutes: float,
+    steps: int | None,
+    probe: str,
+) -> TrainConfig:
+    """The starting checkpoint's recipe as a fine-tune into ``folder``: from its weights, Adam at
+    ``lr``, its augmentation plus ``augment``, ``minutes`` (or ``steps``) of training, seed 0, no
+    validation (the weights at the end of the budget are the ones scored)."""
+    recipe = start_recipe()
+    return recipe.with_(
+        data=(f"{sequences} sequences, see {probe.replace('.', '/')}.py",),
+        val=(),
+        val_fraction=0.0,
+        out_dir=str(folder),
+        name="model",
+        init_from=str(START),
+        lr=lr,
+        augment={**recipe.augment, **augment},
+        max_minutes=None if steps else minutes,
+        max_steps=steps,
+        max_epochs=1000,  # the minutes (or steps) end every arm
+        early_stop_patience=None,
+        seed=0,
+        weights_dtype="float32",
+    )
+
+
 def oxiod_paths(data_root: Path, relatives: tuple[str, ...]) -> list[Path]:
     return [data_root / protocol.DATA_FOLDERS[protocol.OXIOD] / rel for rel in relatives]
 
@@ -106,25 +137,10 @@ def run_arm(
     if arm == REFERENCE:
         result = {"arm": arm, "augment": None, "steps": 0, "rows": score_walks(load_model(START), held_out)}
     else:
-        recipe = start_recipe()
         if arm in ARM_LEAVES_OUT:
             train_seqs = [seq for seq in train_seqs if not seq.name.startswith(ARM_LEAVES_OUT[arm])]
-        config = recipe.with_(
-            data=(f"{len(train_seqs)} sequences, see experiments/probe_damped_bounce.py",),
-            val=(),
-            val_fraction=0.0,
-            out_dir=str(folder),
-            name="model",
-            init_from=str(START),
-            lr=lr,
-            augment={**recipe.augment, **ARMS[arm]},
-            max_minutes=None if steps else minutes,
-            max_steps=steps,
-            max_epochs=1000,  # the minutes (or steps) end every arm
-            early_stop_patience=None,
-            seed=0,
-            weights_dtype="float32",
-        )
+        probe = "experiments.probe_damped_bounce"
+        config = fine_tune_config(folder, len(train_seqs), ARMS[arm], lr, minutes, steps, probe)
         trained = train(config, train_seqs, progress=False)
         losses = [h["train_loss"] for h in trained.history]
         result = {

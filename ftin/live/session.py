@@ -73,8 +73,6 @@ class LiveSession:
         self.streams = SensorStreams(loaded.imu_rate_hz, push_format, platform, self.source)
         self.orientation = CausalOrientation(loaded.imu_rate_hz)
         self.model_rate_hz = float(loaded.imu_rate_hz)
-        self.window = int(loaded.window)
-        self.out_dim = int(loaded.out_dim)
         self.filter = filter
         # With the EKF the model reads the filter's orientation (``_levelled``); the offline heading
         # reference (auto's, forwards and backwards) does not exist live: the causal orientation's.
