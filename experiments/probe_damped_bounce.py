@@ -43,7 +43,7 @@ from ftin import protocol
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data.loading import load_phone_only, load_sequences
 from ftin.files import DEFAULT_DATA_ROOT
-from ftin.train.config import TrainConfig
+from ftin.train.config import LossKind, TrainConfig
 from ftin.train.loop import train
 from ftin.train.state import RESUME_FILE, load_training_state
 
@@ -85,11 +85,15 @@ def fine_tune_config(
     steps: int | None,
     probe: str,
 ) -> TrainConfig:
-    """The starting checkpoint's recipe as a fine-tune into ``folder``: from its weights, Adam at
-    ``lr``, its augmentation plus ``augment``, ``minutes`` (or ``steps``) of training, seed 0, no
+    """The starting checkpoint's recipe as a fine-tune into ``folder``: from its weights (its model as
+    shipped, the variance head stage three added included, the head left as it is: the velocity's MSE),
+    Adam at ``lr``, its augmentation plus ``augment``, ``minutes`` (or ``steps``) of training, seed 0, no
     validation (the weights at the end of the budget are the ones scored)."""
     recipe = start_recipe()
+    shipped = json.loads(START.with_suffix(".json").read_text())
     return recipe.with_(
+        model_kwargs=shipped["model_kwargs"],
+        loss=LossKind.MSE,
         data=(f"{sequences} sequences, see {probe.replace('.', '/')}.py",),
         val=(),
         val_fraction=0.0,
