@@ -41,6 +41,13 @@ class Levelled:
     q_start_wxyz: np.ndarray
 
 
+def network_agreed(nis: np.ndarray) -> bool:
+    """The rule (module docstring): whether the network agreed with the IMU over these updates, their
+    mean NIS at most ``MAX_MEAN_NIS`` (no update yet: nothing disagreed). Uploads apply it to the whole
+    walk, live sessions to the walk so far."""
+    return not len(nis) or float(np.mean(nis)) <= MAX_MEAN_NIS
+
+
 def levelled_prediction(
     loaded: LoadedModel,
     seq: ImuSequence,
@@ -55,7 +62,7 @@ def levelled_prediction(
     filtered, run = filter_prediction(loaded, seq, config, orientation, progress, passes=2)
     prepared = filtered.prepared.seq
     mean_nis = float(np.mean(run.nis))
-    levelled = mean_nis <= MAX_MEAN_NIS
+    levelled = network_agreed(run.nis)
     q = run.q_world_device_wxyz if levelled else prepared.q_world_device_wxyz
     prediction = predict_trajectory(loaded, prepared.with_(q_world_device_wxyz=q))
     prediction.orientation_filter = "ekf"

@@ -135,14 +135,12 @@ class LiveSession:
     def _levelled(self, t_s: np.ndarray, gyro: np.ndarray, acc: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The chunk through the EKF, and the orientation the model reads it with: the EKF's (causal: its
         estimate at a sample is final once stepped) while the network has agreed with the IMU so far
-        (mean NIS at most ``ftin.filter.levelled.MAX_MEAN_NIS``, the uploads' rule on the walk so far),
-        else the causal orientation ``q``."""
+        (``ftin.filter.levelled.network_agreed``, the uploads' rule on the walk so far), else the causal
+        orientation ``q``."""
         first = len(self.levelling)
         self.levelling.extend(t_s, gyro, acc, q)
         run = self.levelling.result()
-        if len(run.nis) and float(np.mean(run.nis)) > levelled.MAX_MEAN_NIS:
-            return q
-        return run.q_world_device_wxyz[first:]
+        return run.q_world_device_wxyz[first:] if levelled.network_agreed(run.nis) else q
 
     def mark_effect(self, covered_s: float | None, now_s: float) -> None:
         """The trajectory up to ``covered_s`` is shown now: settle the latency of the messages in it."""
@@ -280,7 +278,7 @@ class LiveSession:
         if not len(run.nis):
             return
         mean_nis = float(np.mean(run.nis))
-        if mean_nis <= levelled.MAX_MEAN_NIS:
+        if levelled.network_agreed(run.nis):
             prediction.notes.append(f"read on the EKF's causal orientation (mean NIS so far {mean_nis:.1f})")
         else:
             prediction.notes.append(
