@@ -321,3 +321,26 @@ def test_oxiod_walkers_of_the_new_folders_are_told_apart() -> None:
     assert protocol.walker(protocol.OXIOD, "multi users/user4/syn/imu4.csv.xz") == "user4"
     assert protocol.walker(protocol.OXIOD, "handheld/data1/syn/imu2.csv") == "user1"
     assert protocol.walker(protocol.OXIOD, "large scale/floor1/syn/imu3.csv.xz") == "large scale-floor1"
+
+
+def test_the_retrain_arms_differ_from_the_defaults_recipe_by_the_bounce_alone(shared_data, tmp_path):
+    """Stage three's retrain: the shipped default's recipe on the pooled walkers, and the same with the
+    bounce scaled; no floor walk or validation walker in training."""
+    import json
+
+    from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_VAL, stage_three_retrain_jobs
+
+    card = Path(__file__).resolve().parents[1] / "checkpoints" / "ronin_resnet-walking.json"
+    shipped = json.loads(card.read_text())["train_config"]
+    pooled, damped = stage_three_retrain_jobs(shared_data)
+    for job in (pooled, damped):
+        config = TrainConfig(out_dir=str(tmp_path / job.name), **job.config(shared_data))
+        for key in ("model", "window", "stride", "batch_size", "lr", "max_epochs", "orientation"):
+            assert getattr(config, key) == shipped[key], key
+        train = set(job.parts["train"])
+        assert not train & set(job.parts["val"]) and not train & set(FLOOR_DRIFT)
+        assert set(NEW_VAL) <= set(job.parts["val"])
+        assert all((shared_data / rel).exists() for part in job.parts.values() for rel in part)
+    assert pooled.options["augment"] == shipped["augment"]
+    assert damped.options == {**pooled.options, "augment": {**shipped["augment"], "vertical": 0.6}}
+    assert "stage-three-retrain" in protocol.CAMPAIGNS

@@ -271,11 +271,20 @@ def _stage_three(_variant: str | None = None) -> list[Job]:
     return stage_three_jobs(DEFAULT_DATA_ROOT, DEFAULT_CHECKPOINT_DIR)
 
 
+def _stage_three_retrain(_variant: str | None = None) -> list[Job]:
+    """Stage three's retrain of the default's network on the pooled walkers (``stage_three``)."""
+    from ftin.files import DEFAULT_DATA_ROOT
+    from ftin.protocol.stage_three import stage_three_retrain_jobs
+
+    return stage_three_retrain_jobs(DEFAULT_DATA_ROOT)
+
+
 CAMPAIGNS = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
     "tilt": tilt_question_jobs,
     "stage-three": _stage_three,
+    "stage-three-retrain": _stage_three_retrain,
 }
 
 

@@ -19,6 +19,13 @@ uncertainty.md``: no per-window sigma without one follows the error) trained on 
 walking checkpoints (``TrainConfig.train_only``), so their velocities, Table 1 and the default stay
 bit for bit; TLIO's gravity perturbation (``tilt``) beside the checkpoints' own augmentation, so the
 head sees the tilt a phone's orientation leaves (issue 36).
+
+Retrain jobs (``stage_three_retrain_jobs``, campaign ``stage-three-retrain``): the default's network
+(RoNIN ResNet, its recipe: mirror) trained from scratch at full budget on the same pooled walkers,
+beside the same with the bounce scaled by 0.4-1.6 (``vertical`` 0.6) so that the bounce's amplitude
+alone cannot be read as speed (the damped carries). The full-budget form of the 8-minute fine-tunes
+of ``docs/results/probes/damped_bounce.md``; judged on the validation walkers old and new and the
+floor walks, against the shipped default.
 """
 
 from __future__ import annotations
@@ -66,6 +73,13 @@ HEAD_OPTIONS: dict[str, Any] = {
 }
 
 
+RETRAIN_MODEL = "ronin_resnet"
+RETRAIN_ARMS: dict[str, dict[str, float | None]] = {
+    "pooled": {"mirror": None},
+    "pooled-vertical": {"mirror": None, "vertical": 0.6},
+}
+
+
 def relative_paths(data_root: Path, part: str) -> tuple[str, ...]:
     """The walking dataset's ``part`` (the stage-two split the checkpoints trained on), relative."""
     root = Path(data_root)
@@ -74,8 +88,6 @@ def relative_paths(data_root: Path, part: str) -> tuple[str, ...]:
 
 def stage_three_jobs(data_root: Path, checkpoint_dir: Path) -> list[Job]:
     """One job per headed checkpoint: its training and validation walkers plus the new fold's."""
-    train = (*relative_paths(data_root, "train"), *NEW_TRAIN)
-    val = (*relative_paths(data_root, "val"), *NEW_VAL)
     jobs = []
     for model, (stem, kwargs, augment) in HEADED.items():
         options = {
@@ -85,6 +97,30 @@ def stage_three_jobs(data_root: Path, checkpoint_dir: Path) -> list[Job]:
             "augment": {**augment, "tilt": None},
             "init_from": str(Path(checkpoint_dir).resolve() / f"{stem}.safetensors"),
         }
-        parts = {"train": train, "val": val, "test": FLOOR_DRIFT}
-        jobs.append(Job(f"stage-three/{model}-head-s0", model, WALKING, 0, "head", options, None, parts))
+        name = f"stage-three/{model}-head-s0"
+        jobs.append(Job(name, model, WALKING, 0, "head", options, None, _parts(data_root)))
     return jobs
+
+
+def _parts(data_root: Path) -> dict[str, tuple[str, ...]]:
+    """Stage two's walkers plus the new fold's; the floor walks as the test part (drift only)."""
+    train = (*relative_paths(data_root, "train"), *NEW_TRAIN)
+    val = (*relative_paths(data_root, "val"), *NEW_VAL)
+    return {"train": train, "val": val, "test": FLOOR_DRIFT}
+
+
+def stage_three_retrain_jobs(data_root: Path) -> list[Job]:
+    """One job per ``RETRAIN_ARMS`` arm: the default's network from scratch on the pooled walkers."""
+    return [
+        Job(
+            f"stage-three-retrain/{RETRAIN_MODEL}-{arm}-s0",
+            RETRAIN_MODEL,
+            WALKING,
+            0,
+            arm,
+            {**model_options(RETRAIN_MODEL, WALKING), "augment": dict(augment)},
+            None,
+            _parts(data_root),
+        )
+        for arm, augment in RETRAIN_ARMS.items()
+    ]
