@@ -4,7 +4,7 @@ the timeline moves markers and plots, several models overlay, errors reach the G
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import httpx
 import numpy as np
@@ -14,22 +14,15 @@ from app.services import Services
 from app.services.prediction import RunOptions
 from app.settings import Settings
 from app.viz.scene import DashboardScene
-from tests.utils.scenes import empty_scene, running_scene
+from tests.utils.scenes import emptied_for_each_test, module_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
 DEFAULT_SHOWN = "FTIN · OxIOD"  # DEFAULT_MODEL's display name (OTHER_MODEL names no architecture: as is)
 
 
-@pytest.fixture(scope="module")
-def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    with running_scene(make_settings()) as dashboard:
-        yield dashboard
-
-
-@pytest.fixture(autouse=True)
-def _empty_scene(scene: DashboardScene) -> None:
-    empty_scene(scene)
+scene = module_scene()
+_empty_scene = emptied_for_each_test()
 
 
 def run_nodes(scene: DashboardScene, run_id: str) -> set[str]:

@@ -6,23 +6,16 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable, Iterator
 
-import pytest
-
-from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from app.settings import BUNDLED_SAMPLES_DIR
 from app.viz.controls import LIVE
 from app.viz.scene import DashboardScene
 from ftin.data.readers.generic_csv import read
 from ftin.live.formats import FORMATS
 from ftin.live.replay import sequence_messages
-from tests.utils.scenes import running_scene
+from tests.utils.scenes import module_scene
 
-
-@pytest.fixture(scope="module")
-def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    with running_scene(make_settings()) as dashboard:
-        yield dashboard
+scene = module_scene()
 
 
 def _push(scene: DashboardScene, bodies: list[dict]) -> None:

@@ -4,35 +4,26 @@ words, plausibility figures, the GPS track, one green start, a timeline without 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from app.services.prediction import RunOptions
-from app.settings import Settings
 from app.viz.controls import UPLOADS
 from app.viz.palette import START_COLOR
 from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
 from ftin.evaluate import score
 from tests.utils.phone_walk import sensorlogger_walk_zip
-from tests.utils.scenes import empty_scene, running_scene
+from tests.utils.scenes import emptied_for_each_test, module_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
 
 
-@pytest.fixture(scope="module")
-def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    with running_scene(make_settings(max_runs=5)) as dashboard:
-        yield dashboard
-
-
-@pytest.fixture(autouse=True)
-def _empty_scene(scene: DashboardScene) -> None:
-    empty_scene(scene)
+scene = module_scene(max_runs=5)
+_empty_scene = emptied_for_each_test()
 
 
 def test_three_uploads_are_listed_and_the_menus_show_the_one_on_screen(

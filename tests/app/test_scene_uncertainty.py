@@ -5,33 +5,24 @@ them; the timeline's sigma plot follows the shown runs; a live run's spread is r
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from app.services.prediction import RunOptions
-from app.settings import Settings
 from app.viz.ellipses import ELLIPSE_POINTS, END95, LIVE_EVERY_S, ROOT, SIGMA2, PathSpread, largest_eigenvalue
 from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
 from ftin.uncertainty.radius import mahalanobis_sq
-from tests.utils.scenes import empty_scene, running_scene
+from tests.utils.scenes import emptied_for_each_test, module_scene
 
 DEFAULT_MODEL = "ftin-oxiod"
 OTHER_MODEL = "resnet-tiny"
 
 
-@pytest.fixture(scope="module")
-def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
-    with running_scene(make_settings()) as dashboard:
-        yield dashboard
-
-
-@pytest.fixture(autouse=True)
-def _empty_scene(scene: DashboardScene) -> None:
-    empty_scene(scene)
+scene = module_scene()
+_empty_scene = emptied_for_each_test()
 
 
 def ellipse_nodes(scene: DashboardScene) -> set[str]:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+
+import pytest
 
 from app.services import Services
 from app.settings import Settings
@@ -28,3 +30,26 @@ def empty_scene(scene: DashboardScene) -> None:
     """Wait for what is queued to be drawn, then clear the scene: each test starts from an empty one."""
     scene.flush()
     scene.gui_clear_scene()
+
+
+def module_scene(**overrides: object) -> Callable[..., Iterator[DashboardScene]]:
+    """A test module's ``scene`` fixture: one running scene for the module, its settings the app
+    fixtures' (``make_settings``) with ``overrides``. In a module: ``scene = module_scene()``."""
+
+    @pytest.fixture(scope="module")
+    def scene(make_settings: Callable[..., Settings]) -> Iterator[DashboardScene]:
+        with running_scene(make_settings(**overrides)) as dashboard:
+            yield dashboard
+
+    return scene
+
+
+def emptied_for_each_test() -> Callable[[DashboardScene], None]:
+    """An autouse fixture that empties the module's ``scene`` before each test:
+    ``_empty_scene = emptied_for_each_test()``."""
+
+    @pytest.fixture(autouse=True)
+    def _empty_scene(scene: DashboardScene) -> None:
+        empty_scene(scene)
+
+    return _empty_scene
