@@ -156,9 +156,17 @@ def main() -> None:
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--campaign", type=Path, default=CAMPAIGN)
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument(
+        "--checkpoint",
+        action="append",
+        default=[],
+        metavar="NAME=PATH",
+        help="score this checkpoint too, as NAME (a job's best so far, say); cached under NAME",
+    )
     args = parse(parser)
     results = {DEFAULT[0]: score_checkpoint(*DEFAULT, args.data_root)}
-    for arm, checkpoint in candidates(args.campaign):
+    extra = [tuple(spec.split("=", 1)) for spec in args.checkpoint]
+    for arm, checkpoint in [*candidates(args.campaign), *((name, Path(path)) for name, path in extra)]:
         results[arm] = score_checkpoint(arm, checkpoint, args.data_root)
     lines = [
         "# Stage three's retrain: the default's network on the pooled walkers, phone only",

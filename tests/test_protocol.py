@@ -328,19 +328,23 @@ def test_the_retrain_arms_differ_from_the_defaults_recipe_by_the_bounce_alone(sh
     bounce scaled; no floor walk or validation walker in training."""
     import json
 
-    from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_VAL, stage_three_retrain_jobs
+    from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_VAL, REFERENCE_DISAGREES, stage_three_retrain_jobs
 
     card = Path(__file__).resolve().parents[1] / "checkpoints" / "ronin_resnet-walking.json"
     shipped = json.loads(card.read_text())["train_config"]
-    pooled, damped = stage_three_retrain_jobs(shared_data)
-    for job in (pooled, damped):
+    pooled, damped, agreeing = stage_three_retrain_jobs(shared_data)
+    for job in (pooled, damped, agreeing):
         config = TrainConfig(out_dir=str(tmp_path / job.name), **job.config(shared_data))
         for key in ("model", "window", "stride", "batch_size", "lr", "max_epochs", "orientation"):
             assert getattr(config, key) == shipped[key], key
         train = set(job.parts["train"])
         assert not train & set(job.parts["val"]) and not train & set(FLOOR_DRIFT)
-        assert set(NEW_VAL) <= set(job.parts["val"])
+        assert set(NEW_VAL) - set(REFERENCE_DISAGREES) <= set(job.parts["val"])
         assert all((shared_data / rel).exists() for part in job.parts.values() for rel in part)
     assert pooled.options["augment"] == shipped["augment"]
     assert damped.options == {**pooled.options, "augment": {**shipped["augment"], "vertical": 0.6}}
+    assert damped.parts == pooled.parts and agreeing.options == pooled.options
+    for part in ("train", "val"):
+        kept = set(agreeing.parts[part])
+        assert kept == set(pooled.parts[part]) - set(REFERENCE_DISAGREES) and kept < set(pooled.parts[part])
     assert "stage-three-retrain" in protocol.CAMPAIGNS

@@ -25,7 +25,11 @@ Retrain jobs (``stage_three_retrain_jobs``, campaign ``stage-three-retrain``): t
 beside the same with the bounce scaled by 0.4-1.6 (``vertical`` 0.6) so that the bounce's amplitude
 alone cannot be read as speed (the damped carries). The full-budget form of the 8-minute fine-tunes
 of ``docs/results/probes/damped_bounce.md``; judged on the validation walkers old and new and the
-floor walks, against the shipped default.
+floor walks, against the shipped default. A third arm, ``pooled-agreeing``, leaves out of training and
+validation the walks whose reference orientation disagrees with their own IMU
+(``REFERENCE_DISAGREES``: ``docs/results/probes/reference_frames.md``), since every job trains on the
+IMU rotated by that reference: a bag's or a rig's markers, a heading turned 180 degrees, feed the
+network gravity or a reversed motion against its labels.
 """
 
 from __future__ import annotations
@@ -73,10 +77,23 @@ HEAD_OPTIONS: dict[str, Any] = {
 }
 
 
+# Walks whose reference orientation disagrees with their IMU (the probe's rule: the horizontal
+# acceleration it gives misses the reference position's by over 0.5 m/s² and over twice what the IMU
+# levelled by itself misses by), relative to the data root.
+REFERENCE_DISAGREES = (
+    "inria_attitude/datasets/android/Thibaud_Nexus5_Dist_FrontPocket",
+    "inria_attitude/datasets/android/Thibaud_Nexus5_Dist_Phoning",
+    *(f"{_OXIOD}multi users/user3/syn/imu{i}.csv.xz" for i in (4, 5)),
+    f"{_OXIOD}multi devices/iPhone 6/syn/imu5.csv.xz",
+    *(f"{_OXIOD}multi devices/nexus 5/syn/imu{i}.csv.xz" for i in (7, 8)),
+)
+
 RETRAIN_MODEL = "ronin_resnet"
-RETRAIN_ARMS: dict[str, dict[str, float | None]] = {
-    "pooled": {"mirror": None},
-    "pooled-vertical": {"mirror": None, "vertical": 0.6},
+# arm -> (augmentations beyond yaw, whether the REFERENCE_DISAGREES walks are left out)
+RETRAIN_ARMS: dict[str, tuple[dict[str, float | None], bool]] = {
+    "pooled": ({"mirror": None}, False),
+    "pooled-vertical": ({"mirror": None, "vertical": 0.6}, False),
+    "pooled-agreeing": ({"mirror": None}, True),
 }
 
 
@@ -102,11 +119,16 @@ def stage_three_jobs(data_root: Path, checkpoint_dir: Path) -> list[Job]:
     return jobs
 
 
-def _parts(data_root: Path) -> dict[str, tuple[str, ...]]:
-    """Stage two's walkers plus the new fold's; the floor walks as the test part (drift only)."""
+def _parts(data_root: Path, leave_out: tuple[str, ...] = ()) -> dict[str, tuple[str, ...]]:
+    """Stage two's walkers plus the new fold's, without ``leave_out``; the floor walks as the test part
+    (drift only)."""
     train = (*relative_paths(data_root, "train"), *NEW_TRAIN)
     val = (*relative_paths(data_root, "val"), *NEW_VAL)
-    return {"train": train, "val": val, "test": FLOOR_DRIFT}
+    return {
+        "train": tuple(r for r in train if r not in leave_out),
+        "val": tuple(r for r in val if r not in leave_out),
+        "test": FLOOR_DRIFT,
+    }
 
 
 def stage_three_retrain_jobs(data_root: Path) -> list[Job]:
@@ -120,7 +142,7 @@ def stage_three_retrain_jobs(data_root: Path) -> list[Job]:
             arm,
             {**model_options(RETRAIN_MODEL, WALKING), "augment": dict(augment)},
             None,
-            _parts(data_root),
+            _parts(data_root, REFERENCE_DISAGREES if agreeing_only else ()),
         )
-        for arm, augment in RETRAIN_ARMS.items()
+        for arm, (augment, agreeing_only) in RETRAIN_ARMS.items()
     ]

@@ -1,0 +1,171 @@
+"""Does each training walk's reference orientation belong to its IMU? (issue 34)
+
+Question: stage three's retrain (``docs/results/probes/stage_three_retrain.md``) and the earlier
+8-minute fine-tunes (``damped_bounce.md``) read some held-out walks shorter after training on the new
+OxIOD walks (the Nexus 5's walk 8: 0.99 of its distance before, 0.34 after training on its walk 7).
+Every checkpoint trains on ``orientation=ground_truth``: the IMU rotated into the world by the
+reference (Vicon, Tango, Qualisys). If the reference tracks another body than the phone (markers on a
+bag the phone sits in, a rig whose axes are not the phone's), the inputs carry gravity into the
+horizontal channels and disagree with the labels.
+
+Method, per walk, no network: the IMU's specific force rotated into the world by an orientation,
+averaged over 1 s, against the second derivative of the reference position averaged the same way;
+``residual`` = RMS of the horizontal difference (m/s²), beside the true horizontal acceleration's RMS
+(``signal``). Orientations: ``reference`` (what training reads), ``levelled`` (VQF 6-D's tilt from the
+IMU alone, the reference's heading: ``ftin.data.frames.with_heading_of``), ``levelled+yaw`` (that, turned
+by the one yaw offset per walk that best matches the two accelerations: a reference heading that
+belongs to another body). ``tilt gap``: RMS angle between the reference's and VQF 6-D's gravity in the
+phone's frame. A reference **disagrees with its IMU** when its residual is over 0.5 m/s² and over twice
+the ``levelled+yaw`` one (the IMU levelled by itself explains the motion, the reference does not).
+
+Walks: the walking dataset's training and validation parts (OxIOD, RIDI, Inria; ``ftin.protocol``)
+and stage three's new OxIOD walks (``NEW_TRAIN``, ``NEW_VAL``, the floor walks).
+
+    nice -n 10 .venv/bin/python -m experiments.probe_reference_frames \
+        --out docs/results/probes/reference_frames.md
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from experiments.common import argument_parser, parse, write_report
+from experiments.orientation_quality import tilt_error_deg
+from ftin import protocol
+from ftin.data import frames
+from ftin.data.discovery import read_sequence
+from ftin.data.orientation_option import phone_only
+from ftin.data.preprocess import estimate_orientation
+from ftin.data.types import ImuSequence
+from ftin.files import DEFAULT_DATA_ROOT
+from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_TRAIN, NEW_VAL
+
+CACHE = Path("runs/probes/reference_frames.json")
+MIN_RESIDUAL = 0.5  # m/s²: below it a reference is taken as the phone's whatever the ratio
+RATIO = 2.0
+
+
+def horizontal_accelerations(seq: ImuSequence, q_wxyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(IMU, reference position) horizontal accelerations over the tracked samples, both averaged
+    over 1 s, the IMU's rotated by ``q_wxyz``."""
+    dt = float(np.median(np.diff(seq.t_s)))
+    width = int(round(1.0 / dt))
+    imu = uniform_filter1d(frames.rotation_from_wxyz(q_wxyz).apply(seq.acc_m_s2), width, axis=0)
+    p = np.stack([np.interp(seq.t_s, seq.gt.t_s, seq.gt.p_world_m[:, k]) for k in range(3)], axis=1)
+    truth = np.gradient(np.gradient(uniform_filter1d(p, width, axis=0), dt, axis=0), dt, axis=0)
+    keep = np.zeros(len(seq.t_s), dtype=bool)
+    keep[width:-width] = True
+    keep &= np.interp(seq.t_s, seq.gt.t_s, seq.gt.tracked_mask.astype(float)) > 0.999
+    return imu[keep, :2], truth[keep, :2]
+
+
+def residual(imu: np.ndarray, truth: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum((imu - truth) ** 2, axis=1))))
+
+
+def best_yaw(imu: np.ndarray, truth: np.ndarray) -> float:
+    """The yaw (rad) that turns ``imu`` closest to ``truth`` (least squares, closed form)."""
+    dot = np.sum(imu[:, 0] * truth[:, 0] + imu[:, 1] * truth[:, 1])
+    cross = np.sum(imu[:, 0] * truth[:, 1] - imu[:, 1] * truth[:, 0])
+    return float(np.arctan2(cross, dot))
+
+
+def walk_row(rel: str, seq: ImuSequence) -> dict:
+    reference = seq.gt.q_world_body_wxyz
+    vqf = estimate_orientation(phone_only(seq), use_magnetometer=False).q_world_device_wxyz
+    levelled = frames.with_heading_of(reference, vqf)
+    imu_ref, truth = horizontal_accelerations(seq, reference)
+    imu_lev, _ = horizontal_accelerations(seq, levelled)
+    yaw = best_yaw(imu_lev, truth)
+    tracked = seq.gt.tracked_mask
+    return {
+        "walk": rel,
+        "carry": str(seq.meta.get("carry", "unknown")),
+        "signal": float(np.sqrt(np.mean(np.sum(truth**2, axis=1)))),
+        "reference": residual(imu_ref, truth),
+        "levelled": residual(imu_lev, truth),
+        "levelled_yaw": residual(
+            frames.rotate_about_z(np.c_[imu_lev, np.zeros(len(imu_lev))], yaw)[:, :2], truth
+        ),
+        "yaw_deg": float(np.degrees(yaw)),
+        "tilt_gap_deg": float(np.sqrt(np.mean(tilt_error_deg(vqf[tracked], reference[tracked]) ** 2))),
+    }
+
+
+def disagrees(row: dict) -> bool:
+    return row["reference"] > MIN_RESIDUAL and row["reference"] > RATIO * row["levelled_yaw"]
+
+
+def walks(data_root: Path):
+    """``(set, relative path)`` of every walk examined."""
+    for dataset in (protocol.OXIOD, protocol.RIDI, protocol.INRIA):
+        for part in ("train", "val"):
+            for path in protocol.split_paths(data_root, dataset, part):
+                yield f"{protocol.DATASET_LABELS[dataset]} {part}", str(path.relative_to(data_root))
+    for label, rels in (("new train", NEW_TRAIN), ("new val", NEW_VAL), ("floor", FLOOR_DRIFT)):
+        for rel in rels:
+            yield label, rel
+
+
+def main() -> None:
+    parser = argument_parser(__doc__)
+    parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
+    parser.add_argument("--out", type=Path, default=None)
+    args = parse(parser)
+    rows = json.loads(CACHE.read_text()) if CACHE.exists() else []
+    done = {r["walk"] for r in rows}
+    for label, rel in walks(args.data_root):
+        if rel in done:
+            continue
+        row = {"set": label, **walk_row(rel, read_sequence(args.data_root / rel))}
+        rows.append(row)
+        print(
+            f"{label} {rel}: reference {row['reference']:.2f}, levelled+yaw {row['levelled_yaw']:.2f}",
+            flush=True,
+        )
+        CACHE.parent.mkdir(parents=True, exist_ok=True)
+        CACHE.write_text(json.dumps(rows))
+    lines = [
+        "# Does each walk's reference orientation belong to its IMU?",
+        "",
+        "Made by `python -m experiments.probe_reference_frames` (its docstring: question, method, rule).",
+        "Residuals: RMS (m/s²) of the horizontal IMU acceleration, rotated by each orientation, against the",
+        "reference position's, both averaged over 1 s; signal: the latter's RMS. **Disagrees**: the",
+        f"reference's residual over {MIN_RESIDUAL} m/s² and over {RATIO:g}x the levelled+yaw one.",
+        "",
+        "## By set",
+        "",
+        "| set | walks | disagree | median residual: reference / levelled / levelled+yaw |",
+        "|---|--:|--:|---|",
+    ]
+    for label in dict.fromkeys(r["set"] for r in rows):
+        part = [r for r in rows if r["set"] == label]
+        med = " / ".join(
+            f"{np.median([r[k] for r in part]):.2f}" for k in ("reference", "levelled", "levelled_yaw")
+        )
+        lines.append(f"| {label} | {len(part)} | {sum(map(disagrees, part))} | {med} |")
+    lines += [
+        "",
+        "## Walks whose reference disagrees with their IMU, then the ten next-largest residuals",
+        "",
+        "| set | walk | carry | signal | reference | levelled | levelled+yaw | yaw offset | tilt gap "
+        "| disagrees |",
+        "|---|---|---|--:|--:|--:|--:|--:|--:|---|",
+    ]
+    ranked = sorted(rows, key=lambda r: (not disagrees(r), -r["reference"]))
+    shown = [r for r in ranked if disagrees(r)] + [r for r in ranked if not disagrees(r)][:10]
+    for r in shown:
+        lines.append(
+            f"| {r['set']} | {r['walk']} | {r['carry']} | {r['signal']:.2f} | {r['reference']:.2f} "
+            f"| {r['levelled']:.2f} | {r['levelled_yaw']:.2f} | {r['yaw_deg']:+.0f}° "
+            f"| {r['tilt_gap_deg']:.1f}° | {'yes' if disagrees(r) else 'no'} |"
+        )
+    write_report(args.out, lines)
+
+
+if __name__ == "__main__":
+    main()
