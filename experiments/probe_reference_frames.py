@@ -8,8 +8,9 @@ reference (Vicon, Tango, Qualisys). If the reference tracks another body than th
 bag the phone sits in, a rig whose axes are not the phone's), the inputs carry gravity into the
 horizontal channels and disagree with the labels.
 
-Method, per walk, no network: the IMU's specific force rotated into the world by an orientation,
-averaged over 1 s, against the second derivative of the reference position averaged the same way;
+Method, per walk, no network (``ftin.data.reference_check``, which now warns wherever a reference
+orientation is applied): the IMU's specific force rotated into the world by an orientation, averaged
+over 1 s, against the second derivative of the reference position averaged the same way;
 ``residual`` = RMS of the horizontal difference (m/s²), beside the true horizontal acceleration's RMS
 (``signal``). Orientations: ``reference`` (what training reads), ``levelled`` (VQF 6-D's tilt from the
 IMU alone, the reference's heading: ``ftin.data.frames.with_heading_of``), ``levelled+yaw`` (that, turned
@@ -31,73 +32,42 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from experiments.common import argument_parser, parse, write_report
 from experiments.orientation_quality import tilt_error_deg
 from ftin import protocol
 from ftin.data import frames
 from ftin.data.discovery import read_sequence
-from ftin.data.orientation_option import phone_only
 from ftin.data.preprocess import estimate_orientation
+from ftin.data.reference_check import MIN_RESIDUAL_M_S2, RATIO, check_reference, horizontal_accelerations, rms
 from ftin.data.types import ImuSequence
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_TRAIN, NEW_VAL
 
 CACHE = Path("runs/probes/reference_frames.json")
-MIN_RESIDUAL = 0.5  # m/s²: below it a reference is taken as the phone's whatever the ratio
-RATIO = 2.0
-
-
-def horizontal_accelerations(seq: ImuSequence, q_wxyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(IMU, reference position) horizontal accelerations over the tracked samples, both averaged
-    over 1 s, the IMU's rotated by ``q_wxyz``."""
-    dt = float(np.median(np.diff(seq.t_s)))
-    width = int(round(1.0 / dt))
-    imu = uniform_filter1d(frames.rotation_from_wxyz(q_wxyz).apply(seq.acc_m_s2), width, axis=0)
-    p = np.stack([np.interp(seq.t_s, seq.gt.t_s, seq.gt.p_world_m[:, k]) for k in range(3)], axis=1)
-    truth = np.gradient(np.gradient(uniform_filter1d(p, width, axis=0), dt, axis=0), dt, axis=0)
-    keep = np.zeros(len(seq.t_s), dtype=bool)
-    keep[width:-width] = True
-    keep &= np.interp(seq.t_s, seq.gt.t_s, seq.gt.tracked_mask.astype(float)) > 0.999
-    return imu[keep, :2], truth[keep, :2]
-
-
-def residual(imu: np.ndarray, truth: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.sum((imu - truth) ** 2, axis=1))))
-
-
-def best_yaw(imu: np.ndarray, truth: np.ndarray) -> float:
-    """The yaw (rad) that turns ``imu`` closest to ``truth`` (least squares, closed form)."""
-    dot = np.sum(imu[:, 0] * truth[:, 0] + imu[:, 1] * truth[:, 1])
-    cross = np.sum(imu[:, 0] * truth[:, 1] - imu[:, 1] * truth[:, 0])
-    return float(np.arctan2(cross, dot))
 
 
 def walk_row(rel: str, seq: ImuSequence) -> dict:
     reference = seq.gt.q_world_body_wxyz
-    vqf = estimate_orientation(phone_only(seq), use_magnetometer=False).q_world_device_wxyz
-    levelled = frames.with_heading_of(reference, vqf)
-    imu_ref, truth = horizontal_accelerations(seq, reference)
-    imu_lev, _ = horizontal_accelerations(seq, levelled)
-    yaw = best_yaw(imu_lev, truth)
+    found = check_reference(seq, reference)
+    vqf = estimate_orientation(seq, use_magnetometer=False).q_world_device_wxyz
+    imu_lev, truth = horizontal_accelerations(seq, frames.with_heading_of(reference, vqf))
     tracked = seq.gt.tracked_mask
     return {
         "walk": rel,
         "carry": str(seq.meta.get("carry", "unknown")),
-        "signal": float(np.sqrt(np.mean(np.sum(truth**2, axis=1)))),
-        "reference": residual(imu_ref, truth),
-        "levelled": residual(imu_lev, truth),
-        "levelled_yaw": residual(
-            frames.rotate_about_z(np.c_[imu_lev, np.zeros(len(imu_lev))], yaw)[:, :2], truth
-        ),
-        "yaw_deg": float(np.degrees(yaw)),
+        "signal": found.signal_m_s2,
+        "reference": found.reference_m_s2,
+        "levelled": rms(imu_lev - truth),  # before the yaw turn
+        "levelled_yaw": found.levelled_m_s2,
+        "yaw_deg": found.yaw_offset_deg,
         "tilt_gap_deg": float(np.sqrt(np.mean(tilt_error_deg(vqf[tracked], reference[tracked]) ** 2))),
+        "disagrees": found.disagrees,
     }
 
 
 def disagrees(row: dict) -> bool:
-    return row["reference"] > MIN_RESIDUAL and row["reference"] > RATIO * row["levelled_yaw"]
+    return row["disagrees"]
 
 
 def walks(data_root: Path):
@@ -135,7 +105,7 @@ def main() -> None:
         "Made by `python -m experiments.probe_reference_frames` (its docstring: question, method, rule).",
         "Residuals: RMS (m/s²) of the horizontal IMU acceleration, rotated by each orientation, against the",
         "reference position's, both averaged over 1 s; signal: the latter's RMS. **Disagrees**: the",
-        f"reference's residual over {MIN_RESIDUAL} m/s² and over {RATIO:g}x the levelled+yaw one.",
+        f"reference's residual over {MIN_RESIDUAL_M_S2} m/s² and over {RATIO:g}x the levelled+yaw one.",
         "",
         "## By set",
         "",

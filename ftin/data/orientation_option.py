@@ -16,9 +16,11 @@ table --orientation`` and ``TrainConfig.orientation`` take):
 ``ftin.data.preprocess.estimate_orientation``'s) and records what ran in
 ``meta["orientation_choice"] = {"requested", "source", "reason"}`` (and ``"magnetometer"``, what the
 check below did, when it calibrated or dropped the field) beside ``meta["orientation_source"]``
-(``device``, ``estimated``, ``ground_truth``). Before ``auto`` and ``vqf`` read the magnetometer, its
-field is checked (``ftin.data.magnetometer``): used as given, calibrated from the recording's own
-turns, or dropped, and the reason says which when it is not as given. A choice the recording cannot
+(``device``, ``estimated``, ``ground_truth``); a reference that does not belong to the IMU (its markers
+on a bag, a rig's axes: ``ftin.data.reference_check``) is applied with a warning saying so. Before
+``auto`` and ``vqf`` read the magnetometer, its field is checked (``ftin.data.magnetometer``): used as
+given, calibrated from the recording's own turns, or dropped, and the reason says which when it is not
+as given. A choice the recording cannot
 give raises ``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
 and a reference (OxIOD, RIDI, the Inria benchmark) read the one the choice needs
 (:func:`reader_orientation`).
@@ -39,8 +41,10 @@ from typing import Any
 from ftin.data import magnetometer
 from ftin.data.errors import DataFormatError
 from ftin.data.magnetometer import MagnetometerAction, MagnetometerDecision
+from ftin.data.messages import with_messages
 from ftin.data.orientation_choice import choose_orientation
 from ftin.data.preprocess import ensure_orientation, estimate_orientation
+from ftin.data.reference_check import check_reference
 from ftin.data.types import ImuSequence
 
 # Readers whose ``orientation`` option takes "device" or "ground_truth".
@@ -221,13 +225,18 @@ def _with_source(
 def _reference(seq: ImuSequence, choice: Orientation) -> ImuSequence:
     """The reference orientation: the sequence's own when its reader read it so, else the ground truth's
     (which readers keep in the sequence's world: the positions need no turn)."""
-    if _own_is_reference(seq):
-        return seq
-    if seq.gt is None or seq.gt.q_world_body_wxyz is None:
-        raise _unavailable(seq, choice, "the recording has no reference orientation (motion capture, Tango)")
-    meta = dict(seq.meta)
-    meta["orientation_source"] = "ground_truth"
-    return seq.with_(q_world_device_wxyz=seq.gt.q_world_body_wxyz, meta=meta)
+    if not _own_is_reference(seq):
+        if seq.gt is None or seq.gt.q_world_body_wxyz is None:
+            raise _unavailable(
+                seq, choice, "the recording has no reference orientation (motion capture, Tango)"
+            )
+        meta = dict(seq.meta)
+        meta["orientation_source"] = "ground_truth"
+        seq = seq.with_(q_world_device_wxyz=seq.gt.q_world_body_wxyz, meta=meta)
+    found = check_reference(seq, seq.q_world_device_wxyz)
+    if found is not None and found.disagrees:  # a bag's markers, a rig's axes: said, not hidden
+        seq = seq.with_(meta=with_messages(seq.meta, [found.text]))
+    return seq
 
 
 def choice_of(seq: ImuSequence) -> dict[str, str] | None:
