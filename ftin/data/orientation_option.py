@@ -234,9 +234,12 @@ def _reference(seq: ImuSequence, choice: Orientation) -> ImuSequence:
         meta["orientation_source"] = "ground_truth"
         seq = seq.with_(q_world_device_wxyz=seq.gt.q_world_body_wxyz, meta=meta)
     found = check_reference(seq, seq.q_world_device_wxyz)
-    if found is not None and found.disagrees:  # a bag's markers, a rig's axes: said, not hidden
-        seq = seq.with_(meta=with_messages(seq.meta, [found.text]))
-    return seq
+    if found is None:
+        return seq
+    meta = {**seq.meta, "reference_check": found.to_json()}
+    if found.disagrees:  # a bag's markers, a rig's axes: said, not hidden
+        meta = with_messages(meta, [found.text])
+    return seq.with_(meta=meta)
 
 
 def choice_of(seq: ImuSequence) -> dict[str, str] | None:

@@ -45,6 +45,16 @@ class ReferenceAgreement:
     def disagrees(self) -> bool:
         return self.reference_m_s2 > MIN_RESIDUAL_M_S2 and self.reference_m_s2 > RATIO * self.levelled_m_s2
 
+    def to_json(self) -> dict[str, float | bool]:
+        """What ``meta["reference_check"]`` holds (m/s², degrees, the verdict)."""
+        return {
+            "signal_m_s2": round(self.signal_m_s2, 3),
+            "reference_m_s2": round(self.reference_m_s2, 3),
+            "levelled_m_s2": round(self.levelled_m_s2, 3),
+            "yaw_offset_deg": round(self.yaw_offset_deg, 1),
+            "disagrees": self.disagrees,
+        }
+
     @property
     def text(self) -> str:
         return (

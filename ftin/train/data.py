@@ -87,8 +87,9 @@ def training_data(
     if not val_sequences:
         train_sequences, val_sequences = split_validation(train_sequences, config.val_fraction, config.seed)
         val_source = "held_out" if val_sequences else "none"
+    prepared_train = [prepare(s, rate_hz, orientation=config.orientation).seq for s in train_sequences]
     train = WindowDataset(
-        [prepare(s, rate_hz, orientation=config.orientation).seq for s in train_sequences],
+        prepared_train,
         window,
         config.stride,
         out_dim,
@@ -97,11 +98,21 @@ def training_data(
         seed=config.seed,
         augmenter=WindowAugmenter(config.augment, config.stride, config.seed),
     )
-    val = None
+    val, prepared_val = None, []
     if val_sequences:
-        prepared = [prepare(s, rate_hz, orientation=config.orientation).seq for s in val_sequences]
-        val = WindowDataset(prepared, window, config.stride, out_dim, parts=parts, augment_yaw=False)
-    split = {"train": train.names, "val": [] if val is None else val.names, "val_source": val_source}
+        prepared_val = [prepare(s, rate_hz, orientation=config.orientation).seq for s in val_sequences]
+        val = WindowDataset(prepared_val, window, config.stride, out_dim, parts=parts, augment_yaw=False)
+    split = {
+        "train": train.names,
+        "val": [] if val is None else val.names,
+        "val_source": val_source,
+        # recordings whose reference orientation does not belong to their IMU (ftin.data.reference_check)
+        "reference_disagrees": [
+            s.name
+            for s in (*prepared_train, *prepared_val)
+            if s.meta.get("reference_check", {}).get("disagrees")
+        ],
+    }
     return TrainData(
         train=train,
         val=val,

@@ -115,8 +115,27 @@ def test_explicit_validation_and_progress_output(tmp_path, sim_sequences, capsys
         "train": [s.name for s in sim_sequences[:2]],
         "val": [sim_sequences[2].name],
         "val_source": "paths",
+        "reference_disagrees": [],
     }
     assert "epoch 1/1: train" in capsys.readouterr().err
+
+
+def test_the_card_names_the_recordings_whose_reference_is_not_their_imus(tmp_path, sim_sequences):
+    """Markers on another body (the reference tilted 15 deg from the phone) are named in the split."""
+    from dataclasses import replace
+
+    from scipy.spatial.transform import Rotation
+
+    from ftin.data import frames
+
+    good, other, val = sim_sequences
+    tilted = frames.wxyz_from_rotation(
+        frames.rotation_from_wxyz(other.gt.q_world_body_wxyz) * Rotation.from_euler("y", 15, degrees=True)
+    )
+    bad = other.with_(q_world_device_wxyz=tilted, gt=replace(other.gt, q_world_body_wxyz=tilted))
+    config = _config(tmp_path, max_epochs=1, orientation="ground_truth")
+    result = train(config, [good, bad], [val], progress=False)
+    assert load_model(result.checkpoint).meta["split"]["reference_disagrees"] == [bad.name]
 
 
 def test_uncertainty_model_trains_with_nll(tmp_path, sim_sequences):
