@@ -65,6 +65,7 @@ from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io import tango
 from ftin.data.io.oxiod_csv import STANDARD_GRAVITY_M_S2, PhoneRows, read_numeric_csv, read_phone
+from ftin.data.io.vicon_sync import vicon_lag
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.data.validate import validate_read
@@ -375,7 +376,8 @@ class _PairedRows:
 
 
 def _paired_rows(imu_path: Path, truth_path: Path, rate_hz: float, warnings: list[str]) -> _PairedRows:
-    """Vicon rows go 1:1 with the IMU's; Tango rows at the lag :mod:`ftin.data.io.tango` finds.
+    """Vicon rows 1:1 with the IMU's unless their angular rates clearly pair them otherwise
+    (:mod:`ftin.data.io.vicon_sync`); Tango rows at the lag :mod:`ftin.data.io.tango` finds.
     Rows of one without the other are cut, with a warning."""
     phone = read_phone(imu_path)
     if phone.first_row:
@@ -389,8 +391,16 @@ def _paired_rows(imu_path: Path, truth_path: Path, rate_hz: float, warnings: lis
             warnings.append(
                 f"{imu_path.name} has {len(phone)} rows, {truth_path.name} {len(vicon)}: kept {n}"
             )
-        pose = vicon[:n, 2:9]
-        return _PairedRows(phone.rows(0, n), "vicon", phone.first_row, pose[:, :3], pose[:, [6, 3, 4, 5]], {})
+        pose = vicon[:, 2:9]
+        sync = vicon_lag(phone.gyro_rad_s[:n], pose[:n, [6, 3, 4, 5]], rate_hz)
+        lag = sync.lag_rows
+        start, stop = max(0, -lag), min(n, len(vicon) - lag)
+        if lag:
+            warnings.append(f"{truth_path.name} {sync.text}; IMU rows without a pose cut: {start + n - stop}")
+        pose = pose[start + lag : stop + lag]
+        meta = {"gt_lag_rows": lag, "vicon_rate_share_at_zero": round(sync.share_at_zero, 3)}
+        first = phone.first_row + start + lag
+        return _PairedRows(phone.rows(start, stop), "vicon", first, pose[:, :3], pose[:, [6, 3, 4, 5]], meta)
     p_m, q_wxyz = tango.read_tango(truth_path)
     pairing = tango.pair_with_imu(truth_path, q_wxyz, phone.gyro_rad_s, phone.acc_m_s2, rate_hz)
     start, stop, lag = pairing.imu_start, pairing.imu_stop, pairing.lag_rows
