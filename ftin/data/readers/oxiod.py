@@ -18,6 +18,10 @@ Decisions (all options of :func:`read`):
   user4 and ``large scale`` undocumented: "unknown", ``carry_source`` says which), ``walker`` (the
   ``multi users`` folder, else "unknown") and ``phone`` (the ``multi devices`` folder, else "iPhone":
   the release does not name the main phone's model).
+- Pairing: Vicon rows go with IMU rows one for one, as the release pairs them, except where the angular
+  rates clearly pair them otherwise (:mod:`ftin.data.io.vicon_sync`: the Nexus 5's walks 29 rows,
+  user3's pocket walks 10, two iPhone 6 walks ~20); Tango rows at the lag :mod:`ftin.data.io.tango`
+  finds. ``meta["gt_lag_rows"]`` says the shift, a warning names it.
 - Vicon (and Tango) glitches (marker mislabelling: jumps of up to 1.2 m / 180 deg that come back after a few
   frames) and exactly repeated rows (dropped Vicon frames) are interpolated over before anything
   else (:func:`ftin.data.frames.repair_pose_glitches`); ``meta["warnings"]`` lists them.
