@@ -3,8 +3,10 @@ the pooled walkers (the new OxIOD walkers and phones joined), read walkers it ne
 does scaling the bounce in training (``vertical`` 0.6) lengthen the damped carries?
 
 Checkpoints: the shipped default (``checkpoints/ronin_resnet-walking``, stage two's walkers) and the
-two jobs of ``ftin campaign plan --jobs stage-three-retrain`` (``ftin.protocol.stage_three``:
-``pooled``, ``pooled-vertical``), read from their campaign folder when finished.
+jobs of ``ftin campaign plan --jobs stage-three-retrain`` (``ftin.protocol.stage_three``: ``pooled``,
+``pooled-vertical``, ``pooled-agreeing``), read from each ``--campaign`` folder when finished
+(``runs/stage-three-synced`` by default; ``runs/stage-three-retrain`` froze the OxIOD reader before it
+paired Vicon rows by their rates). Every walk is read with today's reader.
 
 Walks, phone only (``load_phone_only``: ``auto`` orientation, no motion capture), each read as an
 upload is (``predict_trajectory``) and scored as the hidden-walks check scores
@@ -32,6 +34,7 @@ checkpoint's rows are reused; delete the file to score it again).
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +49,7 @@ from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_VAL
 
 CACHE = Path("runs/probes/stage_three_retrain")
-CAMPAIGN = Path("runs/stage-three-retrain")
+CAMPAIGN = Path("runs/stage-three-synced")
 DEFAULT = ("default (shipped)", Path("checkpoints/ronin_resnet-walking.safetensors"))
 GROUPS = ("OxIOD", "RIDI", "Inria", "new walkers")  # the rule's validation groups
 WORSE_AT_MOST = 0.05
@@ -65,7 +68,7 @@ def walk_sets(data_root: Path):
 
 def score_checkpoint(name: str, checkpoint: Path, data_root: Path) -> list[dict]:
     """Every walk of ``walk_sets`` read by ``checkpoint``, cached under ``CACHE``."""
-    cache = CACHE / f"{name.split(' ')[0]}.json"
+    cache = CACHE / f"{re.sub(r'[^A-Za-z0-9]+', '-', name).strip('-')}.json"
     if cache.exists():
         return json.loads(cache.read_text())
     model = load_model(checkpoint)
@@ -99,7 +102,7 @@ def candidates(campaign_dir: Path) -> list[tuple[str, Path]]:
     for job in campaign.jobs():
         checkpoint = campaign.job_dir(job) / f"{job.checkpoint_stem}.safetensors"
         if campaign.is_done(job) and checkpoint.exists():
-            found.append((str(job.variant), checkpoint))
+            found.append((f"{job.variant} ({campaign_dir.name})", checkpoint))
         else:
             print(f"{job.name}: not finished, not scored")
     return found
@@ -154,7 +157,12 @@ def verdict(results: dict[str, list[dict]]) -> list[str]:
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
-    parser.add_argument("--campaign", type=Path, default=CAMPAIGN)
+    parser.add_argument(
+        "--campaign",
+        type=Path,
+        action="append",
+        help=f"campaign folder(s) of the retrain (default {CAMPAIGN})",
+    )
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument(
         "--checkpoint",
@@ -166,7 +174,8 @@ def main() -> None:
     args = parse(parser)
     results = {DEFAULT[0]: score_checkpoint(*DEFAULT, args.data_root)}
     extra = [tuple(spec.split("=", 1)) for spec in args.checkpoint]
-    for arm, checkpoint in [*candidates(args.campaign), *((name, Path(path)) for name, path in extra)]:
+    found = [c for folder in args.campaign or [CAMPAIGN] for c in candidates(folder)]
+    for arm, checkpoint in [*found, *((name, Path(path)) for name, path in extra)]:
         results[arm] = score_checkpoint(arm, checkpoint, args.data_root)
     lines = [
         "# Stage three's retrain: the default's network on the pooled walkers, phone only",
