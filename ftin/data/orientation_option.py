@@ -20,10 +20,9 @@ check below did, when it calibrated or dropped the field) beside ``meta["orienta
 on a bag, a rig's axes: ``ftin.data.reference_check``) is applied with a warning saying so. Before
 ``auto`` and ``vqf`` read the magnetometer, its field is checked (``ftin.data.magnetometer``): used as
 given, calibrated from the recording's own turns, or dropped, and the reason says which when it is not
-as given. A choice the recording cannot
-give raises ``OrientationUnavailableError`` naming the choices it can. Readers that hold both a phone attitude
-and a reference (OxIOD, RIDI, the Inria benchmark) read the one the choice needs
-(:func:`reader_orientation`).
+as given. A choice the recording cannot give raises ``OrientationUnavailableError`` naming the choices
+it can. Readers that hold both a phone attitude and a reference (OxIOD, RIDI, the Inria benchmark) read
+the one the choice needs (:func:`reader_orientation`).
 
 :func:`orient` is the one step that orients a recording: ``ftin.data.prepare.prepare`` calls it, so
 training and inference apply a choice the same way, and a caller that keeps the oriented recording

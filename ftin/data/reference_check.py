@@ -4,8 +4,9 @@ A reference (motion capture, Tango) tracks the body its markers or its device si
 not the phone (markers on the bag the phone rides in, a rig whose axes are not the phone's, a
 heading turned half a turn), the IMU rotated by it carries gravity into its horizontal channels or
 moves against the reference's own positions: a network trained or read on ``orientation=ground_truth``
-is shown a walk that contradicts its labels. Seven of the shared data's 113 training and validation
-walks are such (``docs/results/probes/reference_frames.md``).
+is shown a walk that contradicts its labels. Three of the shared data's 113 training and validation
+walks are such, seven before the OxIOD reader paired its Vicon rows by their rates
+(``docs/results/probes/reference_frames.md``).
 
 The check, no network: the IMU's specific force rotated into the world, averaged over 1 s, against
 the second derivative of the reference position averaged the same way; the horizontal difference's
