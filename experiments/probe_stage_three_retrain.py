@@ -116,7 +116,7 @@ def _cells(rows: list[dict]) -> tuple[float, float, list[float], float]:
 
 
 def table(results: dict[str, list[dict]], by: str) -> list[str]:
-    """Per ``by`` (``group`` or ``carry``) and checkpoint: walks, ATE, over standing still, ratios."""
+    """Per ``by`` (``group`` or ``mode``) and checkpoint: walks, ATE, over standing still, ratios."""
     lines = [
         f"| {by} | checkpoint | walks | mean ATE | ATE / still | ratio (min-max) | ratio mean | in 0.8-1.2 "
         "| end / 100 m |",

@@ -41,6 +41,7 @@ class ReferenceAgreement:
     reference_m_s2: float  # the IMU rotated by the reference, against it
     levelled_m_s2: float  # the IMU levelled by itself (reference heading turned by ``yaw_offset_deg``)
     yaw_offset_deg: float
+    unturned_m_s2: float  # the IMU levelled by itself under the reference's heading, not turned
 
     @property
     def disagrees(self) -> bool:
@@ -67,18 +68,24 @@ class ReferenceAgreement:
         )
 
 
-def horizontal_accelerations(seq: ImuSequence, q_world_wxyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(IMU, reference position) horizontal accelerations on the tracked samples, both averaged over
-    ``AVERAGE_S``, the IMU's rotated into the world by ``q_world_wxyz``."""
+def reference_accelerations(seq: ImuSequence) -> tuple[np.ndarray, np.ndarray, int]:
+    """The reference position's horizontal acceleration averaged over ``AVERAGE_S`` on the samples it
+    tracked (away from the ends), those samples' mask, and the averaging width in samples."""
     dt = float(np.median(np.diff(seq.t_s)))
     width = max(1, int(round(AVERAGE_S / dt)))
-    imu = uniform_filter1d(frames.rotation_from_wxyz(q_world_wxyz).apply(seq.acc_m_s2), width, axis=0)
     p = np.stack([np.interp(seq.t_s, seq.gt.t_s, seq.gt.p_world_m[:, k]) for k in range(3)], axis=1)
     truth = np.gradient(np.gradient(uniform_filter1d(p, width, axis=0), dt, axis=0), dt, axis=0)
     keep = np.zeros(len(seq.t_s), dtype=bool)
     keep[width:-width] = True
     keep &= np.interp(seq.t_s, seq.gt.t_s, seq.gt.tracked_mask.astype(float)) > 0.999
-    return imu[keep, :2], truth[keep, :2]
+    return truth[keep, :2], keep, width
+
+
+def imu_accelerations(seq: ImuSequence, q_world_wxyz: np.ndarray, keep: np.ndarray, width: int) -> np.ndarray:
+    """The IMU's specific force rotated into the world by ``q_world_wxyz``, averaged as the reference's
+    (``reference_accelerations``), horizontal, on ``keep``."""
+    imu = uniform_filter1d(frames.rotation_from_wxyz(q_world_wxyz).apply(seq.acc_m_s2), width, axis=0)
+    return imu[keep, :2]
 
 
 def rms(v: np.ndarray) -> float:
@@ -92,17 +99,24 @@ def best_yaw_rad(imu: np.ndarray, truth: np.ndarray) -> float:
     return float(np.arctan2(cross, dot))
 
 
-def check_reference(seq: ImuSequence, reference_wxyz: np.ndarray) -> ReferenceAgreement | None:
+def check_reference(
+    seq: ImuSequence, reference_wxyz: np.ndarray, tilt_from: np.ndarray | None = None
+) -> ReferenceAgreement | None:
     """The check of ``reference_wxyz`` (one orientation per IMU sample) against ``seq``'s IMU and
     reference positions; None where there is too little to say (no positions, under
-    ``MIN_SAMPLES_S`` tracked)."""
+    ``MIN_SAMPLES_S`` tracked). ``tilt_from``: the IMU's own orientation where the caller has run VQF
+    6-D already (its tilt alone is used)."""
     if seq.gt is None or len(seq.t_s) < 3:
         return None
-    imu_ref, truth = horizontal_accelerations(seq, reference_wxyz)
+    truth, keep, width = reference_accelerations(seq)
     if len(truth) * float(np.median(np.diff(seq.t_s))) < MIN_SAMPLES_S:
         return None
-    vqf = estimate_orientation(seq, use_magnetometer=False).q_world_device_wxyz  # its tilt alone is used
-    imu_lev, _ = horizontal_accelerations(seq, frames.with_heading_of(reference_wxyz, vqf))
+    if tilt_from is None:
+        tilt_from = estimate_orientation(seq, use_magnetometer=False).q_world_device_wxyz
+    imu_ref = imu_accelerations(seq, reference_wxyz, keep, width)
+    imu_lev = imu_accelerations(seq, frames.with_heading_of(reference_wxyz, tilt_from), keep, width)
     yaw = best_yaw_rad(imu_lev, truth)
     turned = frames.rotate_about_z(np.c_[imu_lev, np.zeros(len(imu_lev))], yaw)[:, :2]
-    return ReferenceAgreement(rms(truth), rms(imu_ref - truth), rms(turned - truth), float(np.degrees(yaw)))
+    return ReferenceAgreement(
+        rms(truth), rms(imu_ref - truth), rms(turned - truth), float(np.degrees(yaw)), rms(imu_lev - truth)
+    )
