@@ -349,3 +349,25 @@ def test_the_retrain_arms_differ_from_the_defaults_recipe_by_the_bounce_alone(sh
         assert kept == set(pooled.parts[part]) - set(REFERENCE_DISAGREES)
     assert len(agreeing.parts["train"]) == len(pooled.parts["train"]) - len(REFERENCE_DISAGREES)
     assert "stage-three-retrain" in protocol.CAMPAIGNS
+
+
+def test_a_combined_jobs_own_parts_are_scored_per_member_dataset_on_its_walks_alone():
+    """A walking job with explicit parts: each member dataset's evaluation reads its own walks, not the
+    whole part under every member's name (the gate weighs the datasets alike), with the reference."""
+    parts = {
+        "train": ("ridi/a",),
+        "val": ("oxiod/handheld/data1/syn/imu3.csv", "ridi/b", "inria_attitude/datasets/ios/W_iPhone5_AR"),
+        "test": ("oxiod/large scale/floor1/syn/imu1.csv.xz",),
+    }
+    job = protocol.Job("j", "ronin_resnet", protocol.WALKING, 0, None, {}, None, parts)
+    root = Path("/data")
+    val = {d: job.paths(root, "val", d) for d in (protocol.OXIOD, protocol.RIDI, protocol.INRIA)}
+    assert val == {
+        protocol.OXIOD: [root / parts["val"][0]],
+        protocol.RIDI: [root / "ridi/b"],
+        protocol.INRIA: [root / parts["val"][2]],
+    }
+    assert job.paths(root, "val") == [root / rel for rel in parts["val"]]  # training reads them all
+    assert job.paths(root, "test", protocol.RIDI) == []
+    # scored on the reference orientation, as the gate reads it (Inria's reader defaults to the phone's)
+    assert {orientations for _, _, orientations in job.evaluation_sets()} == {("ground_truth",)}

@@ -170,7 +170,8 @@ def evaluate_jobs(finished: Sequence[tuple[protocol.Job, Path, Path]]) -> list[d
     than running a model."""
     groups: dict[str, tuple[list[tuple[str, str, list[Path], Any]], list[int]]] = {}
     for index, (job, root, _) in enumerate(finished):
-        parts = [(d, part, job.paths(root, part, d), o) for d, part, o in job.evaluation_sets()]
+        every = [(d, part, job.paths(root, part, d), o) for d, part, o in job.evaluation_sets()]
+        parts = [entry for entry in every if entry[2]]  # a member with no walks in a part: no rows
         key = json.dumps([(d, part, [str(p) for p in paths], o) for d, part, paths, o in parts])
         groups.setdefault(key, (parts, []))[1].append(index)
     evaluations: list[dict[str, Any]] = [{} for _ in finished]
@@ -221,9 +222,8 @@ def part_datasets(job: protocol.Job, root: Path, part: str, orientation: str | N
     keys them (``<dataset>/<part>/<orientation>``): what a probe rescores (validation, phone only)."""
     datasets = []
     for dataset, each_part, _ in job.evaluation_sets():
-        if each_part == part:
+        if each_part == part and (paths := job.paths(root, part, dataset)):
             key = f"{dataset}/{part}/{orientation or 'ground_truth'}"
-            paths = job.paths(root, part, dataset)
             datasets.append(
                 LoadedDataset(DatasetSpec(key, tuple(paths)), evaluation_sequences(paths, key, orientation))
             )

@@ -27,6 +27,7 @@ from typing import Any
 from ftin.models import list_models, model_train_options
 from ftin.protocol.datasets import (
     COMBINED,
+    DATA_FOLDERS,
     EVAL_ORIENTATIONS,
     FOLDS,
     OXIOD,
@@ -89,9 +90,12 @@ class Job:
 
     def paths(self, data_root: Path, part: str, dataset: str | None = None) -> list[Path]:
         """A part's recordings: the job's own ``parts``, else the protocol's (one member of a
-        combined dataset with ``dataset``)."""
+        combined dataset with ``dataset``: of its own parts, those under that member's folder)."""
         if self.parts:
-            return [Path(data_root) / rel for rel in self.parts.get(part, ())]
+            rels = self.parts.get(part, ())
+            if dataset is not None and dataset != self.dataset and dataset in DATA_FOLDERS:
+                rels = tuple(r for r in rels if r.startswith(DATA_FOLDERS[dataset] + "/"))
+            return [Path(data_root) / rel for rel in rels]
         return split_paths(data_root, dataset or self.dataset, part, self.fold)
 
     def config(self, data_root: Path) -> dict[str, Any]:
@@ -108,13 +112,15 @@ class Job:
 
     def evaluation_sets(self) -> list[tuple[str, str, tuple[str | None, ...]]]:
         """``(dataset, part, orientation sources)`` the finished job is scored on: validation and test
-        of its dataset (each member of a combined one); reader default for data outside the protocol."""
+        of its dataset (each member of a combined one); a job with its own parts on a protocol dataset
+        the reference alone (the gate's), data outside the protocol the reader's default."""
         members = COMBINED.get(self.dataset, (self.dataset,))
-        return [
-            (d, part, EVAL_ORIENTATIONS.get(d, (None,)) if not self.parts else (None,))
-            for d in members
-            for part in ("val", "test")
-        ]
+        return [(d, part, self._orientations(d)) for d in members for part in ("val", "test")]
+
+    def _orientations(self, dataset: str) -> tuple[str | None, ...]:
+        if dataset not in EVAL_ORIENTATIONS:
+            return (None,)
+        return ("ground_truth",) if self.parts else EVAL_ORIENTATIONS[dataset]
 
     @property
     def checkpoint_stem(self) -> str:
