@@ -72,7 +72,8 @@ def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
     paths = protocol.split_paths(data_root, dataset, "test")
     out = []
     for label, orientation, how in ROWS:
-        cache = CACHE / f"{loaded.name}-{dataset}-{orientation}-{how}.json"
+        weights = str(loaded.meta.get("weights_sha256", "unknown"))[:12]  # a retrained checkpoint: new rows
+        cache = CACHE / f"{loaded.name}-{weights}-{dataset}-{orientation}-{how}.json"
         if cache.exists():
             report = json.loads(cache.read_text())
         elif how == "none":

@@ -419,7 +419,10 @@ def main() -> None:
         help="the checkpoint to fit (default: the default model); it rereads the default's walks",
     )  # fmt: skip
     args = parse(parser)
-    walks = cached_walks(load_model(CHECKPOINT), args.data_root, args.cache)
+    default = load_model(CHECKPOINT)
+    # One cache folder per default's weights: a retrained default reads every walk again.
+    cache = args.cache / str(default.meta.get("weights_sha256", "unknown"))[:12]
+    walks = cached_walks(default, args.data_root, cache)
     model = load_model(args.checkpoint)
     # Another checkpoint, or a head the cached walks were read without: reread them (same input).
     if args.checkpoint != CHECKPOINT or (

@@ -4,6 +4,7 @@ whole chain on a real prediction of the shipped default."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -21,7 +22,9 @@ from ftin.uncertainty import path_uncertainty, uncertainty_of
 from ftin.uncertainty.calibration import FALLBACK, Calibration, calibration_for, save_calibration
 from tests.utils.paths import CHECKPOINTS, REPO_ROOT
 
-PROBE_CACHE = REPO_ROOT / "runs" / "uncertainty_walks"  # written by experiments/probe_uncertainty.py
+# Written by experiments/probe_uncertainty.py, one folder per default's weights.
+_DEFAULT_SHA = json.loads((CHECKPOINTS / f"{FALLBACK}.json").read_text())["weights_sha256"]
+PROBE_CACHE = REPO_ROOT / "runs" / "uncertainty_walks" / _DEFAULT_SHA[:12]
 
 
 def test_the_default_model_has_its_own_constants() -> None:
