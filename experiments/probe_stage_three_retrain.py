@@ -2,7 +2,7 @@
 the pooled walkers (the new OxIOD walkers and phones joined), read walkers it never saw better, and
 does scaling the bounce in training (``vertical`` 0.6) lengthen the damped carries?
 
-Checkpoints: the shipped default (``checkpoints/ronin_resnet-walking``, stage two's walkers) and the
+Checkpoints: stage two's default (``checkpoints/ronin_resnet-walking`` until the retrain replaced it) and the
 jobs of ``ftin campaign plan --jobs stage-three-retrain`` (``ftin.protocol.stage_three``: ``pooled``,
 ``pooled-vertical``, ``pooled-agreeing``), read from each ``--campaign`` folder when finished
 (``runs/stage-three-synced`` by default; ``runs/stage-three-retrain`` froze the OxIOD reader before it
@@ -50,7 +50,9 @@ from ftin.protocol.stage_three import FLOOR_DRIFT, NEW_VAL
 
 CACHE = Path("runs/probes/stage_three_retrain")
 CAMPAIGN = Path("runs/stage-three-synced")
-DEFAULT = ("default (shipped)", Path("checkpoints/ronin_resnet-walking.safetensors"))
+# The default the rule judged against: stage two's, shipped until this retrain replaced it (2026-11-28);
+# its weights: ``git show 907c1da:checkpoints/ronin_resnet-walking.safetensors > <that path>``.
+DEFAULT = ("stage two's default (replaced)", CACHE / "stage-two-default.safetensors")
 GROUPS = ("OxIOD", "RIDI", "Inria", "new walkers")  # the rule's validation groups
 WORSE_AT_MOST = 0.05
 
