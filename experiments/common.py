@@ -78,3 +78,9 @@ def write_report(out: Path | None, lines: list[str], echo: bool = True) -> None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text, encoding="utf-8")
         print(f"wrote {out}")
+
+
+def weights_key(loaded) -> str:
+    """A checkpoint's weights in a cache key (the card's sha256, 12 digits): a probe's cache keyed by
+    the checkpoint's name alone would serve a retrained checkpoint its predecessor's rows."""
+    return str(loaded.meta.get("weights_sha256", "unknown"))[:12]

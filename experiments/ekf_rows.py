@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.common import argument_parser, parse, write_report
+from experiments.common import argument_parser, parse, weights_key, write_report
 from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_sequences
@@ -71,8 +71,8 @@ def rows_for(checkpoint: Path, data_root: Path, dataset: str) -> list[dict]:
     loaded = load_model(checkpoint)
     paths = protocol.split_paths(data_root, dataset, "test")
     out = []
+    weights = weights_key(loaded)
     for label, orientation, how in ROWS:
-        weights = str(loaded.meta.get("weights_sha256", "unknown"))[:12]  # a retrained checkpoint: new rows
         cache = CACHE / f"{loaded.name}-{weights}-{dataset}-{orientation}-{how}.json"
         if cache.exists():
             report = json.loads(cache.read_text())

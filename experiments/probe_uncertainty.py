@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
-from experiments.common import argument_parser, parse, write_report
+from experiments.common import argument_parser, parse, weights_key, write_report
 from experiments.uncertainty_walks import FIT_SETS, NEW_SET, cached_walks, reread
 from ftin import protocol
 from ftin.checkpoint import load_model
@@ -420,9 +420,7 @@ def main() -> None:
     )  # fmt: skip
     args = parse(parser)
     default = load_model(CHECKPOINT)
-    # One cache folder per default's weights: a retrained default reads every walk again.
-    cache = args.cache / str(default.meta.get("weights_sha256", "unknown"))[:12]
-    walks = cached_walks(default, args.data_root, cache)
+    walks = cached_walks(default, args.data_root, args.cache / weights_key(default))
     model = load_model(args.checkpoint)
     # Another checkpoint, or a head the cached walks were read without: reread them (same input).
     if args.checkpoint != CHECKPOINT or (
