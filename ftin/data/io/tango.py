@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
-from scipy.signal import correlate
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io.oxiod_csv import read_numeric_csv
+from ftin.data.io.row_lag import correlation_by_lag, overlap
 
 TANGO_COLUMNS = 9
 MAX_LAG_ROWS = 3000
@@ -72,14 +72,10 @@ class TangoPairing:
     imu_stop: int
 
 
-def _overlap(n_imu: int, n_tango: int, lag: int) -> tuple[int, int]:
-    return max(0, -lag), min(n_imu, n_tango - lag)
-
-
 def heading_rms_deg(imu_rate: np.ndarray, tango_rate: np.ndarray, lag: int, rate_hz: float) -> float:
     """RMS (deg) between the two integrated headings when Tango row ``i + lag`` is IMU row ``i``,
     after removing a constant and a slope (the gyro's bias about the vertical)."""
-    start, stop = _overlap(len(imu_rate), len(tango_rate), lag)
+    start, stop = overlap(len(imu_rate), len(tango_rate), lag)
     difference = np.cumsum(imu_rate[start:stop] - tango_rate[start + lag : stop + lag]) / rate_hz
     rows = np.arange(len(difference), dtype=np.float64)
     residual = difference - np.polyval(np.polyfit(rows, difference, 1), rows)
@@ -90,10 +86,8 @@ def _coarse_lag(imu_rate: np.ndarray, tango_rate: np.ndarray, rate_hz: float, ma
     width = max(1, int(round(0.5 * rate_hz)))
     a = uniform_filter1d(imu_rate, width) - imu_rate.mean()
     b = uniform_filter1d(tango_rate, width) - tango_rate.mean()
-    score = correlate(b, a, mode="full", method="fft")  # score[k]: lag k - (len(a) - 1)
-    lags = np.arange(-(len(a) - 1), len(b))
-    allowed = np.abs(lags) <= max_lag_rows
-    return int(lags[allowed][np.argmax(score[allowed])])
+    lags, score = correlation_by_lag(a, b, max_lag_rows)
+    return int(lags[np.argmax(score)])
 
 
 def pair_with_imu(
@@ -128,5 +122,5 @@ def pair_with_imu(
             f"the gyroscope and the Tango's (a match leaves under {max_heading_rms_deg:g} deg); the files "
             "may not belong together"
         )
-    start, stop = _overlap(len(imu_rate), len(tango_rate), lag)
+    start, stop = overlap(len(imu_rate), len(tango_rate), lag)
     return TangoPairing(lag, errors[lag], start, stop)

@@ -20,9 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
 from ftin.data import frames
+from ftin.data.io.row_lag import correlation_by_lag
 
 MAX_LAG_ROWS = 100  # 1 s at 100 Hz
 CLEAR_SHARE = 0.8  # the correlation at no shift below this share of the peak: shift
@@ -56,10 +56,8 @@ def vicon_lag(
     n = min(len(imu), len(vicon))
     max_lag_rows = min(max_lag_rows, n // 4)
     a, b = imu[:n] - imu[:n].mean(), vicon[:n] - vicon[:n].mean()
-    full = correlate(b, a, mode="full")  # index n - 1 + lag: sum_i b[i + lag] a[i]
-    lags = np.arange(-max_lag_rows, max_lag_rows + 1)
-    values = full[n - 1 + lags]
+    lags, values = correlation_by_lag(a, b, max_lag_rows)
     best = int(lags[int(np.argmax(values))])
     peak = float(values.max())
-    share = float(values[max_lag_rows] / peak) if peak > 0 else 1.0
+    share = float(values[lags == 0][0] / peak) if peak > 0 else 1.0
     return ViconLag(best if share < CLEAR_SHARE else 0, best, share)

@@ -69,6 +69,7 @@ from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io import tango
 from ftin.data.io.oxiod_csv import STANDARD_GRAVITY_M_S2, PhoneRows, read_numeric_csv, read_phone
+from ftin.data.io.row_lag import overlap
 from ftin.data.io.vicon_sync import vicon_lag
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
@@ -398,7 +399,7 @@ def _paired_rows(imu_path: Path, truth_path: Path, rate_hz: float, warnings: lis
         pose = vicon[:, 2:9]
         sync = vicon_lag(phone.gyro_rad_s[:n], pose[:n, [6, 3, 4, 5]], rate_hz)
         lag = sync.lag_rows
-        start, stop = max(0, -lag), min(n, len(vicon) - lag)
+        start, stop = overlap(n, len(vicon), lag)
         if lag:
             warnings.append(f"{truth_path.name} {sync.text}; IMU rows without a pose cut: {start + n - stop}")
         pose = pose[start + lag : stop + lag]
