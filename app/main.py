@@ -22,7 +22,7 @@ from starlette.concurrency import run_in_threadpool
 
 import ftin
 from app.api.errors import BodySizeLimitMiddleware, install_error_handlers
-from app.api.routes import exports, health, live, metrics, models, pages, predict, runs, sequences
+from app.api.routes import exports, health, live, metrics, models, pages, predict, profiles, runs, sequences
 from app.api.routes.pages import STATIC_DIR
 from app.services import Services
 from app.services.errors import StartupError
@@ -77,11 +77,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings or Settings()
     if app.state.settings.cors_origins:
         app.add_middleware(
-            CORSMiddleware, allow_origins=app.state.settings.cors_origins, allow_methods=["GET", "POST"]
+            CORSMiddleware,
+            allow_origins=app.state.settings.cors_origins,
+            allow_methods=["GET", "POST", "DELETE"],
         )
     app.add_middleware(BodySizeLimitMiddleware, max_body_bytes=app.state.settings.max_upload_bytes)
     install_error_handlers(app)
-    for module in (health, models, metrics, sequences, predict, runs, exports, live, pages):
+    for module in (health, models, metrics, sequences, predict, runs, exports, live, profiles, pages):
         app.include_router(module.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     return app

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from app.schemas_profiles import AppliedProfilePayload
 from app.schemas_uncertainty import UncertainTrajectoryPayload, UncertaintyPayload
 from app.schemas_verdict import VerdictPayload
 from app.services.catalog import SequenceEntry, SequenceSummary
@@ -352,6 +353,11 @@ class PredictionResponse(BaseModel):
         "absent for none.",
         exclude_if=lambda value: value == "none",
     )
+    profile: AppliedProfilePayload | None = Field(
+        None,
+        description="The walker profile that scaled the prediction (POST /predict?profile=); absent: none.",
+        exclude_if=lambda value: value is None,
+    )
 
     @classmethod
     def from_run(cls, run: Run, scene_url: str | None) -> PredictionResponse:
@@ -388,6 +394,7 @@ class PredictionResponse(BaseModel):
             verdict=VerdictPayload.from_run(run),
             uncertainty=UncertaintyPayload.from_run(run),
             filter=filter_of(pred),
+            profile=AppliedProfilePayload.from_run(run),
         )
 
 

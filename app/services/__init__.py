@@ -8,9 +8,11 @@ from app.services.catalog import SequenceCatalog
 from app.services.checkpoint_store import ModelStore
 from app.services.live import LiveService
 from app.services.prediction import PredictionService
+from app.services.profiles import ProfileService
 from app.services.run_archive import RunArchive
 from app.services.runs import RunStore
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
+from ftin.profiles.store import ProfileStore
 
 
 @dataclass
@@ -21,6 +23,7 @@ class Services:
     runs: RunStore
     predictor: PredictionService
     live: LiveService
+    profiles: ProfileService
     scene_url: str | None = None  # set once the viser server runs
 
     @classmethod
@@ -33,7 +36,9 @@ class Services:
         archive = RunArchive.open(settings.runs_dir, settings.runs_disk_budget_bytes)
         runs = RunStore(settings.max_runs, settings.max_kept_samples, archive)
         predictor = PredictionService(models, catalog, runs, settings)
-        return cls(settings, models, catalog, runs, predictor, LiveService(settings, models, runs))
+        live = LiveService(settings, models, runs)
+        profiles = ProfileService(ProfileStore(archive.index_path), runs)  # a table in the runs index
+        return cls(settings, models, catalog, runs, predictor, live, profiles)
 
     @property
     def notes(self) -> list[str]:

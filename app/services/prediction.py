@@ -35,6 +35,9 @@ Decisions:
   (its trajectory, and its own covariance as the run's uncertainty); none or absent runs inference
   exactly as before. The run's prediction carries the EKF's tilt and bias series (the scene's timeline
   plots them).
+- Profile (``ftin.profiles``): a request may name a walker profile; its scale multiplies the
+  prediction's velocities and stretches its path before scoring, and the run keeps it (its spread sets
+  the uncertainty's speed-scale term).
 """
 
 from __future__ import annotations
@@ -67,6 +70,7 @@ from ftin.filter.choice import EKF, ekf_prediction, parse_filter
 from ftin.metrics import Alignment
 from ftin.metrics.steps import detect_steps
 from ftin.precision import PrecisionChoice, choose
+from ftin.profiles import AppliedProfile, apply_scale
 
 log = logging.getLogger(__name__)
 
@@ -131,6 +135,7 @@ class RunOptions:
     orientation: str | None = None  # ``ftin.data.orientation_option``; None: auto
     group: str | None = None  # the run_id a compare-all started from (app.services.runs.Run.group)
     filter: str | None = None  # ``ftin.filter.choice``: none (None) or ekf, the network inside the EKF
+    profile: AppliedProfile | None = None  # a walker profile's scale on the prediction (``ftin.profiles``)
 
 
 class HandedBytes:
@@ -268,6 +273,7 @@ class PredictionService:
             model_choice=choice,
             group=options.group,
             filter=options.filter,
+            profile=options.profile,
         )
 
     def run(
@@ -284,13 +290,15 @@ class PredictionService:
         model_choice: ModelChoice | None = None,
         group: str | None = None,
         filter: str | None = None,
+        profile: AppliedProfile | None = None,
     ) -> Run:
         """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
 
         ``orientation`` (``ftin.data.orientation_option``; ``auto`` when None) is applied first; the run
         keeps the oriented sequence. ``model_choice`` says why ``entry`` runs (``app.services.model_choice``).
         ``filter`` (``ftin.filter.choice``): ``ekf`` puts the model inside the EKF (its trajectory, its
-        covariance as the uncertainty); none or None runs inference as always.
+        covariance as the uncertainty); none or None runs inference as always. ``profile`` scales the
+        prediction by a walker's own distance scale before it is scored (``ftin.profiles.apply_scale``).
 
         With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
         where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
@@ -347,6 +355,8 @@ class PredictionService:
         except Exception as exc:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
+        if profile is not None:  # the walker's own scale, before scoring: what is scored is what is shown
+            prediction = apply_scale(prediction, profile.found.scale)
         scored = score(prediction, align)  # beside the prediction and the sequence, both left as they are
         # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
         # the scene recomputes the spectra of the window it shows from it (a streaming model's too).
@@ -366,6 +376,7 @@ class PredictionService:
             align=align,
             group=group,
             steps=steps,
+            profile=profile,
         )
         self.runs.finish(run)
         return run

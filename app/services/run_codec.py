@@ -36,6 +36,7 @@ from ftin.data.location import GpsTrack
 from ftin.evaluate import score
 from ftin.files import to_json_safe
 from ftin.infer import Prediction
+from ftin.profiles import AppliedProfile
 
 log = logging.getLogger(__name__)
 
@@ -222,6 +223,7 @@ def encode_run(run: Any, record: dict[str, Any]) -> NpzContent:
         "align": run.align,
         "scored": run.score is not None,
         "model_choice": None if run.model_choice is None else run.model_choice.to_json(),
+        "profile": None if run.profile is None else run.profile.to_json(),
         "prediction": {
             "trajectory": _trajectory(w, "pred.trajectory", pred.trajectory),
             "truth": _trajectory(w, "pred.truth", pred.truth),
@@ -279,6 +281,7 @@ def decode_run(data: bytes | Any, sequence: ImuSequence, run_type: type) -> Any:
             model_choice=None if choice is None else _model_choice(choice),
             align=meta["align"],
             group=r["group_id"],
+            profile=None if meta.get("profile") is None else AppliedProfile.from_json(meta["profile"]),
         )
     except Exception as exc:
         raise UnreadableRunError(f"run: {type(exc).__name__}: {exc}") from None

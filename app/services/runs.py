@@ -72,6 +72,7 @@ class Run:
     # The recording's steps (ftin.metrics.steps), detected beside the model (a Future) or None: then
     # detected when the plausibility figures are first asked for. They depend on the sequence alone.
     steps: Any = field(default=None, compare=False, repr=False)
+    profile: Any = None  # ftin.profiles.AppliedProfile: the walker profile that scaled the prediction
 
     @property
     def n_samples(self) -> int:
@@ -94,7 +95,8 @@ class Run:
 
     @cached_property
     def uncertainty(self) -> Any:  # ftin.uncertainty.PathUncertainty | None: how sure the path is
-        return path_uncertainty(self.prediction, self.model_name, self.sequence.meta.get("carry"))
+        spread = None if self.profile is None else self.profile.found.scale_sigma  # the walker's own
+        return path_uncertainty(self.prediction, self.model_name, self.sequence.meta.get("carry"), spread)
 
     @cached_property
     def verdict(self) -> Any:  # app.services.verdict.Verdict: warnings, notes, path figures

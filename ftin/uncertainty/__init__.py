@@ -10,7 +10,7 @@ times a fitted scale). ``docs/metrics.md`` ("How sure is it") explains the terms
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -35,10 +35,16 @@ class PathUncertainty:
         return {"end_radius_95_m": round(self.end_radius_95_m, 2), "calibration": self.calibration}
 
 
-def uncertainty_of(prediction: Any, checkpoint: str, carry: str | None = None) -> PathUncertainty:
+def uncertainty_of(
+    prediction: Any, checkpoint: str, carry: str | None = None, scale_sigma: float | None = None
+) -> PathUncertainty:
     """The uncertainty of ``prediction`` (``ftin.infer.Prediction``) from ``checkpoint``'s constants
-    (``calibration_for``); ``carry`` picks the distance ratio's spread where it was measured."""
+    (``calibration_for``); ``carry`` picks the distance ratio's spread where it was measured;
+    ``scale_sigma`` (a walker profile's, ``ftin.profiles.ProfileScale.scale_sigma``) replaces that
+    spread: a prediction scaled by the walker's own walks is off by their spread, not the population's."""
     calibration = calibration_for(checkpoint)
+    if scale_sigma is not None:
+        calibration = replace(calibration, scale_sigma=float(scale_sigma), scale_sigma_by_carry={})
     trajectory = prediction.trajectory
     t = trajectory.t_s
     spans = prediction.span_t_s
@@ -60,17 +66,22 @@ def uncertainty_of(prediction: Any, checkpoint: str, carry: str | None = None) -
         window_s=prediction.window_s or 1.0,
     )
     end_cov = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
-    return PathUncertainty(cov, radius_holding(end_cov, 0.95), calibration.describe(checkpoint))
+    described = calibration.describe(checkpoint)
+    if scale_sigma is not None:
+        described += "; speed scale spread from the walker's profile"
+    return PathUncertainty(cov, radius_holding(end_cov, 0.95), described)
 
 
-def path_uncertainty(prediction: Any, checkpoint: str, carry: str | None = None) -> PathUncertainty | None:
+def path_uncertainty(
+    prediction: Any, checkpoint: str, carry: str | None = None, scale_sigma: float | None = None
+) -> PathUncertainty | None:
     """``uncertainty_of``, or None where it cannot be had: no spans (a prediction restored without
     them), fewer than two samples, or no calibration to read."""
     spans = getattr(prediction, "span_t_s", None)
     if spans is None or len(spans) == 0 or len(prediction.trajectory.t_s) < 2:
         return None
     try:
-        return uncertainty_of(prediction, checkpoint, carry)
+        return uncertainty_of(prediction, checkpoint, carry, scale_sigma)
     except KeyError:  # calibration.json holds neither this checkpoint nor the default
         return None
 

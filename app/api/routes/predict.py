@@ -99,6 +99,16 @@ _OPENAPI_BODY = {
 }
 
 
+ProfileQuery = Annotated[
+    str | None,
+    Query(
+        description="A walker profile (GET /profiles): its scale multiplies the predicted velocities and "
+        "path, and its spread sets the uncertainty's speed-scale term; the answer's profile says which.",
+        max_length=64,
+    ),
+]
+
+
 def _predict_options(
     services: ServicesDep,
     model: ModelQuery = None,
@@ -107,6 +117,7 @@ def _predict_options(
     orientation: OrientationQuery = Orientation.AUTO,
     group: GroupQuery = None,
     filter: FilterQuery = None,
+    profile: ProfileQuery = None,
 ) -> RunOptions:
     """The query options every prediction route takes, and the deadline that starts with the request."""
     how = None if align is None else align.value
@@ -118,6 +129,8 @@ def _predict_options(
         orientation=orientation.value,
         group=group,
         filter=filter,
+        # an unknown profile is a 404 naming it, before any recording is read
+        profile=None if profile is None else services.profiles.applied(profile),
     )
 
 

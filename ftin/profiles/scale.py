@@ -1,0 +1,113 @@
+"""A walker's own distance scale, learnt from walks of known length (like a sports watch that learns
+its wearer's stride from GPS), and applied to a prediction: the one place the CLI, the app and the
+probes share (``docs/metrics.md``, "A walker's own scale").
+
+Decisions:
+- A walk of known length gives one sample: ``scale = true distance / predicted path``. The model's
+  distance error is one factor over the whole walk (issue 54: the thirds of a walk differ by 0.04),
+  so one factor on every velocity is the whole correction.
+- Samples combine in log space (a walk read 0.5x and one read 2x average to 1x, not 1.25x): the scale
+  is ``exp(median(log s))``, robust to one odd walk once there are three.
+- The spread is the standard deviation of ``log s`` between the walker's walks, pooled with a prior of
+  ``PRIOR_WALKS`` walks at ``ONE_WALK_LOG_SPREAD`` (what a single walk states: the spread between
+  walks of one walker and carry measured by ``experiments/probe_profile_scale.py``). A new walk's
+  scale error after the profile is that spread widened by the mean's own error:
+  ``spread * sqrt(1 + 1 / walks)`` (``ProfileScale.scale_sigma``), what the uncertainty's speed-scale
+  term uses in place of the model's population spread (``ftin.uncertainty``).
+- Applying the scale multiplies the horizontal velocities and stretches the horizontal path about its
+  start (``p0 + s (p - p0)``): exactly what integrating the scaled velocities gives. Height is left.
+- A sample outside ``SAMPLE_RANGE`` is refused: a wrong distance or the wrong run, not a stride.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ftin.data.types import Trajectory
+
+# The spread of log(true / predicted path) between walks of one walker and carry: 0.083 pooled over
+# 14 OxIOD and RIDI groups (docs/results/probes/profile_scale.md), rounded up.
+ONE_WALK_LOG_SPREAD = 0.09
+PRIOR_WALKS = 1.0  # how many walks the prior spread weighs
+SAMPLE_RANGE = (0.25, 4.0)  # a scale sample outside it is a wrong distance or run
+
+
+@dataclass(frozen=True)
+class ProfileScale:
+    """What a profile's walks say: the factor on the model's distance and how sure it is."""
+
+    scale: float  # multiplies every horizontal velocity
+    log_spread: float  # std of log(scale) between the walker's walks (prior-weighted)
+    walks: int
+
+    @property
+    def scale_sigma(self) -> float:
+        """The relative spread of a new walk's distance after the scale (module docstring)."""
+        return self.log_spread * math.sqrt(1.0 + 1.0 / max(self.walks, 1))
+
+
+def scale_sample(distance_m: float, predicted_m: float) -> float:
+    """One walk's sample, ``distance_m / predicted_m``; ``ValueError`` naming what is wrong."""
+    if not (math.isfinite(distance_m) and distance_m > 0):
+        raise ValueError(f"distance_m must be a positive number of metres, got {distance_m}")
+    if not (math.isfinite(predicted_m) and predicted_m > 0):
+        raise ValueError("the run's predicted path has no length: it cannot scale a profile")
+    sample = distance_m / predicted_m
+    if not SAMPLE_RANGE[0] <= sample <= SAMPLE_RANGE[1]:
+        raise ValueError(
+            f"{distance_m:g} m for a predicted path of {predicted_m:.1f} m is a scale of {sample:.2f}, "
+            f"outside {SAMPLE_RANGE[0]:g}-{SAMPLE_RANGE[1]:g}: check the distance and the run"
+        )
+    return sample
+
+
+def profile_scale(samples: Sequence[float]) -> ProfileScale:
+    """The scale and spread of ``samples`` (one per walk, each ``scale_sample``; module docstring)."""
+    logs = np.log(np.asarray(samples, dtype=np.float64))
+    if len(logs) == 0:
+        raise ValueError("a profile needs at least one walk")
+    squares = float(np.sum((logs - logs.mean()) ** 2))
+    spread = math.sqrt((PRIOR_WALKS * ONE_WALK_LOG_SPREAD**2 + squares) / (PRIOR_WALKS + len(logs) - 1))
+    return ProfileScale(float(np.exp(np.median(logs))), spread, len(logs))
+
+
+def scaled_trajectory(trajectory: Trajectory, scale: float) -> Trajectory:
+    """``trajectory`` stretched horizontally about its start by ``scale``."""
+    p = np.array(trajectory.p_world_m, dtype=np.float64)
+    if len(p):
+        p[:, :2] = p[0, :2] + scale * (p[:, :2] - p[0, :2])
+    return replace(trajectory, p_world_m=p)
+
+
+def apply_scale(prediction: Any, scale: float) -> Any:
+    """``prediction`` (``ftin.infer.Prediction``) with horizontal velocities times ``scale`` and its
+    trajectory stretched to match; the truth and everything else as they were."""
+    v = np.array(prediction.velocity_m_s, dtype=np.float64)
+    v[:, :2] *= scale
+    return replace(prediction, velocity_m_s=v, trajectory=scaled_trajectory(prediction.trajectory, scale))
+
+
+@dataclass(frozen=True)
+class AppliedProfile:
+    """The profile a prediction was scaled by: its name and what its walks said then."""
+
+    name: str
+    found: ProfileScale
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "scale": round(self.found.scale, 4),
+            "log_spread": round(self.found.log_spread, 4),
+            "walks": self.found.walks,
+        }
+
+    @classmethod
+    def from_json(cls, saved: dict[str, Any]) -> AppliedProfile:
+        found = ProfileScale(float(saved["scale"]), float(saved["log_spread"]), int(saved["walks"]))
+        return cls(str(saved["name"]), found)
