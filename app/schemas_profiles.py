@@ -31,6 +31,9 @@ class ProfileWalkPayload(BaseModel):
     scale: float = Field(description="distance_m / predicted_m: this walk's sample of the scale.")
     source: str = Field(description="distance (given) or gps.")
     added_s: float = Field(description="When the walk was added, Unix seconds.")
+    model: str = Field(
+        "", description="The model that read the walk: a scale belongs to the model that read it."
+    )
 
 
 class ProfileResponse(BaseModel):

@@ -14,9 +14,12 @@ with ``distance_m`` records); every other walk of its group is scored before (it
 (profile walk, other walk) pairs. Walks the default model trained on are marked, and the held-out
 pairs (the scored walk held out of training) are counted apart.
 
-Also measured: the spread of the log-scale between walks of one group (pooled over groups), the
-prior spread a one-walk profile states (``ftin.profiles.scale.ONE_WALK_LOG_SPREAD``), and how a
-profile of every other walk of the group (leave-one-out, the median of the log-scales) does.
+Also measured: the spread of the log-scale between walks of one group (pooled over groups), beside
+the prior spread a one-walk profile states (``ftin.profiles.scale.ONE_WALK_LOG_SPREAD``); how a profile
+of every other walk of the group does (leave-one-out, the median of the log-scales); and whether the
+95 % end radius still holds the true end when the speed-scale term takes the profile's spread instead
+of the population's, at each floor of ``FLOORS``: the smallest floor that holds ``COVERAGE_AIM`` of the
+pairs is ``ftin.profiles.scale.SCALE_SIGMA_FLOOR`` (fitted here: no walk is held out from it).
 
 Predictions are cached per walk (``--cache``, keyed by the checkpoint's weights): a rerun takes
 seconds.
@@ -27,20 +30,33 @@ seconds.
 from __future__ import annotations
 
 import json
+import re
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import spearmanr
 
 from experiments.common import argument_parser, parse, weights_key, write_report
 from ftin.checkpoint import load_model
 from ftin.data.loading import load_phone_only
+from ftin.data.types import Trajectory
 from ftin.evaluate import score
 from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT, write_json
-from ftin.infer import predict_trajectory
-from ftin.profiles.scale import ONE_WALK_LOG_SPREAD, profile_scale
+from ftin.infer import Prediction, predict_trajectory
+from ftin.profiles.scale import (
+    ONE_WALK_LOG_SPREAD,
+    SCALE_SIGMA_FLOOR,
+    ProfileScale,
+    apply_scale,
+    profile_scale,
+)
+from ftin.uncertainty import uncertainty_of
+from ftin.uncertainty.coverage import coverage_of
 
 BAND = (0.85, 1.15)
+FLOORS = (0.0, 0.1, 0.2, 0.25, 0.28, 0.3, 0.32, 0.35)  # speed-scale floors whose end coverage is measured
+COVERAGE_AIM = 0.85  # the floor chosen: the smallest whose one-walk profiles hold the end this often
 OX = "oxiod"
 U3, U4, IP6, FLOOR = (
     "multi users/user3/syn",
@@ -95,10 +111,12 @@ def walk_lengths(checkpoint: Path, data_root: Path, cache: Path) -> dict[str, di
     for dataset, _label, walks in GROUPS:
         for rel in walks:
             key = f"{dataset}/{rel}"
-            if key in rows:
+            if key in rows and prediction_file(cache / weights_key(model), key).exists():
                 continue
             (seq,) = load_phone_only([data_root / dataset / rel])
-            metrics = score(predict_trajectory(model, seq, keep_prepared=False)).metrics
+            prediction = predict_trajectory(model, seq, keep_prepared=False)
+            metrics = score(prediction).metrics
+            save_prediction(prediction_file(cache / weights_key(model), key), prediction)
             rows[key] = {
                 "predicted_m": metrics.predicted_path_m,
                 "true_m": metrics.true_path_m,
@@ -109,6 +127,45 @@ def walk_lengths(checkpoint: Path, data_root: Path, cache: Path) -> dict[str, di
             print(f"{key}: {metrics.predicted_path_m:.1f} m of {metrics.true_path_m:.1f} m")
             write_json(file, rows)  # after every walk: an interrupted run keeps what it read
     return rows
+
+
+def prediction_file(folder: Path, key: str) -> Path:
+    return folder / f"{re.sub(r'[^A-Za-z0-9_.-]+', '_', key)}.npz"
+
+
+def save_prediction(file: Path, prediction: Prediction) -> None:
+    """What the uncertainty of a scaled prediction needs (``load_prediction`` makes it again)."""
+    log_std = (prediction.features or {}).get("log_std")
+    np.savez(
+        file,
+        t_s=prediction.trajectory.t_s,
+        p=prediction.trajectory.p_world_m,
+        truth_p=prediction.truth.p_world_m,
+        window_t_s=prediction.window_t_s,
+        velocity=prediction.velocity_m_s,
+        spans=prediction.span_t_s,
+        log_std=np.zeros((0, 2)) if log_std is None else np.asarray(log_std, dtype=np.float64),
+        orientation_filter=np.array(str(prediction.orientation_filter)),
+        window_s=np.array(prediction.window_s),
+    )
+
+
+def load_prediction(file: Path) -> Prediction:
+    with np.load(file) as d:
+        features = {"log_std": d["log_std"]} if len(d["log_std"]) else None
+        return Prediction(
+            trajectory=Trajectory(d["t_s"], d["p"]),
+            window_t_s=d["window_t_s"],
+            velocity_m_s=d["velocity"],
+            orientation_source="device",
+            frame="device_world",
+            warnings=[],
+            features=features,
+            span_t_s=d["spans"],
+            truth=Trajectory(d["t_s"], d["truth_p"]),
+            window_s=float(d["window_s"]),
+            orientation_filter=str(d["orientation_filter"]),
+        )
 
 
 def carry_signal(seq) -> dict[str, float]:
@@ -212,6 +269,79 @@ def report(rows: dict[str, dict], checkpoint: Path) -> list[str]:
     return lines
 
 
+def coverage_lines(rows: dict[str, dict], folder: Path, checkpoint: str) -> list[str]:
+    """Does the 95 % end radius hold the true end, without a profile and with one walk's profile at
+    each floor of ``FLOORS``: the share of (profile walk, other walk) pairs, start-aligned."""
+    plain, by_floor, pair_plain, pair_population = [], defaultdict(list), [], []
+    for dataset, _label, walks in GROUPS:
+        keys = [f"{dataset}/{rel}" for rel in walks]
+        predictions = {k: load_prediction(prediction_file(folder, k)) for k in keys}
+        for other in keys:
+            pred = predictions[other]
+            found = uncertainty_of(pred, checkpoint)
+            plain.append(coverage_of(pred.trajectory, found.cov_m2, pred.truth, found.end_radius_95_m))
+            alone = plain[-1]
+            for walk in (k for k in keys if k != other):
+                scaled = apply_scale(pred, rows[walk]["true_m"] / rows[walk]["predicted_m"])
+                pair_plain.append(alone)  # the same pairs without a profile: weighted alike
+                found = uncertainty_of(scaled, checkpoint)  # scaled, the population's spread kept
+                pair_population.append(
+                    coverage_of(scaled.trajectory, found.cov_m2, scaled.truth, found.end_radius_95_m)
+                )
+                for floor in FLOORS:
+                    sigma = max(ProfileScale(1.0, ONE_WALK_LOG_SPREAD, 1).spread_sigma, floor)  # one walk's
+                    found = uncertainty_of(scaled, checkpoint, scale_sigma=sigma)
+                    by_floor[floor].append(
+                        coverage_of(scaled.trajectory, found.cov_m2, scaled.truth, found.end_radius_95_m)
+                    )
+
+    def line(what: str, found: list) -> str:
+        found = [c for c in found if c is not None]
+        radius = np.array([c.end_radius_95_m for c in found])
+        error = np.array([c.end_error_m for c in found])
+        rho = spearmanr(radius, error).statistic
+        inside = sum(c.end_inside for c in found)
+        return (
+            f"| {what} | {len(found)} | {inside} ({inside / len(found):.1%}) | {np.median(radius):.1f} | "
+            f"{np.median(error):.1f} | "
+            f"{rho:.2f} |"
+        )
+
+    lines = [
+        "",
+        "## The 95 % end radius with a profile",
+        "",
+        "The true end inside the 95 % radius (start-aligned, `ftin.uncertainty.coverage`), without a "
+        "profile (each walk once, all carries' speed-scale spread) and with the profile of one other walk "
+        "of the group, whose speed-scale term then uses the profile's spread: the prior of one walk, "
+        "widened by the mean's own error (`ProfileScale.spread_sigma`, prior x sqrt 2), at least a floor "
+        "(`ProfileScale.scale_sigma`).",
+        "",
+        "| uncertainty | walks or pairs | true end inside | median radius m | median end error m | "
+        "Spearman(radius, error) |",
+        "|---|---|---|---|---|---|",
+        line("no profile (each walk once)", plain),
+        line("no profile (the pairs below, each walk once per profile walk)", pair_plain),
+        line("one-walk profile's scale, the population's speed-scale spread kept", pair_population),
+    ]
+    lines += [
+        line(
+            f"one-walk profile, its spread ({ONE_WALK_LOG_SPREAD:.2f} x sqrt 2) floored at {floor:.2f}",
+            by_floor[floor],
+        )
+        for floor in FLOORS
+    ]
+    inside = {f: np.mean([c.end_inside for c in by_floor[f] if c is not None]) for f in FLOORS}
+    chosen = min((f for f in FLOORS if inside[f] >= COVERAGE_AIM), default=None)
+    lines += [
+        "",
+        f"The smallest floor whose one-walk profiles hold the true end on at least {COVERAGE_AIM:.0%} of "
+        f"pairs: **{chosen}** (`ftin.profiles.scale.SCALE_SIGMA_FLOOR` is {SCALE_SIGMA_FLOOR}). "
+        "Fitted on these pairs: no walk here is held out from this choice.",
+    ]
+    return lines
+
+
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--checkpoint", type=Path, default=DEFAULT_CHECKPOINT_DIR / "ronin_resnet-walking")
@@ -220,7 +350,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="markdown report (default: print only)")
     args = parse(parser)
     rows = walk_lengths(args.checkpoint, args.data_root, args.cache)
-    write_report(args.out, report(rows, args.checkpoint))
+    folder = args.cache / weights_key(load_model(args.checkpoint))
+    write_report(args.out, report(rows, args.checkpoint) + coverage_lines(rows, folder, args.checkpoint.stem))
 
 
 if __name__ == "__main__":

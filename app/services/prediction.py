@@ -356,7 +356,7 @@ class PredictionService:
             self.runs.fail(run_id, f"internal error: {exc}")
             raise
         if profile is not None:  # the walker's own scale, before scoring: what is scored is what is shown
-            prediction = apply_scale(prediction, profile.found.scale)
+            prediction = apply_scale(prediction, profile.found.scale, profile.warning_for(entry.name))
         scored = score(prediction, align)  # beside the prediction and the sequence, both left as they are
         # A run keeps the model's input (24 bytes a sample), not the whole prepared copy of the recording:
         # the scene recomputes the spectra of the window it shows from it (a streaming model's too).

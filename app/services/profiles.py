@@ -27,7 +27,9 @@ class ProfileService:
         run = self.runs.get(run_id)  # 404 / 410 naming the run
         applied = 1.0 if run.profile is None else run.profile.found.scale
         try:
-            walk = walk_of(run_id, run.prediction.trajectory, run.plausibility, distance_m, applied)
+            walk = walk_of(
+                run_id, run.prediction.trajectory, run.plausibility, distance_m, applied, run.model_name
+            )
         except ValueError as exc:
             raise InvalidInputError(str(exc)) from None
         return self.store.add_walk(name, walk)
@@ -47,7 +49,7 @@ class ProfileService:
 
     def applied(self, name: str) -> AppliedProfile:
         """What ``POST /predict?profile=name`` applies (404 naming an unknown profile)."""
-        return AppliedProfile(name, self.get(name).scale)
+        return self.get(name).applied()
 
 
 def _valid_name(name: str) -> str:

@@ -5,7 +5,7 @@ group of them) registers it on ``app`` (``ftin.cli.common``) on import; shared p
 from __future__ import annotations
 
 # Sub-modules add their commands to `app` on import; the import order is `ftin --help`'s order.
-from ftin.cli import bench, campaign, data, evaluate, live, models, predict, sim, table, train  # noqa: E402,F401,I001
+from ftin.cli import bench, campaign, data, evaluate, live, models, predict, profile, sim, table, train  # noqa: E402,F401,I001
 from ftin.cli.common import app
 
 

@@ -127,6 +127,25 @@ AddressOption = Annotated[
 ThreadsOption = Annotated[
     int | None, typer.Option("--threads", min=1, help="torch CPU threads per process (default: torch's).")
 ]
+RunsDirOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--runs-dir",
+        envvar="FTIN_RUNS_DIR",
+        help="The runs folder whose index holds the walker profiles: the app's FTIN_RUNS_DIR (default: "
+        "the app's default folder), so that the CLI and a server on this machine share them.",
+    ),
+]
+
+
+def runs_dir_or_default(runs_dir: Path | None) -> Path:
+    """``--runs-dir``, else the app's default runs folder (``app.settings.default_runs_dir``)."""
+    if runs_dir is not None:
+        return runs_dir
+    # deferred: only the profile options need the app's settings (pydantic-settings), not every `ftin` start
+    from app.settings import default_runs_dir
+
+    return default_runs_dir()
 
 
 def echo_written(written: list[Path]) -> None:

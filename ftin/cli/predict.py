@@ -18,12 +18,14 @@ from ftin.cli.common import (
     CheckpointOption,
     CyclicTurnsOption,
     OrientationOption,
+    RunsDirOption,
     StrideOption,
     YawCopiesOption,
     app,
     err_console,
     orientation_text,
     progress_bar,
+    runs_dir_or_default,
     user_errors,
 )
 from ftin.data.errors import DataFormatError
@@ -40,6 +42,8 @@ from ftin.metrics.reasons import WalkVerdict
 from ftin.metrics.verdicts import confinement_note, still_verdict
 from ftin.metrics.walk_verdict import judge_walk, truth_reasons
 from ftin.precision import PrecisionSetting, choose
+from ftin.profiles import apply_scale
+from ftin.profiles.store import ProfileStore, UnknownProfileError
 from ftin.uncertainty import path_uncertainty
 
 
@@ -98,12 +102,26 @@ def predict_command(
     cyclic_turns: CyclicTurnsOption = None,
     precision: PrecisionOption = PrecisionSetting.AUTO,
     filter: FilterOption = FilterName.NONE,
+    profile: Annotated[
+        str | None,
+        typer.Option(
+            "--profile",
+            help="A walker profile (ftin profile list): its scale multiplies the predicted velocities and "
+            "path, its spread sets the uncertainty's speed-scale term.",
+        ),
+    ] = None,
+    runs_dir: RunsDirOption = None,
 ) -> None:
     """Predict the trajectory of one recording (any supported file, folder or phone ZIP) and write it as
     CSV (t,x,y,z) or TUM (timestamp tx ty tz qx qy qz qw, for evo)."""
     if timestamps not in ("model", "input"):
         raise typer.BadParameter("must be 'model' or 'input'", param_hint="--timestamps")
 
+    applied = None
+    if profile is not None:  # before the model runs: an unknown profile is one clean line
+        with user_errors(UnknownProfileError, ValueError, OSError):
+            found = ProfileStore.in_runs_dir(runs_dir_or_default(runs_dir)).require(profile)
+            applied = found.applied()
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
         chosen = choose(precision, loaded.model_name)
@@ -131,6 +149,8 @@ def predict_command(
                     cyclic_turns=cyclic_turns,
                     precision=chosen.precision,
                 )
+        if applied is not None:  # the walker's own scale, before scoring (ftin.profiles.apply_scale)
+            prediction = apply_scale(prediction, applied.found.scale, applied.warning_for(loaded.name))
         scored = score(prediction, align)
         shown_gt = seq.gt if scored is None or seq.gt is None else scored.truth_in_estimate_frame(seq.gt)
         warnings = [*prediction.warnings, *(scored.warnings if scored is not None else [])]
@@ -148,6 +168,10 @@ def predict_command(
         ]
         if filter is FilterName.EKF:
             header.append(f"filter: {EKF_TEXT}")
+        if applied is not None:
+            header.append(
+                f"profile: {applied.name}, x and y scaled by {applied.found.scale:.4f} about the start"
+            )
         if out.suffix.lower() == ".tum":
             atomic_write_text(out, tum_text(trajectory, "\n".join(header)))
         else:
@@ -162,7 +186,8 @@ def predict_command(
         err_console.print(f"[dim]note:[/] {escape(note)}", highlight=False)
     for warning in dict.fromkeys([*warnings, *plausibility.warnings]):
         err_console.print(f"[yellow]warning:[/] {escape(warning)}", highlight=False)
-    found = path_uncertainty(prediction, loaded.name, seq.meta.get("carry"))
+    spread = None if applied is None else applied.found.scale_sigma
+    found = path_uncertainty(prediction, loaded.name, seq.meta.get("carry"), spread)
     radius = None if found is None or seq.gt is not None else found.end_radius_95_m
     typer.echo(f"verdict: {walk_verdict(prediction, scored, shown_gt, plausibility, radius).says}")
     if found is not None:
@@ -173,6 +198,11 @@ def predict_command(
     typer.echo(f"precision: {chosen.precision.value} ({chosen.reason})")
     if filter is FilterName.EKF:
         typer.echo(f"filter: {EKF_TEXT}")
+    if applied is not None:
+        typer.echo(
+            f"profile: {applied.name}, scale {applied.found.scale:.3f} from {applied.found.walks} walk(s), "
+            f"spread {applied.found.scale_sigma:.1%}"
+        )
     if scored is not None and scored.metrics is not None:
         m = scored.metrics
         heading = "" if m.heading_deg is None else f", fitted heading {m.heading_deg:+.1f}°"

@@ -12,8 +12,15 @@ Decisions:
   ``PRIOR_WALKS`` walks at ``ONE_WALK_LOG_SPREAD`` (what a single walk states: the spread between
   walks of one walker and carry measured by ``experiments/probe_profile_scale.py``). A new walk's
   scale error after the profile is that spread widened by the mean's own error:
-  ``spread * sqrt(1 + 1 / walks)`` (``ProfileScale.scale_sigma``), what the uncertainty's speed-scale
-  term uses in place of the model's population spread (``ftin.uncertainty``).
+  ``spread * sqrt(1 + 1 / walks)`` (``ProfileScale.spread_sigma``).
+- The uncertainty's speed-scale term takes that spread in place of the model's population spread, but
+  never below ``SCALE_SIGMA_FLOOR`` (``ProfileScale.scale_sigma``): the calibration's other terms and
+  its one factor were fitted with the population's scale term inside, and with a one-walk profile's
+  own 7 % alone the 95 % end radius held the true end on only 81 % of the probe's pairs of walks (the
+  heading error that term also covered stays). The floor is the smallest that holds 85 % there; a
+  walker whose walks disagree more widens the term beyond it. Refit it with the probe whenever
+  ``ftin/uncertainty/calibration.json`` is refitted.
+- A walk shorter than ``MIN_WALK_M`` teaches nothing: its length is mostly its error.
 - Applying the scale multiplies the horizontal velocities and stretches the horizontal path about its
   start (``p0 + s (p - p0)``): exactly what integrating the scaled velocities gives. Height is left.
 - A sample outside ``SAMPLE_RANGE`` is refused: a wrong distance or the wrong run, not a stride.
@@ -30,9 +37,12 @@ import numpy as np
 
 from ftin.data.types import Trajectory
 
-# The spread of log(true / predicted path) between walks of one walker and carry: 0.083 pooled over
-# 14 OxIOD and RIDI groups (docs/results/probes/profile_scale.md), rounded up.
-ONE_WALK_LOG_SPREAD = 0.09
+# The spread of log(true / predicted path) between walks of one walker and carry: 0.019 pooled over 18
+# OxIOD and RIDI groups recorded in one session each (docs/results/probes/profile_scale.md); walks on
+# other days, at other paces, vary more: the prior is set above it.
+ONE_WALK_LOG_SPREAD = 0.05
+SCALE_SIGMA_FLOOR = 0.28  # the least speed-scale spread the uncertainty takes (module docstring; the probe)
+MIN_WALK_M = 10.0  # the shortest walk of known length a profile takes
 PRIOR_WALKS = 1.0  # how many walks the prior spread weighs
 SAMPLE_RANGE = (0.25, 4.0)  # a scale sample outside it is a wrong distance or run
 
@@ -46,15 +56,24 @@ class ProfileScale:
     walks: int
 
     @property
-    def scale_sigma(self) -> float:
+    def spread_sigma(self) -> float:
         """The relative spread of a new walk's distance after the scale (module docstring)."""
         return self.log_spread * math.sqrt(1.0 + 1.0 / max(self.walks, 1))
+
+    @property
+    def scale_sigma(self) -> float:
+        """The speed-scale spread the uncertainty uses: ``spread_sigma``, at least ``SCALE_SIGMA_FLOOR``."""
+        return max(self.spread_sigma, SCALE_SIGMA_FLOOR)
 
 
 def scale_sample(distance_m: float, predicted_m: float) -> float:
     """One walk's sample, ``distance_m / predicted_m``; ``ValueError`` naming what is wrong."""
     if not (math.isfinite(distance_m) and distance_m > 0):
         raise ValueError(f"distance_m must be a positive number of metres, got {distance_m}")
+    if distance_m < MIN_WALK_M:
+        raise ValueError(
+            f"a walk of {distance_m:g} m is too short to learn a stride from: at least {MIN_WALK_M:g} m"
+        )
     if not (math.isfinite(predicted_m) and predicted_m > 0):
         raise ValueError("the run's predicted path has no length: it cannot scale a profile")
     sample = distance_m / predicted_m
@@ -84,20 +103,33 @@ def scaled_trajectory(trajectory: Trajectory, scale: float) -> Trajectory:
     return replace(trajectory, p_world_m=p)
 
 
-def apply_scale(prediction: Any, scale: float) -> Any:
+def apply_scale(prediction: Any, scale: float, warning: str | None = None) -> Any:
     """``prediction`` (``ftin.infer.Prediction``) with horizontal velocities times ``scale`` and its
-    trajectory stretched to match; the truth and everything else as they were."""
+    trajectory stretched to match (and ``warning`` among its warnings); the truth and everything else
+    as they were."""
     v = np.array(prediction.velocity_m_s, dtype=np.float64)
     v[:, :2] *= scale
-    return replace(prediction, velocity_m_s=v, trajectory=scaled_trajectory(prediction.trajectory, scale))
+    scaled = replace(prediction, velocity_m_s=v, trajectory=scaled_trajectory(prediction.trajectory, scale))
+    return scaled if warning is None else replace(scaled, warnings=[*prediction.warnings, warning])
 
 
 @dataclass(frozen=True)
 class AppliedProfile:
-    """The profile a prediction was scaled by: its name and what its walks said then."""
+    """The profile a prediction was scaled by: its name, what its walks said then, and which models
+    read them."""
 
     name: str
     found: ProfileScale
+    models: tuple[str, ...] = ()
+
+    def warning_for(self, model: str) -> str | None:
+        """Why the scale may not hold for ``model``'s prediction: another model read the walks."""
+        if not self.models or model in self.models:
+            return None
+        return (
+            f"Profile {self.name} was learnt from walks read by {', '.join(self.models)}; {model} reads "
+            "distance its own way, so the profile's scale may not hold for it."
+        )
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -105,9 +137,10 @@ class AppliedProfile:
             "scale": round(self.found.scale, 4),
             "log_spread": round(self.found.log_spread, 4),
             "walks": self.found.walks,
+            "models": list(self.models),
         }
 
     @classmethod
     def from_json(cls, saved: dict[str, Any]) -> AppliedProfile:
         found = ProfileScale(float(saved["scale"]), float(saved["log_spread"]), int(saved["walks"]))
-        return cls(str(saved["name"]), found)
+        return cls(str(saved["name"]), found, tuple(saved.get("models", ())))

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ftin.profiles.scale import ProfileScale, profile_scale
+from ftin.profiles.scale import AppliedProfile, ProfileScale, profile_scale
 
 INDEX_FILE = "index.sqlite"  # the runs index, in the runs folder (FTIN_RUNS_DIR)
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
@@ -33,8 +33,13 @@ GPS, DISTANCE = "gps", "distance"  # where a walk's length came from
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS profile_walks (
     profile TEXT NOT NULL, run_id TEXT NOT NULL, distance_m REAL NOT NULL, predicted_m REAL NOT NULL,
-    source TEXT NOT NULL, added_s REAL NOT NULL, PRIMARY KEY (profile, run_id));
+    source TEXT NOT NULL, added_s REAL NOT NULL, model TEXT NOT NULL DEFAULT '',
+    PRIMARY KEY (profile, run_id));
 """
+
+
+class UnknownProfileError(LookupError):
+    """No profile of that name (``ProfileStore.require``); ``str`` names it."""
 
 
 def check_name(name: str) -> str:
@@ -56,6 +61,7 @@ class Walk:
     predicted_m: float  # the model's own path over the same time, before any profile's scale
     source: str  # DISTANCE (given) or GPS
     added_s: float
+    model: str = ""  # the checkpoint that read the walk: a scale belongs to the model that read it
 
     @property
     def sample(self) -> float:
@@ -69,6 +75,7 @@ class Walk:
             "scale": round(self.sample, 4),
             "source": self.source,
             "added_s": self.added_s,
+            "model": self.model,
         }
 
 
@@ -80,6 +87,12 @@ class Profile:
     @property
     def scale(self) -> ProfileScale:
         return profile_scale([w.sample for w in self.walks])
+
+    def applied(self) -> AppliedProfile:
+        """What a prediction scaled by this profile keeps of it."""
+        return AppliedProfile(
+            self.name, self.scale, tuple(dict.fromkeys(w.model for w in self.walks if w.model))
+        )
 
     def to_json(self) -> dict[str, Any]:
         found = self.scale
@@ -116,23 +129,36 @@ class ProfileStore:
         check_name(name)
         with self._db() as db:
             db.execute(
-                "INSERT OR REPLACE INTO profile_walks VALUES (?, ?, ?, ?, ?, ?)",
-                (name, walk.run_id, walk.distance_m, walk.predicted_m, walk.source, walk.added_s),
+                "INSERT OR REPLACE INTO profile_walks VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (name, walk.run_id, walk.distance_m, walk.predicted_m, walk.source, walk.added_s, walk.model),
             )
             return _profile(name, db)  # type: ignore[return-value]  # a row was just written
 
     def get(self, name: str) -> Profile | None:
+        if not self.path.exists():  # reading makes no file
+            return None
         with self._db() as db:
             return _profile(name, db)
 
+    def require(self, name: str) -> Profile:
+        """``get``, or ``UnknownProfileError`` naming ``name`` and where it was looked for."""
+        found = self.get(check_name(name))
+        if found is None:
+            raise UnknownProfileError(f"unknown profile {name!r} (none in {self.path})")
+        return found
+
     def list(self) -> list[Profile]:
         """Every profile, by name."""
+        if not self.path.exists():
+            return []
         with self._db() as db:
             names = [r[0] for r in db.execute("SELECT DISTINCT profile FROM profile_walks ORDER BY profile")]
             return [p for p in (_profile(n, db) for n in names) if p is not None]
 
     def delete(self, name: str) -> bool:
         """Remove ``name`` and its walks; False when there was no such profile."""
+        if not self.path.exists():
+            return False
         with self._db() as db:
             return db.execute("DELETE FROM profile_walks WHERE profile = ?", (name,)).rowcount > 0
 
@@ -142,6 +168,7 @@ def _profile(name: str, db: sqlite3.Connection) -> Profile | None:
         "SELECT * FROM profile_walks WHERE profile = ? ORDER BY added_s, run_id", (name,)
     ).fetchall()
     walks = tuple(
-        Walk(r["run_id"], r["distance_m"], r["predicted_m"], r["source"], r["added_s"]) for r in rows
+        Walk(r["run_id"], r["distance_m"], r["predicted_m"], r["source"], r["added_s"], r["model"])
+        for r in rows
     )
     return Profile(name, walks) if walks else None

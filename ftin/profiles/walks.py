@@ -26,14 +26,15 @@ def walk_of(
     plausibility: Any,
     distance_m: float | None = None,
     applied_scale: float = 1.0,
+    model: str = "",
 ) -> Walk:
-    """The walk of the prediction ``trajectory`` (its ``ftin.metrics.plausibility.Plausibility`` for the
-    GPS); ``ValueError`` naming the problem when it cannot be one (no distance and no good GPS, a
-    scale sample out of range)."""
+    """The walk of the prediction ``trajectory`` that ``model`` made (its ``Plausibility``, from
+    ``ftin.metrics.plausibility``, for the GPS); ``ValueError`` naming the problem when it cannot be one
+    (no distance and no good GPS, a walk too short, a scale sample out of range)."""
     if distance_m is not None:
         predicted = horizontal_path_length(trajectory.p_world_m) / applied_scale
         scale_sample(float(distance_m), predicted)  # refuses a distance no stride explains
-        return Walk(run_id, float(distance_m), predicted, DISTANCE, time.time())
+        return Walk(run_id, float(distance_m), predicted, DISTANCE, time.time(), model)
     reasons = {r.code: r for r in gps_reasons(plausibility, trajectory)}
     found = reasons.get("gps_path")
     if found is None:
@@ -42,4 +43,4 @@ def walk_of(
     gps_m, model_m = float(found.figures["gps_path_m"] or 0.0), float(found.figures["model_m"] or 0.0)
     predicted = model_m / applied_scale
     scale_sample(gps_m, predicted)
-    return Walk(run_id, gps_m, predicted, GPS, time.time())
+    return Walk(run_id, gps_m, predicted, GPS, time.time(), model)

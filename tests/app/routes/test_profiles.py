@@ -29,10 +29,16 @@ def end_of(body: dict) -> np.ndarray:
     return np.array([t["x"][-1] - t["x"][0], t["y"][-1] - t["y"][0]])
 
 
+def real_settings(make_settings: Callable[..., Settings]) -> Settings:
+    """The shipped checkpoints (the default model): a real walk's path is metres long, as a profile's
+    walk must be (the tiny fixtures barely move); an empty runs folder of its own."""
+    return make_settings(checkpoint_dir=CHECKPOINTS, default_model="ronin_resnet-walking")
+
+
 @pytest.fixture
 def fresh(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
     """An app with its own empty runs folder: its profiles are its own."""
-    with TestClient(create_app(make_settings())) as client:
+    with TestClient(create_app(real_settings(make_settings))) as client:
         yield client
 
 
@@ -102,6 +108,7 @@ def test_bad_names_and_inputs_are_4xx_json(fresh: TestClient, csv_without_gt: by
         ("/profiles/-dash/walks", {"run_id": run_id, "distance_m": 10.0}, 422, "profile name"),
         ("/profiles/ok/walks", {"run_id": run_id, "distance_m": -3}, 422, "distance_m"),
         ("/profiles/ok/walks", {"run_id": run_id, "distance_m": 50 * predicted}, 422, "outside"),
+        ("/profiles/ok/walks", {"run_id": run_id, "distance_m": 5.0}, 422, "too short"),
         ("/profiles/ok/walks", {"distance_m": 10.0}, 422, "run_id"),
         ("/profiles/ok/walks", {"run_id": "no-such-run", "distance_m": 10.0}, 404, "no-such-run"),
         # an IMU-only CSV has no GPS: its length must be given
@@ -115,7 +122,7 @@ def test_bad_names_and_inputs_are_4xx_json(fresh: TestClient, csv_without_gt: by
 
 
 def test_profiles_survive_a_restart(make_settings: Callable[..., Settings], csv_without_gt: bytes) -> None:
-    settings = make_settings()
+    settings = real_settings(make_settings)
     with TestClient(create_app(settings)) as first:
         run = upload(first, csv_without_gt).json()
         made = first.post("/profiles/kept/walks", json={"run_id": run["run_id"], "distance_m": path_of(run)})
@@ -123,14 +130,8 @@ def test_profiles_survive_a_restart(make_settings: Callable[..., Settings], csv_
         assert second.get("/profiles/kept").json() == made.json()
 
 
-@pytest.fixture(scope="module")
-def real_client(make_settings: Callable[..., Settings]) -> Iterator[TestClient]:
-    settings = make_settings(checkpoint_dir=CHECKPOINTS, default_model="ftin-pedestrian")
-    with TestClient(create_app(settings)) as client:
-        yield client
-
-
-def test_a_run_with_good_gps_counts_by_itself(real_client: TestClient, shared_data: Path) -> None:
+def test_a_run_with_good_gps_counts_by_itself(fresh: TestClient, shared_data: Path) -> None:
+    real_client = fresh
     export = twenty_steps_export(shared_data)
     plain = upload(real_client, sensorlogger_zip(export, None), "walk.zip").json()
     # fixes a second walking north at a pace that makes the GPS path 1.4 times the predicted one
@@ -146,4 +147,16 @@ def test_a_run_with_good_gps_counts_by_itself(real_client: TestClient, shared_da
     assert walk_row["distance_m"] == pytest.approx(gps["gps_path_m"], abs=0.1)
     assert added.json()["scale"] == pytest.approx(gps["gps_path_m"] / gps["model_m"], rel=0.01)
     assert math.isfinite(added.json()["scale_sigma"])
-    real_client.delete("/profiles/gps-walker")
+
+
+def test_a_profile_on_another_models_prediction_warns(fresh: TestClient, csv_without_gt: bytes) -> None:
+    run = upload(fresh, csv_without_gt).json()
+    assert run["model"] == "ronin_resnet-walking"
+    made = fresh.post(
+        "/profiles/eve/walks", json={"run_id": run["run_id"], "distance_m": path_of(run)}
+    ).json()
+    assert made["walks"][0]["model"] == "ronin_resnet-walking"
+    same = upload(fresh, csv_without_gt, profile="eve").json()
+    assert not any("reads distance its own way" in w for w in same["warnings"])
+    other = upload(fresh, csv_without_gt, profile="eve", model="ftin-pedestrian").json()
+    assert any("ftin-pedestrian reads distance its own way" in w for w in other["warnings"])
