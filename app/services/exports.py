@@ -142,4 +142,6 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "uncertainty": None if run.uncertainty is None else run.uncertainty.summary(),  # as POST /predict
         "z_note": z_note(run),
         "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
+        # the walker profile that scaled it, as POST /predict says (absent without one)
+        **({} if run.profile is None else {"profile": run.profile.to_json()}),
     }

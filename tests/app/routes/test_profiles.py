@@ -67,8 +67,9 @@ def test_a_walk_of_known_length_makes_a_profile_that_scales_the_path(
     # the walker's own spread (9 %) is narrower than the population's: a smaller circle, said so
     assert scaled["uncertainty"]["end_radius_95_m"] < 1.3 * plain["uncertainty"]["end_radius_95_m"]
     assert "profile" in scaled["uncertainty"]["calibration"]
-    # the run keeps its profile: its result again, after the answer
+    # the run keeps its profile: its result again, after the answer, and its metrics.json
     assert fresh.get(f"/runs/{scaled['run_id']}/result").json()["profile"] == scaled["profile"]
+    assert fresh.get(f"/runs/{scaled['run_id']}/metrics.json").json()["profile"]["name"] == "anna"
 
     # a profiled run teaches the same scale: the model's own path, not the scaled one, is divided
     again = fresh.post(
@@ -86,8 +87,10 @@ def test_the_same_run_again_replaces_its_walk(fresh: TestClient, csv_without_gt:
 
 
 def test_unknown_profiles_are_404s_that_name_them(fresh: TestClient, csv_without_gt: bytes) -> None:
+    listed = fresh.get("/sequences").json()[0]["id"]
     for response in (
         upload(fresh, csv_without_gt, profile="nobody"),
+        fresh.post(f"/sequences/{listed}/predict", params={"profile": "nobody"}),
         fresh.get("/profiles/nobody"),
         fresh.delete("/profiles/nobody"),
     ):
