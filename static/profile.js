@@ -5,7 +5,9 @@
 // Self-contained: one <script> line in index.html. It builds its own elements beside the page's
 // (after the filter select; inside the result card, before the compare block), adds ?profile= to the
 // page's POST /predict and /sequences/{id}/predict requests while a profile is chosen, and learns the
-// shown run from the answers of those requests and of GET /runs/{id}/result.
+// shown run from the answers of those requests and of GET /runs/{id}/result. Its own requests go
+// through window.fetch as it is when they are made, so that a wrapper another script adds later (an
+// access token) applies to them too.
 
 (function () {
   const PREDICT = /^\/(predict|sequences\/[^/?]+\/predict)(\?|$)/;
@@ -58,7 +60,7 @@
     const list = document.getElementById("profile-names");
     let profiles = [];
     try {
-      profiles = await plainFetch("/profiles").then((r) => (r.ok ? r.json() : []));
+      profiles = await window.fetch("/profiles").then((r) => (r.ok ? r.json() : []));
     } catch (_) { /* the page works without profiles */ }
     const current = keep !== undefined ? keep : select.value;
     select.replaceChildren(element("option", { value: "", textContent: "none — the model's own distance" }));
@@ -96,7 +98,7 @@
     const body = { run_id: shownRun };
     if (distance) body.distance_m = Number(distance);
     try {
-      const r = await plainFetch(`/profiles/${encodeURIComponent(name)}/walks`, {
+      const r = await window.fetch(`/profiles/${encodeURIComponent(name)}/walks`, {
         method: "POST",
         headers: { "Content-Type": "application/json" },
         body: JSON.stringify(body),
