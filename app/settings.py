@@ -17,7 +17,8 @@ Decisions:
   200 Hz) and is stopped after ``FTIN_INFERENCE_TIMEOUT_S`` without progress (waiting for a free slot
   included; a long recording that keeps making progress is never cut: ``app.services.limits``);
   at most ``FTIN_MAX_CONCURRENT_INFERENCES`` run at once (default 1: on a small CPU two runs only
-  slow each other down, and each holds its windows in memory); finished runs are kept while they
+  slow each other down, and each holds its windows in memory), and at most ``FTIN_MAX_PENDING_UPLOADS``
+  are read, parsed, waiting or running (429 with ``Retry-After`` beyond); finished runs are kept while they
   hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs) in memory.
 - Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue; a push
   from another machine is refused unless ``FTIN_LIVE_TOKEN`` is set, and then must carry it.
@@ -78,10 +79,12 @@ class Settings(BaseSettings):
     checkpoint_dir: Path = Field(DEFAULT_CHECKPOINT_DIR, description="Folder of *.safetensors checkpoints.")
     default_model: str = Field(DEFAULT_MODEL, description="Model used when a request names none.")
     # 200 MiB: FTIN_MAX_SAMPLES (720 000) rows of the generic CSV with orientation and ground truth at
-    # full float precision (~270 bytes a row) fit; gzip and ZIP bodies fit it ~3x over.
+    # full float precision (~270 bytes a row) fit; a gzip or ZIP body may unpack to no more than this.
     max_upload_mb: float = Field(200.0, gt=0, description="Largest request body accepted, in MiB.")
     max_uncompressed_mb: float = Field(
-        1024.0, gt=0, description="Most a gzip or ZIP upload may unpack to, in MiB (zip bombs)."
+        1024.0,
+        gt=0,
+        description="Most a gzip or ZIP upload may unpack to, in MiB, and never above FTIN_MAX_UPLOAD_MB.",
     )
     viser_enabled: bool = Field(True, description="Start the viser 3D scene with the app.")
     scene_first_run: bool = Field(
@@ -111,6 +114,11 @@ class Settings(BaseSettings):
         description="Longest a prediction may go without progress, waiting for a slot included (504 after).",
     )
     max_concurrent_inferences: int = Field(1, ge=1, description="Predictions that may run at once.")
+    max_pending_uploads: int = Field(
+        4,
+        ge=1,
+        description="Predictions read, parsed, waiting or running at once (429 with Retry-After beyond).",
+    )
     torch_threads: int = Field(1, ge=0, description="torch intra-op threads (0: torch's default).")
     precision: PrecisionSetting = Field(
         PrecisionSetting.AUTO, description="Inference precision: auto (bf16 where free), fp32 or bf16."
@@ -155,7 +163,8 @@ class Settings(BaseSettings):
 
     @property
     def max_uncompressed_bytes(self) -> int:
-        return int(self.max_uncompressed_mb * 1024 * 1024)
+        """What an upload may unpack to: a compressed body holds no more than a plain one may."""
+        return min(int(self.max_uncompressed_mb * 1024 * 1024), self.max_upload_bytes)
 
     @property
     def default_model_is_explicit(self) -> bool:

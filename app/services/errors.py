@@ -43,7 +43,12 @@ class ForbiddenError(ServiceError):
 
 
 class BusyError(ServiceError):
-    """Too many live sessions or queued messages: try again later (HTTP 429)."""
+    """Too many live sessions, queued messages or uploads at once: try again later (HTTP 429, with
+    ``Retry-After`` where ``retry_after_s`` is given)."""
+
+    def __init__(self, message: str, retry_after_s: int | None = None) -> None:
+        super().__init__(message)
+        self.retry_after_s = retry_after_s
 
 
 class StartupError(RuntimeError):

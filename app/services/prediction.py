@@ -11,8 +11,10 @@ Decisions:
   family (``precision_for``), decided once a process (the CPU's flags are read once).
 - Uploads are read by ``ftin.data.from_bytes.read_bytes`` (detection by content, gzip, ZIP exports,
   the uncompressed-size and sample limits, a CSV's line count checked before parsing); this service
-  adds what is HTTP's: the client's file name as a label only, the upload size limit on the body,
-  and the status codes (413 for too large, 422 for a bad format). The sample limit
+  adds what is HTTP's: the client's file name as a label only, the upload size limit on the body
+  and on what it unpacks to, the request's deadline on the read (checked between its steps), the
+  admission gate (``uploads``, entered by the routes before the body is read: 429 beyond it) and
+  the status codes (413 for too large, 422 for a bad format). The sample limit
   (``FTIN_MAX_SAMPLES``) holds for every door.
 - Alignment (``ftin.metrics.alignment_modes``): with ground truth, the metrics follow the request's ``align``
   or the reader's default. The run keeps the sequence untouched and the scored result beside it
@@ -45,7 +47,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import PurePath
 from typing import Any
 
@@ -55,7 +57,7 @@ from app.services.catalog import SequenceCatalog
 from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
-from app.services.limits import Deadline, InferenceSlots
+from app.services.limits import Deadline, InferenceSlots, UploadGate
 from app.services.model_choice import ModelChoice, choose_model
 from app.services.runs import Run, RunStore
 from app.settings import Settings
@@ -161,6 +163,7 @@ class PredictionService:
         self.runs = runs
         self.settings = settings  # the limits: FTIN_MAX_UPLOAD_MB, FTIN_MAX_SAMPLES, ...
         self.slots = InferenceSlots(settings.max_concurrent_inferences)
+        self.uploads = UploadGate(settings.max_pending_uploads)  # entered by the routes, before the body
         log.info("inference precision: %s", choose(settings.precision).reason)  # decided once, at start-up
 
     def new_deadline(self) -> Deadline:
@@ -195,6 +198,7 @@ class PredictionService:
         handed over (``HandedBytes``) are let go once read."""
         if isinstance(data, HandedBytes):
             data = data.take()
+        options = replace(options, deadline=options.deadline or self.new_deadline())  # reading counts too
         run_id = self._new_run_id(options)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
         # separators), and nothing is ever read or written under it.
@@ -206,7 +210,7 @@ class PredictionService:
                 f"{filename} is {len(data) / 2**20:.1f} MiB; the limit is "
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
-        seq = self.read_upload(data, filename)
+        seq = self.read_upload(data, filename, options.deadline)
         del data  # the body (86 MB for an hour of 200 Hz CSV) is not needed while the model runs
         return self._run_chosen(
             seq,
@@ -217,14 +221,17 @@ class PredictionService:
             upload_texts=(filename, seq.name),
         )
 
-    def read_upload(self, data: bytes, filename: str) -> ImuSequence:
-        """The recording in an upload's bytes, or a 413 / 422 that says what is wrong."""
+    def read_upload(self, data: bytes, filename: str, deadline: Deadline | None = None) -> ImuSequence:
+        """The recording in an upload's bytes, or a 413 / 422 that says what is wrong; the read stops
+        with a 504 once ``deadline`` has passed (checked between its steps)."""
+        deadline = deadline or self.new_deadline()
         try:
             return read_bytes(
                 data,
                 filename,
                 max_uncompressed_bytes=self.settings.max_uncompressed_bytes,
                 max_samples=self.settings.max_samples,
+                check=lambda: deadline.check(f"reading {filename}"),
             )
         except TooManySamplesError as exc:
             raise self._too_many_samples(exc.samples, filename) from None

@@ -2,8 +2,10 @@
 
 Thin callers of ``ftin.data.discovery``: every supported layout is found with ``list_sequences`` and
 read with ``read_sequence``. Expected failures (bad path, unreadable or malformed file) print one
-``error:`` line per problem on stderr and exit with status 2; the sequences that did read are still
-reported / converted.
+``error:`` line per problem on stderr, naming the recording and the reason; the sequences that did
+read are still reported / converted. ``info`` lists what it can: it exits 0 when at least one
+recording reads (the unreadable ones named on stderr and in the JSON's ``errors``), 2 when none does;
+``convert`` exits 2 on any failure (a conversion is asked of every file).
 """
 
 from __future__ import annotations
@@ -62,10 +64,11 @@ def _read_all(refs: list[SequenceRef], label: str) -> tuple[list[tuple[SequenceR
     return done, errors
 
 
-def _report_errors(errors: list[str]) -> None:
+def _report_errors(errors: list[str], fail: bool = True) -> None:
+    """One ``error:`` line per problem; exit 2 when ``fail`` (and there are errors)."""
     for line in errors:
         err_console.print(f"[bold red]error:[/] {escape(line)}", highlight=False, soft_wrap=True)  # one line
-    if errors:
+    if errors and fail:
         raise typer.Exit(2)
 
 
@@ -120,7 +123,7 @@ def info(
         typer.echo(json.dumps(report, indent=2))
     else:
         _print_table(report)
-    _report_errors(errors)
+    _report_errors(errors, fail=not done)  # a folder lists what it can: exit 0 when one recording reads
 
 
 def _print_table(report: dict[str, Any]) -> None:

@@ -15,26 +15,33 @@ Decisions:
   aliases), else the first export reader that claims the lone file (phyphox's single-sensor file),
   refused when that reader ``NEEDS_WHOLE_EXPORT`` (one file of a Sensor Logger export), else the
   generic schema (its error names what is missing).
-* A CSV is checked here to be UTF-8 (a BOM is accepted), so that a binary file gets a plain "not a
-  UTF-8 text file" message instead of a parser error; the check keeps no decoded copy, and the
-  generic CSV reader gets the bytes (it parses their numbers directly: no copy of the text either).
-* Limits that need no HTTP: ``max_uncompressed_bytes`` (gzip and ZIP bombs) and ``max_samples``,
-  checked on a CSV's line count before parsing (lines bound the samples from above: one header,
-  maybe comments) and on the sequence as read. Too many samples raise ``TooManySamplesError``, so
-  that a caller can answer it apart from a bad format (HTTP 413, not 422).
+* A CSV's bytes are read once (``ftin.data.io.csv_scan``): one pass counts the lines, checks UTF-8
+  (a BOM is accepted; a binary file gets a plain "not a UTF-8 text file" message instead of a parser
+  error) and finds the header, split and matched once; the detection here and the generic CSV
+  reader use that one ``CsvScan`` (the reader parses the numbers straight from the bytes: no copy
+  of the text).
+* Limits that need no HTTP, so that an upload's cost is bounded before it is parsed:
+  ``max_uncompressed_bytes`` (gzip and ZIP bombs: decompression stops at it, in pieces), the header
+  row's width (``csv_scan.MAX_COLUMNS``), and ``max_samples``, checked on a CSV's line count before
+  parsing (lines bound the samples from above: one header, maybe comments) and on the sequence as
+  read. Too many samples raise ``TooManySamplesError``, so that a caller can answer it apart from a
+  bad format (HTTP 413, not 422). ``check`` (a caller's deadline, say) is called between the steps
+  and between pieces of decompression: raising there stops the read.
 * Nothing is written to disk (``ftin.data.io.phone_exports`` has the ZIP safety rules).
 """
 
 from __future__ import annotations
 
 import zlib
+from collections.abc import Callable
 from pathlib import PurePath
 from types import ModuleType
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.readers.generic_csv as generic_csv
 from ftin.data.errors import DataFormatError, TooManySamplesError
-from ftin.data.io.csv_floats import utf8_error
+from ftin.data.io.csv_columns import names_required
+from ftin.data.io.csv_scan import CsvScan, scan_csv
 from ftin.data.io.phone_exports import ExportFiles
 from ftin.data.readers import export_readers
 from ftin.data.types import ImuSequence
@@ -45,32 +52,38 @@ ACCEPTED = (
 )
 
 
-def gunzip(data: bytes, source: str, max_bytes: int) -> bytes:
-    """Decompress gzip bytes, refusing more than ``max_bytes`` of output (gzip bombs)."""
+GUNZIP_PIECE_BYTES = 16 * 2**20  # decompressed between two ``check`` calls
+
+
+def _no_check() -> None:
+    return None
+
+
+def gunzip(data: bytes, source: str, max_bytes: int, check: Callable[[], None] = _no_check) -> bytes:
+    """Decompress gzip bytes in pieces, stopping as soon as the output passes ``max_bytes`` (gzip
+    bombs are never unpacked whole); the size the trailer declares refuses most bombs before any.
+    Every member of a multi-member file is read, as ``gzip.decompress`` does."""
+    too_big = DataFormatError(f"{source}: unpacks to more than {max_bytes / 2**20:.0f} MiB; refused")
+    if len(data) >= 18 and int.from_bytes(data[-4:], "little") > max_bytes:  # ISIZE: size mod 2^32
+        raise too_big
     inflater = zlib.decompressobj(16 + zlib.MAX_WBITS)
+    pieces: list[bytes] = []
+    size = 0
+    pending = data
     try:
-        out = inflater.decompress(data, max_bytes + 1)
+        while pending:
+            if inflater.eof:  # the next member
+                inflater = zlib.decompressobj(16 + zlib.MAX_WBITS)
+            piece = inflater.decompress(pending, GUNZIP_PIECE_BYTES)
+            pending = inflater.unconsumed_tail or inflater.unused_data
+            size += len(piece)
+            if size > max_bytes:
+                raise too_big
+            pieces.append(piece)
+            check()
     except zlib.error as exc:
         raise DataFormatError(f"{source}: not a readable gzip file ({exc})") from None
-    if len(out) > max_bytes or inflater.unconsumed_tail:
-        raise DataFormatError(f"{source}: unpacks to more than {max_bytes / 2**20:.0f} MiB; refused")
-    return out
-
-
-def read_export_files(files: ExportFiles, name: str) -> ImuSequence:
-    """An export already in memory: Sensor Logger, phyphox, or a single generic CSV."""
-    csvs = [n for n, d in files.files.items() if d and not d.isspace()]  # strip() would copy each file
-    if len(csvs) == 1 and generic_csv.header_line_matches(phone_exports.first_line(files.files[csvs[0]])):
-        return generic_csv.read_csv(files.files[csvs[0]], name=f"{files.source}:{csvs[0]}").with_(name=name)
-    reader = _export_reader(files)
-    if reader is not None:
-        return reader.read_export(files, name)
-    if len(csvs) == 1:  # the generic reader's own message says what is missing
-        return generic_csv.read_csv(files.files[csvs[0]], name=f"{files.source}:{csvs[0]}").with_(name=name)
-    raise DataFormatError(
-        f"{files.source}: holds {', '.join(files.names()) or 'no CSV'}: neither a Sensor Logger nor a "
-        "phyphox export, nor one CSV in the generic schema"
-    )
+    return b"".join(pieces)
 
 
 def read_bytes(
@@ -79,6 +92,7 @@ def read_bytes(
     *,
     max_uncompressed_bytes: int = DEFAULT_MAX_UNCOMPRESSED_BYTES,
     max_samples: int | None = None,
+    check: Callable[[], None] = _no_check,
 ) -> ImuSequence:
     """One recording from an upload's bytes (see the module docstring); ``filename`` is only a label."""
     label = filename or "upload"  # what messages name: a path for the CLI, a base name for uploads
@@ -91,36 +105,64 @@ def read_bytes(
     if not data or data.isspace():  # data.strip() would copy the whole upload
         raise DataFormatError(f"{label} is empty; expected {ACCEPTED}")
     if data[:2] == phone_exports.GZIP_MAGIC:
-        data = gunzip(data, label, max_uncompressed_bytes)
-    if phone_exports.is_zip(data):
-        seq = read_export_files(phone_exports.read_zip(data, label, max_uncompressed_bytes), stem)
-    else:
-        seq = _read_csv_bytes(data, label, name, stem, max_samples)
+        data = gunzip(data, label, max_uncompressed_bytes, check)
+    bare = not phone_exports.is_zip(data)  # a CSV on its own; else the files of a ZIP export
+    files = (
+        ExportFiles(label, {name: data})
+        if bare
+        else phone_exports.read_zip(data, label, max_uncompressed_bytes)
+    )
+    del data  # the files hold it
+    check()
+    seq = _read_files(files, stem, bare, max_samples, check)
     if max_samples is not None and len(seq) > max_samples:
         raise TooManySamplesError(label, len(seq), max_samples)
     return seq
 
 
-def _read_csv_bytes(data: bytes, label: str, name: str, stem: str, max_samples: int | None) -> ImuSequence:
-    lines = data.count(b"\n") + (not data.endswith(b"\n"))
-    if max_samples is not None and lines - 1 > max_samples:
-        raise TooManySamplesError(label, lines - 1, max_samples)
-    error = utf8_error(data)
+def _read_files(
+    files: ExportFiles, stem: str, bare: bool, max_samples: int | None, check: Callable[[], None]
+) -> ImuSequence:
+    """One path for a bare CSV and a ZIP's files: a lone CSV is scanned once (``CsvScan``: lines,
+    UTF-8, the header matched) and read from that scan as the generic CSV when its header names the
+    schema's columns; else the first phone export reader that claims the files reads them (a bare
+    CSV that is one file of an export that ``NEEDS_WHOLE_EXPORT`` is refused); else the lone CSV as
+    the generic CSV, whose message says what is missing."""
+    csvs = [n for n, d in files.files.items() if d and not d.isspace()]  # strip() would copy each file
+    scan = _scanned(files, csvs[0], bare, max_samples) if len(csvs) == 1 else None
+    check()
+    if scan is not None and scan.header is not None and names_required(scan.header.names()):
+        return generic_csv.read_scan(scan).with_(name=stem)
+    reader = _export_reader(files)
+    if reader is not None and bare and getattr(reader, "NEEDS_WHOLE_EXPORT", False):
+        raise DataFormatError(
+            f"{files.source} is one file of a {reader.LABEL}; upload the whole export (the ZIP the app "
+            "shares), which holds the gyroscope, the accelerometer and gravity together"
+        )
+    if reader is not None:
+        return reader.read_export(files, stem)
+    if scan is not None:
+        return generic_csv.read_scan(scan).with_(name=stem)
+    raise DataFormatError(
+        f"{files.source}: holds {', '.join(files.names()) or 'no CSV'}: neither a Sensor Logger nor a "
+        "phyphox export, nor one CSV in the generic schema"
+    )
+
+
+def _scanned(files: ExportFiles, name: str, bare: bool, max_samples: int | None) -> CsvScan:
+    """The lone CSV's one scan; its line count and UTF-8 checked before anything parses it."""
+    data = files.files[name]
+    label = files.source if bare else f"{files.source}:{name}"
+    scan = scan_csv(data, label, keep_lines=None if max_samples is None else max_samples + 1)
+    if max_samples is not None and scan.lines - 1 > max_samples:
+        raise TooManySamplesError(label, scan.lines - 1, max_samples)
+    error = scan.utf8_error
     if error is not None:
         raise DataFormatError(
             f"{label}: not a UTF-8 text file (byte {error.start} is 0x{data[error.start]:02x}); "
             f"expected {ACCEPTED}"
         )
-    lone = ExportFiles(label, {name: data})
-    reader = None if generic_csv.header_line_matches(phone_exports.first_line(data)) else _export_reader(lone)
-    if reader is not None and getattr(reader, "NEEDS_WHOLE_EXPORT", False):
-        raise DataFormatError(
-            f"{label} is one file of a {reader.LABEL}; upload the whole export (the ZIP the app "
-            "shares), which holds the gyroscope, the accelerometer and gravity together"
-        )
-    if reader is not None:
-        return reader.read_export(lone, stem)
-    return generic_csv.read_csv(data, name=label).with_(name=stem)
+    return scan
 
 
 def _export_reader(files: ExportFiles) -> ModuleType | None:

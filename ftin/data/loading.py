@@ -1,7 +1,9 @@
 """Sequences as training and evaluation take them: read from paths, split, prepared for windowing.
 
 * ``load_sequences(paths)``: every sequence in files and folders (the CLI's ``--data``, the report's
-  datasets, the campaign); ``read_one``: one recording, read for an orientation choice;
+  datasets, the campaign). A folder gives what it can: a recording in it that cannot be read is
+  named with its reason (a warning in the log) and left out, and only a folder where none reads is
+  an error; a file named on its own must read. ``read_one``: one recording, read for an orientation choice;
   ``load_phone_only``: the recordings as a phone alone gives them, oriented by ``auto``.
 * ``split_validation``: a seeded hold-out of whole sequences (training without ``--val``).
 
@@ -12,6 +14,7 @@ one function for training and inference.
 from __future__ import annotations
 
 import inspect
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -28,6 +31,8 @@ from ftin.data.orientation_option import (
 )
 from ftin.data.readers import READERS
 from ftin.data.types import ImuSequence
+
+log = logging.getLogger(__name__)
 
 
 def reader_options(fmt: str | None, orientation: str | None) -> dict[str, Any]:
@@ -88,12 +93,30 @@ def load_sequences(
             refs = list_sequences(path)
             if not refs:
                 raise DataFormatError(f"{option} {raw}: no recognised sequences in this folder")
-            sequences.extend(read(ref, ref.format) for ref in refs)
+            sequences.extend(_readable(refs, read, f"{option} {raw}"))
         else:
             sequences.append(read(path, fmt))
     if not sequences:
         raise DataFormatError(f"{option}: no sequences given")
     return sequences
+
+
+def _readable(refs: Sequence[SequenceRef], read: Any, where: str) -> list[ImuSequence]:
+    """The recordings of one folder that read; each one that does not is named with its reason in a
+    warning, and a folder where none reads raises with the reasons."""
+    read_ok: list[ImuSequence] = []
+    failed: list[str] = []
+    for ref in refs:
+        try:
+            read_ok.append(read(ref, ref.format))
+        except (DataFormatError, OSError) as exc:
+            failed.append(f"{ref.name}: {exc}")
+    if failed and not read_ok:
+        shown = "; ".join(failed[:3]) + (f"; and {len(failed) - 3} more" if len(failed) > 3 else "")
+        raise DataFormatError(f"{where}: no recording in this folder can be read: {shown}")
+    for reason in failed:
+        log.warning("%s: left out, cannot be read: %s", where, reason)
+    return read_ok
 
 
 def data_rate_hz(sequences: Sequence[ImuSequence]) -> float:

@@ -17,8 +17,8 @@ from fastapi.testclient import TestClient
 import app.services.prediction as prediction_module
 from app.main import create_app
 from app.services import Services
-from app.services.errors import InferenceTimeoutError
-from app.services.limits import Deadline, InferenceSlots
+from app.services.errors import BusyError, InferenceTimeoutError
+from app.services.limits import RETRY_AFTER_S, Deadline, InferenceSlots, UploadGate
 from app.services.prediction import RunOptions
 from app.services.runs import RunState, RunStore
 from app.settings import Settings
@@ -273,3 +273,47 @@ def test_predictions_run_with_the_configured_torch_threads(
             predictor.run = recording_run
             assert upload(client, csv_with_gt).status_code == 200
             assert seen == [threads]
+
+
+def test_uploads_beyond_the_gate_get_429_with_retry_after(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with app_client(make_settings(max_pending_uploads=1)) as client:
+        predictor = client.app.state.services.predictor
+        model = predictor.models.get(DEFAULT_MODEL).loaded.model
+        real, inside, release = model.forward, threading.Event(), threading.Event()
+
+        def held_forward(x, features=None):
+            inside.set()
+            release.wait(30)
+            return real(x, features=features)
+
+        monkeypatch.setattr(model, "forward", held_forward)
+        first: list[int] = []
+        holder = threading.Thread(target=lambda: first.append(upload(client, csv_with_gt).status_code))
+        holder.start()
+        try:
+            assert inside.wait(30), "the first upload never reached the model"
+            busy = upload(client, csv_with_gt)
+            raw = client.post("/predict", content=csv_with_gt, headers={"content-type": "text/csv"})
+        finally:
+            release.set()
+            holder.join(60)
+        assert busy.status_code == 429 and raw.status_code == 429
+        assert int(busy.headers["retry-after"]) > 0
+        assert "FTIN_MAX_PENDING_UPLOADS=1" in detail(busy)
+        assert first == [200]
+        assert upload(client, csv_with_gt).status_code == 200  # the gate is free again
+
+
+def test_the_upload_gate_refuses_at_once_and_frees_its_place() -> None:
+    gate = UploadGate(2)
+    with gate.enter(), gate.enter():
+        started = time.monotonic()
+        with pytest.raises(BusyError) as refused, gate.enter():
+            pass
+        assert time.monotonic() - started < 0.1 and refused.value.retry_after_s == RETRY_AFTER_S
+    with gate.enter():
+        pass
+    with pytest.raises(ValueError, match="at least one"):
+        UploadGate(0)

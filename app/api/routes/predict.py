@@ -13,7 +13,9 @@ orientation, resampling, the model and scoring run in the threadpool (``Predicti
 answer (one row per sample, the plausibility figures' step detection) is built and serialised to JSON
 there too (``answer``), never by FastAPI on the loop. The deadline starts when the request arrives and
 moves on when the body is in and after every batch of windows (``app.services.limits``): 504 only for
-a prediction that stops making progress, or waits too long for a slot.
+a prediction that stops making progress, or waits too long for a slot. At most
+``FTIN_MAX_PENDING_UPLOADS`` requests are past the door at once, from before the body is read until
+the answer is built: the next gets 429 with ``Retry-After``.
 """
 
 from __future__ import annotations
@@ -186,6 +188,7 @@ def _predict_json(predictor: PredictionService, raw: bytes, options: RunOptions)
         413: {"model": ErrorResponse},
         415: {"model": ErrorResponse},
         422: {"model": ErrorResponse},
+        429: {"model": ErrorResponse},
         504: {"model": ErrorResponse},
     },
 )
@@ -193,7 +196,21 @@ async def predict(
     request: Request, services: ServicesDep, options: PredictOptionsDep, name: NameQuery = None
 ) -> Response:
     content_type = request.headers.get("content-type", "").split(";")[0].strip().lower()
-    predictor = services.predictor
+    if content_type not in ("multipart/form-data", "application/json", *_RAW_BODY_TYPES):
+        raise UnsupportedMediaError(
+            f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"
+            " file in the field 'file', a raw text/csv, application/zip or application/gzip body, or "
+            "application/json arrays"
+        )
+    with services.predictor.uploads.enter():  # 429 beyond FTIN_MAX_PENDING_UPLOADS, before the body is read
+        run = await _read_and_run(request, services.predictor, content_type, options, name)
+        return await answer(run, services.scene_url)
+
+
+async def _read_and_run(
+    request: Request, predictor: PredictionService, content_type: str, options: RunOptions, name: str | None
+) -> Run:
+    """The body as its ``Content-Type`` says, read and run off the event loop."""
     if content_type == "multipart/form-data":
         async with request.form(max_files=1, max_fields=8) as form:
             upload = form.get("file")
@@ -208,24 +225,16 @@ async def predict(
             if options.filter is None and chosen is not None:
                 options = replace(options, filter=str(chosen))
         _body_in(options)
-        run = await run_in_threadpool(predictor.predict_csv, body, filename, options)
-    elif content_type in _RAW_BODY_TYPES:
+        return await run_in_threadpool(predictor.predict_csv, body, filename, options)
+    if content_type in _RAW_BODY_TYPES:
         body = HandedBytes(b"".join([chunk async for chunk in request.stream()]))  # not kept by the request
         _body_in(options)
         # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
         # recording is named "upload"): never a name the user did not give.
-        run = await run_in_threadpool(predictor.predict_csv, body, name or RAW_BODY_LABEL, options)
-    elif content_type == "application/json":
-        data = await request.body()
-        _body_in(options)
-        run = await run_in_threadpool(_predict_json, predictor, data, options)
-    else:
-        raise UnsupportedMediaError(
-            f"Content-Type {content_type or '(none)'!r} is not supported; send multipart/form-data with a"
-            " file in the field 'file', a raw text/csv, application/zip or application/gzip body, or "
-            "application/json arrays"
-        )
-    return await answer(run, services.scene_url)
+        return await run_in_threadpool(predictor.predict_csv, body, name or RAW_BODY_LABEL, options)
+    data = await request.body()  # application/json
+    _body_in(options)
+    return await run_in_threadpool(_predict_json, predictor, data, options)
 
 
 def _body_in(options: RunOptions) -> None:

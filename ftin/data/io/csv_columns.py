@@ -267,13 +267,16 @@ def match_header(index: int, header: str) -> HeaderMatch | None:
     return None
 
 
-def map_columns(headers: Sequence[str], source: str) -> tuple[dict[str, HeaderMatch], list[str]]:
-    """Canonical name -> chosen header; plus warnings about ignored columns."""
+def map_columns(
+    headers: Sequence[str], source: str, matches: Sequence[HeaderMatch | None] | None = None
+) -> tuple[dict[str, HeaderMatch], list[str]]:
+    """Canonical name -> chosen header; plus warnings about ignored columns. ``matches``: each
+    header's ``match_header`` where the caller has it already (a header is matched once)."""
     warnings: list[str] = []
     candidates: dict[str, list[HeaderMatch]] = {}
     unknown: list[str] = []
     for i, header in enumerate(headers):
-        match = match_header(i, header)
+        match = match_header(i, header) if matches is None else matches[i]
         if match is None:
             if header.strip():
                 unknown.append(shown(header.strip()))
@@ -292,8 +295,19 @@ def map_columns(headers: Sequence[str], source: str) -> tuple[dict[str, HeaderMa
             others = ", ".join(repr(m.header.strip()) for m in matches[1:])
             warnings.append(Note(f"used column {matches[0].header.strip()!r} for {name}; ignored {others}"))
     if unknown:
-        warnings.append(Note("ignored columns: " + ", ".join(unknown)))
+        warnings.append(Note("ignored columns: " + listed(unknown)))
     return chosen, warnings
+
+
+MAX_LISTED = 24  # header names a message lists: an error body stays short however wide the file
+
+
+def listed(names: Sequence[str]) -> str:
+    """``names`` comma-separated, the first ``MAX_LISTED`` of them and a count of the rest; each name
+    cut at 60 characters."""
+    parts = [n if len(n) <= 60 else n[:57] + "..." for n in names[:MAX_LISTED]]
+    more = f" and {len(names) - MAX_LISTED} more ({len(names)} in all)" if len(names) > MAX_LISTED else ""
+    return ", ".join(parts) + more
 
 
 def shown(cell: str) -> str:
@@ -329,5 +343,9 @@ def header_line_matches(line: str) -> bool:
     """True when a header line names all required columns (or their aliases)."""
     cells = split_header_line(line)
     matches = [match_header(i, cell) for i, cell in enumerate(cells)]
-    names = {m.canonical for m in matches if m is not None}
+    return names_required({m.canonical for m in matches if m is not None})
+
+
+def names_required(names: set[str]) -> bool:
+    """True when the canonical ``names`` found in a header include every required column."""
     return all(spec.name in names for spec in COLUMNS if spec.required)

@@ -64,11 +64,12 @@ def plain_header(data: bytes) -> str | None:
 
 
 def float_table(
-    data: bytes, delimiter: str, n_fields: int, wanted: Sequence[int]
+    data: bytes, delimiter: str, n_fields: int, wanted: Sequence[int], filled: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Columns ``wanted`` (file positions, in this order) of a plain file's data rows as floats, and
-    the 0-based file line of each row; None when the string parse must decide (module docstring)."""
-    lines = _filled_lines(data)[1:]  # the header is line 0 (``plain_header``)
+    the 0-based file line of each row; None when the string parse must decide (module docstring).
+    ``filled``: the file's non-empty lines where a scan already found them (``ftin.data.io.csv_scan``)."""
+    lines = (_filled_lines(data) if filled is None else filled)[1:]  # the header is line 0 (``plain_header``)
     if not lines.size:
         return None
     kept = sorted(wanted)

@@ -52,6 +52,7 @@ from ftin.data.io.csv_columns import (
     TO_CANONICAL,
     HeaderMatch,
     header_line_matches,
+    listed,
     looks_numeric,
     map_columns,
     missing_required,
@@ -59,7 +60,8 @@ from ftin.data.io.csv_columns import (
     shown,
     sniff_delimiter,
 )
-from ftin.data.io.csv_floats import float_table, plain_header, utf8_error
+from ftin.data.io.csv_floats import float_table
+from ftin.data.io.csv_scan import CsvScan, scan_csv
 from ftin.data.messages import Note, with_messages
 from ftin.data.readers._registry import register_reader
 from ftin.data.types import ImuSequence, Trajectory
@@ -90,6 +92,7 @@ __all__ = [  # the table and limits are re-exported: callers and tests know them
     "header_matches",
     "read",
     "read_csv",
+    "read_scan",
     "schema_markdown",
     "write_csv",
 ]
@@ -102,10 +105,6 @@ DEFAULT_MIN_SAMPLES = 100  # one 1 s window at 100 Hz
 _LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|\Z)")
 
 
-# ---------------------------------------------------------------------------------------------
-# Reading
-
-
 def _source_label(path_or_buffer: Any, name: str | None) -> str:
     if isinstance(path_or_buffer, (str, os.PathLike)):
         return str(path_or_buffer)
@@ -113,25 +112,21 @@ def _source_label(path_or_buffer: Any, name: str | None) -> str:
     return name or (buffer_name if isinstance(buffer_name, str) else None) or "<uploaded CSV>"
 
 
-def _read_raw(path_or_buffer: Any, source: str) -> bytes | str:
-    """The file's bytes, checked to be UTF-8 text (no decoded copy is kept), or a text buffer's text."""
+def _scan(path_or_buffer: Any, source: str) -> CsvScan | str:
+    """The bytes scanned once (``ftin.data.io.csv_scan``); or the text of a text buffer that holds
+    what UTF-8 cannot encode (lone surrogates: only the string parse reads it)."""
     try:
-        if isinstance(path_or_buffer, (str, os.PathLike)):
-            raw: bytes | str = Path(path_or_buffer).read_bytes()
-        elif isinstance(path_or_buffer, (bytes, bytearray)):
-            raw = bytes(path_or_buffer)
-        else:
-            raw = path_or_buffer.read()
+        raw = path_or_buffer
+        if isinstance(raw, (str, os.PathLike)):
+            raw = Path(raw).read_bytes()
+        elif not isinstance(raw, (bytes, bytearray)):
+            raw = raw.read()
     except OSError as exc:
         raise DataFormatError(f"{source}: cannot read file ({exc.strerror or exc})") from exc
-    if isinstance(raw, (bytes, bytearray)):
-        raw = bytes(raw)
-        error = utf8_error(raw)
-        if error is not None:
-            raise DataFormatError(
-                f"{source}: not UTF-8 text (byte {error.start}); is this really a CSV file?"
-            ) from error
-    return raw
+    try:
+        return scan_csv(raw.encode("utf-8") if isinstance(raw, str) else bytes(raw), source)
+    except UnicodeEncodeError:  # a text buffer holding lone surrogates
+        return str(raw)
 
 
 class _Parsed(NamedTuple):
@@ -142,17 +137,20 @@ class _Parsed(NamedTuple):
     line_of: np.ndarray  # (n,): 0-based file line of each row
 
 
-def _columns(headers: list[str], source: str) -> tuple[dict[str, HeaderMatch], list[str], list[str]]:
-    """The header row's checks: chosen header per canonical column, warnings, columns to read."""
+def _columns(
+    headers: list[str], source: str, matches: Sequence[HeaderMatch | None] | None = None
+) -> tuple[dict[str, HeaderMatch], list[str], list[str]]:
+    """The header row's checks: chosen header per canonical column, warnings, columns to read
+    (``matches``: each cell's column where a scan matched them already)."""
     if all(looks_numeric(h) for h in headers if h.strip()):
         raise DataFormatError(
             f"{source}: no header row: the first line {','.join(headers)[:60]!r} is data; the first line "
             f"must name the columns, e.g. t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z"
         )
-    chosen, warnings = map_columns(headers, source)
+    chosen, warnings = map_columns(headers, source, matches)
     missing = missing_required(chosen)
     if missing:
-        found = ", ".join(shown(h.strip()) for h in headers if h.strip())
+        found = listed([shown(h.strip()) for h in headers if h.strip()])
         hint = ""
         if any("acc" in m for m in missing) and "linear" in found.lower():
             hint = "; linear acceleration (gravity removed) cannot replace specific force including gravity"
@@ -171,23 +169,19 @@ def _columns(headers: list[str], source: str) -> tuple[dict[str, HeaderMatch], l
     return chosen, warnings, [spec.name for spec in COLUMNS if spec.name in chosen]
 
 
-def _parse_floats(raw: bytes | str, source: str) -> _Parsed | None:
+def _parse_floats(scan: CsvScan, source: str) -> _Parsed | None:
     """The cells parsed once, as floats, straight from the bytes (``ftin.data.io.csv_floats``); None
     when the file is not plain or a cell is not a number: ``_parse_strings`` then says which."""
-    try:
-        data = raw if isinstance(raw, bytes) else raw.encode("utf-8")
-    except UnicodeEncodeError:  # a text buffer holding lone surrogates
+    header = scan.header  # raises for a header row beyond the column cap, before any parse
+    if header is None or not scan.plain:
         return None
-    header = plain_header(data)
-    if header is None:
-        return None
-    delimiter = sniff_delimiter(header)
-    headers = header.split(delimiter)
     try:
-        chosen, warnings, used = _columns(headers, source)
+        chosen, warnings, used = _columns(header.cells, source, header.matches)
     except DataFormatError:  # raised again by the string parse, after any fault it finds first
         return None
-    table = float_table(data, delimiter, len(headers), [chosen[c].index for c in used])
+    table = float_table(
+        scan.data, header.delimiter, len(header.cells), [chosen[c].index for c in used], scan.filled
+    )
     return None if table is None else _Parsed(chosen, warnings, used, *table)
 
 
@@ -301,17 +295,35 @@ def read_csv(
 ) -> ImuSequence:
     """Read one sequence in the generic CSV format (see the module docstring for the rules)."""
     source = _source_label(path_or_buffer, name)
+    return read_scan(_scan(path_or_buffer, source), source=source, name=name, min_samples=min_samples)
+
+
+def read_scan(
+    scan: CsvScan | str,
+    *,
+    source: str | None = None,
+    name: str | None = None,
+    min_samples: int = DEFAULT_MIN_SAMPLES,
+) -> ImuSequence:
+    """``read_csv`` on bytes already scanned (``ftin.data.from_bytes`` hands its ``CsvScan`` on: the
+    bytes are not scanned again); messages name ``source`` (the scan's own by default)."""
+    source = source or getattr(scan, "source", "<uploaded CSV>")
     if name is None:
         name = Path(source).stem if not source.startswith("<") else "upload"
     # The parsed cells live only inside _sequence: validate's copies do not pile on top of them.
-    seq, row_label, names = _sequence(_parse(path_or_buffer, source), name, source, min_samples)
+    seq, row_label, names = _sequence(_parse(scan, source), name, source, min_samples)
     return validate(seq, source=source, row_label=row_label, columns=names, min_samples=min_samples)
 
 
-def _parse(path_or_buffer: Any, source: str) -> _Parsed:
+def _parse(scan: CsvScan | str, source: str) -> _Parsed:
     """The cells as floats: parsed once from the bytes, or as strings when that cannot be done."""
-    raw = _read_raw(path_or_buffer, source)
-    return _parse_floats(raw, source) or _parse_strings(raw, source)
+    if isinstance(scan, str):
+        return _parse_strings(scan, source)
+    if scan.utf8_error is not None:
+        raise DataFormatError(
+            f"{source}: not UTF-8 text (byte {scan.utf8_error.start}); is this really a CSV file?"
+        ) from scan.utf8_error
+    return _parse_floats(scan, source) or _parse_strings(scan.data, source)
 
 
 def _sequence(
