@@ -22,7 +22,7 @@ from ftin.cli import app
 from ftin.data.errors import DataFormatError
 from ftin.data.loading import load_sequences
 
-UNPAIRED = "syn/imu9"
+UNPAIRED = "syn/imu9.csv"  # its xz file's stem
 
 
 @pytest.fixture(scope="module")
