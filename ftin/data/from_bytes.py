@@ -131,9 +131,8 @@ def _read_files(
     csvs = [n for n, d in files.files.items() if d and not d.isspace()]  # strip() would copy each file
     scan = _scanned(files, csvs[0], bare, max_samples) if len(csvs) == 1 else None
     check()
-    if scan is not None and scan.header is not None and names_required(scan.header.names()):
-        return generic_csv.read_scan(scan).with_(name=stem)
-    reader = _export_reader(files)
+    generic = scan is not None and scan.header is not None and names_required(scan.header.names())
+    reader = None if generic else _export_reader(files)
     if reader is not None and bare and getattr(reader, "NEEDS_WHOLE_EXPORT", False):
         raise DataFormatError(
             f"{files.source} is one file of a {reader.LABEL}; upload the whole export (the ZIP the app "
@@ -141,12 +140,12 @@ def _read_files(
         )
     if reader is not None:
         return reader.read_export(files, stem)
-    if scan is not None:
-        return generic_csv.read_scan(scan).with_(name=stem)
-    raise DataFormatError(
-        f"{files.source}: holds {', '.join(files.names()) or 'no CSV'}: neither a Sensor Logger nor a "
-        "phyphox export, nor one CSV in the generic schema"
-    )
+    if scan is None:
+        raise DataFormatError(
+            f"{files.source}: holds {', '.join(files.names()) or 'no CSV'}: neither a Sensor Logger nor a "
+            "phyphox export, nor one CSV in the generic schema"
+        )
+    return generic_csv.read_scan(scan).with_(name=stem)  # a near miss: its message says what is missing
 
 
 def _scanned(files: ExportFiles, name: str, bare: bool, max_samples: int | None) -> CsvScan:
