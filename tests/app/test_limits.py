@@ -317,3 +317,14 @@ def test_the_upload_gate_refuses_at_once_and_frees_its_place() -> None:
         pass
     with pytest.raises(ValueError, match="at least one"):
         UploadGate(0)
+
+
+def test_reading_an_upload_is_inside_the_requests_deadline(
+    make_settings: Callable[..., Settings], csv_with_gt: bytes
+) -> None:
+    services = Services.build(make_settings())
+    expired = Deadline.after(1e-9)
+    time.sleep(0.01)
+    with pytest.raises(InferenceTimeoutError, match="reading walk.csv made no progress"):
+        services.predictor.read_upload(csv_with_gt, "walk.csv", expired)
+    assert len(services.predictor.read_upload(csv_with_gt, "walk.csv", Deadline.after(60))) == 2000
