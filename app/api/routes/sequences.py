@@ -29,10 +29,11 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
 @router.post(
     "/sequences/{sequence_id}/predict",
     response_model=PredictionResponse,
-    responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 504)},
+    responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 429, 504)},
 )
 async def predict_sequence(
     sequence_id: SequenceIdPath, services: ServicesDep, options: PredictOptionsDep
 ) -> Response:
-    run = await run_in_threadpool(services.predictor.predict_sequence, sequence_id, options)
-    return await answer(run, services.scene_url)  # built and serialised off the event loop
+    with services.predictor.uploads.enter():  # as POST /predict: 429 beyond FTIN_MAX_PENDING_UPLOADS
+        run = await run_in_threadpool(services.predictor.predict_sequence, sequence_id, options)
+        return await answer(run, services.scene_url)  # built and serialised off the event loop
