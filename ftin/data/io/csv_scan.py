@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from ftin.data.errors import DataFormatError
-from ftin.data.io.csv_columns import HeaderMatch, looks_numeric, match_header, sniff_delimiter
+from ftin.data.io.csv_columns import HeaderMatch, match_header, sniff_delimiter
 
 MAX_COLUMNS = 512  # the generic schema has 23 columns; phone exports' widest files about 30
 MAX_HEADER_BYTES = 256 * 1024  # 512 names of 500 characters
@@ -47,11 +47,6 @@ class CsvHeader:
 
     def names(self) -> set[str]:
         return {m.canonical for m in self.matches if m is not None}
-
-    @property
-    def is_data(self) -> bool:
-        """Every filled cell is a number: the file has no header row."""
-        return all(looks_numeric(c) for c in self.cells if c.strip())
 
 
 @dataclass(frozen=True, eq=False)
