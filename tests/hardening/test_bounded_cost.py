@@ -142,7 +142,8 @@ def test_inputs_that_once_cost_gigabytes_get_short_4xx_fast(server: tuple[str, i
             assert expected in response.json()["detail"], (name, response.json()["detail"])
             assert took < MAX_ANSWER_S, f"{name}: {took:.1f} s"
             print(
-                f"{name}: {len(body) / 2**20:.1f} MiB sent -> {response.status_code} in {took:.2f} s, {len(response.content)} bytes"
+                f"{name}: {len(body) / 2**20:.1f} MiB sent -> {response.status_code} in {took:.2f} s, "
+                f"{len(response.content)} bytes"
             )
         growth_mb = (_status_kb(pid, "VmHWM") - before_kb) / 1024
         print(f"server peak memory grew by {growth_mb:.0f} MB over the three")
