@@ -35,7 +35,7 @@ def get_profile(name: ProfileName, services: ServicesDep) -> ProfileResponse:
 @router.post(
     "/profiles/{name}/walks",
     response_model=ProfileResponse,
-    responses={**_ERRORS, 410: {"model": ErrorResponse}},
+    responses={**_ERRORS, 400: {"model": ErrorResponse}, 410: {"model": ErrorResponse}},  # 400: bad JSON
 )
 def add_walk(name: ProfileName, body: AddWalkRequest, services: ServicesDep) -> ProfileResponse:
     """Add a finished run as a walk of known length (``distance_m``; without it, its GPS path where the
