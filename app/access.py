@@ -33,6 +33,7 @@ Decisions (compare Jupyter: a token on every route, a cross-site check, a ``Host
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import hmac
 import ipaddress
@@ -42,6 +43,7 @@ import re
 import secrets
 import socket
 import sys
+import time
 from dataclasses import dataclass, field
 from http.cookies import SimpleCookie
 from pathlib import Path
@@ -65,11 +67,16 @@ LOCAL_CLIENT_NAMES = frozenset({"testclient", "localhost"})  # in-process client
 SECRET_NAME = re.compile(r"token|secret|key|passw|auth", re.IGNORECASE)
 
 
+@functools.lru_cache(maxsize=4096)
 def _ip(text: str) -> ipaddress.IPv4Address | ipaddress.IPv6Address | None:
     try:
         return ipaddress.ip_address(text.strip("[]"))
     except ValueError:
         return None
+
+
+_BOUND: dict[str, tuple[bool, float]] = {}  # address -> (this machine's, until when): addresses change
+BOUND_TTL_S = 30.0
 
 
 def is_this_machine(address: str) -> bool:
@@ -79,13 +86,20 @@ def is_this_machine(address: str) -> bool:
         return False
     if ip.is_loopback:
         return True
+    known = _BOUND.get(address)
+    if known is not None and known[1] > time.monotonic():
+        return known[0]
     family = socket.AF_INET6 if ip.version == 6 else socket.AF_INET
     try:
         with socket.socket(family, socket.SOCK_DGRAM) as probe:
             probe.bind((str(ip), 0))
-        return True
+        mine = True
     except OSError:
-        return False
+        mine = False
+    if len(_BOUND) > 4096:
+        _BOUND.clear()
+    _BOUND[address] = (mine, time.monotonic() + BOUND_TTL_S)
+    return mine
 
 
 def is_local(client_host: str | None) -> bool:
@@ -169,6 +183,7 @@ class AccessPolicy:
         return mine is not None and parts.hostname is not None and not parts.path and theirs == mine
 
 
+@functools.lru_cache(maxsize=1024)
 def _host_name(host_header: str) -> str | None:
     if re.search(r"[@/?#\\\s]", host_header):  # a name and port only: no user, path or space
         return None

@@ -91,6 +91,24 @@ def test_another_machine_needs_the_token_on_every_route_but_health(
     assert answer.status_code == 200, answer.text
 
 
+def test_every_route_in_the_schema_but_health_is_closed_to_another_machine(
+    app_with_token, remote: TestClient
+) -> None:
+    """Every operation the app documents (and the pages, files and docs it does not), asked with no
+    token from another machine: 401 before any route runs."""
+    asked = {"/health": 200, "/static/app.js": 401, "/docs": 401, "/favicon.ico": 401}
+    for path, item in app_with_token.openapi()["paths"].items():
+        for method in item:
+            url = re.sub(r"\{[^}]+\}", "abcdef", path)
+            status = remote.request(method.upper(), url).status_code
+            assert status == (200 if path == "/health" else 401), (method, path, status)
+            asked[f"{method} {path}"] = status
+    for url, status in asked.items():
+        if url.startswith("/"):
+            assert remote.get(url).status_code == status, url
+    assert len(asked) > 25
+
+
 def test_a_token_url_sets_a_cookie_and_drops_the_token(remote: TestClient, run_id: str) -> None:
     login = remote.get("/runs", params={"token": TOKEN, "limit": 5}, follow_redirects=False)
     assert login.status_code == 302 and login.headers["location"] == "/runs?limit=5"
