@@ -45,13 +45,13 @@ import socket
 import sys
 import time
 from dataclasses import dataclass, field
-from http.cookies import SimpleCookie
 from pathlib import Path
 from urllib.parse import parse_qsl, unquote_plus, urlencode, urlsplit
 
 import click
 import uvicorn
 from starlette.datastructures import Headers
+from starlette.requests import cookie_parser
 from starlette.responses import JSONResponse, RedirectResponse, Response
 from starlette.types import ASGIApp, Receive, Scope, Send
 
@@ -263,8 +263,8 @@ class AccessMiddleware:
             if method in ("GET", "HEAD") and any(name == TOKEN_PARAM for name, _ in query):
                 return self._login(scope, query)
             return None
-        cookie = SimpleCookie(headers.get("cookie", "")).get(COOKIE_NAME)
-        if cookie is not None and policy.cookie_ok(cookie.value):
+        cookie = cookie_parser(headers.get("cookie", "")).get(COOKIE_NAME)
+        if cookie is not None and policy.cookie_ok(cookie):
             return None
         client, server = scope.get("client"), scope.get("server")
         if server and not policy.announced and _ip(str(server[0])) is not None:  # a socket's address

@@ -22,8 +22,10 @@ import httpx
 import pandas as pd
 import pytest
 from fastapi.testclient import TestClient
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from app.access import COOKIE_NAME, AccessPolicy, is_local, is_this_machine, redact_query
+from app.access import COOKIE_NAME, AccessMiddleware, AccessPolicy, is_local, is_this_machine, redact_query
 from app.main import create_app
 from app.serve import serve_in_thread
 from app.settings import Settings
@@ -185,6 +187,46 @@ def test_this_machine_is_loopback_or_its_own_addresses() -> None:
     assert is_this_machine("127.0.0.2") and not is_this_machine("0.0.0.0")
     own = socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET)[0][4][0]
     assert is_this_machine(own)  # a browser here opening the LAN address needs no token
+
+
+_TEXT = st.text(st.characters(min_codepoint=0, max_codepoint=255), max_size=60)
+_HEADER = st.one_of(_TEXT, st.sampled_from(["127.0.0.1:8000", "evil.example", "[::1]", "http://x", "null"]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    host=st.none() | _HEADER,
+    origin=st.none() | _HEADER,
+    cookie=st.none() | _TEXT.map(lambda v: f"{COOKIE_NAME}={v}"),
+    auth=st.none() | _TEXT | _TEXT.map(lambda v: f"Bearer {v}"),
+    query=_TEXT,
+    method=st.sampled_from(["GET", "HEAD", "POST", "DELETE", "OPTIONS", "PATCH"]),
+    client=st.sampled_from(["127.0.0.1", "203.0.113.7", "testclient", "::1", "not an address"]),
+)
+def test_any_headers_get_an_answer_not_an_error(host, origin, cookie, auth, query, method, client) -> None:
+    """Whatever a client sends in the headers the check reads, it passes or is refused: never raises."""
+    headers = [
+        (k.encode(), v.encode("latin-1"))
+        for k, v in (("host", host), ("origin", origin), ("cookie", cookie), ("authorization", auth))
+        if v is not None
+    ]
+    scope = {
+        "type": "http",
+        "method": method,
+        "path": "/runs",
+        "scheme": "http",
+        "query_string": query.encode("latin-1"),
+        "headers": headers,
+        "client": (client, 5000),
+        "server": ("127.0.0.1", 8000),
+    }
+    refusal = AccessMiddleware(None, POLICY)._check(scope)  # type: ignore[arg-type]
+    assert refusal is None or refusal.status_code in (302, 400, 401, 403)
+    if refusal is None and client == "203.0.113.7":  # another machine got in: it showed the token
+        assert TOKEN in (auth or "") + query or POLICY.cookie_value in (cookie or "")
+
+
+POLICY = AccessPolicy.from_settings(Settings(token=TOKEN, allowed_hosts=[]))
 
 
 def test_query_secrets_are_redacted() -> None:
