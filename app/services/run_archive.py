@@ -310,6 +310,8 @@ class RunArchive:
                 return None
             self._mark_unreadable(run_id, problem)
             row = self._row(run_id)
+            if row is None:  # deleted meanwhile
+                return None
         why = str(row["gone_why"]).removeprefix("unreadable: ")
         return RunRecord.from_row(row), f"{self._gone_words(row)} ({why})"
 
