@@ -2,6 +2,7 @@
 
 Start-up (the lifespan) loads every checkpoint once, lists the data folders and starts the viser
 server; shutdown stops viser and its threads. ``create_app(settings)`` builds an app for tests.
+``app.access`` guards every route (token, ``Host``, cross-site) and keeps secrets out of the access log.
 
 The OpenAPI page at ``/docs`` serves Swagger UI from the ``fastapi-offline`` package, because
 FastAPI's default page loads it from a CDN and the dashboard must work offline. ReDoc is not offered.
@@ -21,6 +22,14 @@ from fastapi_offline import FastAPIOffline
 from starlette.concurrency import run_in_threadpool
 
 import ftin
+from app.access import (
+    AccessMiddleware,
+    AccessPolicy,
+    announce,
+    deprecation_notes,
+    install_log_redaction,
+    uvicorn_cli_bind,
+)
 from app.api.errors import BodySizeLimitMiddleware, install_error_handlers
 from app.api.routes import exports, health, live, metrics, models, pages, predict, profiles, runs, sequences
 from app.api.routes.pages import STATIC_DIR
@@ -44,8 +53,11 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         except StartupError as exc:
             log.error("FTIN Studio cannot start: %s", exc)
             raise
-        for note in services.notes:
+        for note in [*deprecation_notes(), *services.notes]:
             log.warning("%s", note)
+        bind = uvicorn_cli_bind()  # None under another launcher (serve_in_thread announces itself)
+        if bind is not None:
+            announce(app.state.access, *bind)
         if settings.viser_enabled:
             from app.viz.scene import DashboardScene  # deferred: viser loads only when the scene is enabled
 
@@ -82,6 +94,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             allow_methods=["GET", "POST", "DELETE"],
         )
     app.add_middleware(BodySizeLimitMiddleware, max_body_bytes=app.state.settings.max_upload_bytes)
+    app.state.access = AccessPolicy.from_settings(app.state.settings)
+    app.add_middleware(AccessMiddleware, policy=app.state.access)  # the outermost: checked first
+    install_log_redaction()
     install_error_handlers(app)
     for module in (health, models, metrics, sequences, predict, runs, exports, live, profiles, pages):
         app.include_router(module.router)

@@ -400,7 +400,10 @@ class PredictionResponse(BaseModel):
 
 class RunStatusResponse(BaseModel):
     run_id: str
-    state: str
+    state: str = Field(
+        description="running, done, failed, or damaged (finished, but its stored files are missing or "
+        "damaged: message says why; its downloads answer 410)."
+    )
     model: str
     sequence: str
     done: int

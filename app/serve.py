@@ -12,6 +12,8 @@ from typing import Any
 import uvicorn
 from fastapi import FastAPI
 
+from app.access import announce
+
 
 class ServerStartError(RuntimeError):
     """uvicorn stopped (or did not answer in time) before it listened."""
@@ -36,10 +38,15 @@ class ThreadedServer:
 
 
 def serve_in_thread(
-    app: FastAPI, host: str = "127.0.0.1", timeout_s: float = 60.0, name: str = "ftin-uvicorn"
+    app: FastAPI,
+    host: str = "127.0.0.1",
+    timeout_s: float = 60.0,
+    name: str = "ftin-uvicorn",
+    log_level: str = "warning",
 ) -> ThreadedServer:
-    """Start ``app`` (its lifespan included) on ``host`` and a free port; return once it listens."""
-    config = uvicorn.Config(app, host=host, port=0, log_level="warning", lifespan="on")
+    """Start ``app`` (its lifespan included) on ``host`` and a free port; return once it listens
+    (bound beyond loopback: having printed the URL other machines open, with the token)."""
+    config = uvicorn.Config(app, host=host, port=0, log_level=log_level, lifespan="on")
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name=name, daemon=True)
     thread.start()
@@ -49,4 +56,5 @@ def serve_in_thread(
             raise ServerStartError("uvicorn did not start (see the log above)")
         time.sleep(0.02)
     port = server.servers[0].sockets[0].getsockname()[1]
+    announce(app.state.access, host, port)
     return ThreadedServer(app, server, thread, f"http://{host}:{port}")

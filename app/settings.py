@@ -20,8 +20,11 @@ Decisions:
   slow each other down, and each holds its windows in memory), and at most ``FTIN_MAX_PENDING_UPLOADS``
   are read, parsed, waiting or running (429 with ``Retry-After`` beyond); finished runs are kept while they
   hold at most ``FTIN_MAX_KEPT_SAMPLES`` samples in all (and at most ``FTIN_MAX_RUNS`` runs) in memory.
-- Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue; a push
-  from another machine is refused unless ``FTIN_LIVE_TOKEN`` is set, and then must carry it.
+- Access (``app.access``): one token, ``FTIN_TOKEN`` (``FTIN_LIVE_TOKEN``, its old name, still read),
+  needed by every route but ``/health`` from a client on another machine; without one a token is
+  generated at each start. ``FTIN_ALLOWED_HOSTS`` adds names to the ``Host`` allow-list (loopback and
+  this machine's own names and addresses are always on it; ``*`` allows any).
+- Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue.
 - ``FTIN_TORCH_THREADS`` (default 1) sets torch's intra-op threads for the whole process while the
   app runs. One thread, because the app shares its CPU with the event loop, viser and the drawing
   thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
@@ -45,7 +48,7 @@ import sys
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import Field, field_validator
+from pydantic import AliasChoices, Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 import ftin
@@ -70,7 +73,7 @@ def default_runs_dir() -> Path:
 
 
 class Settings(BaseSettings):
-    model_config = SettingsConfigDict(env_prefix="FTIN_", extra="ignore")
+    model_config = SettingsConfigDict(env_prefix="FTIN_", extra="ignore", populate_by_name=True)
 
     data_dirs: Annotated[list[Path], NoDecode] = Field(
         default_factory=lambda: [BUNDLED_SAMPLES_DIR],
@@ -93,6 +96,19 @@ class Settings(BaseSettings):
     viser_host: str = "127.0.0.1"
     viser_port: int = Field(8080, ge=0, le=65535)
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    # Access (app.access): the token other machines must show, and the Host names besides this machine's.
+    token: str | None = Field(
+        None,
+        min_length=8,
+        validation_alias=AliasChoices("FTIN_TOKEN", "FTIN_LIVE_TOKEN", "token"),
+        description="Token clients on other machines must show (FTIN_TOKEN; FTIN_LIVE_TOKEN is its old "
+        "name); generated at each start when unset.",
+    )
+    allowed_hosts: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="Host names the API answers to besides loopback and this machine's (comma-separated; "
+        "* for any).",
+    )
     max_runs: int = Field(
         20, ge=1, description="Finished runs also held in memory (the rest are read from FTIN_RUNS_DIR)."
     )
@@ -124,9 +140,6 @@ class Settings(BaseSettings):
         PrecisionSetting.AUTO, description="Inference precision: auto (bf16 where free), fp32 or bf16."
     )
     # Live phone streams (POST /live/sensorlogger; app.services.live has the decisions).
-    live_token: str | None = Field(
-        None, min_length=8, description="Token a push must carry (?token=); required for pushes from the LAN."
-    )
     live_model: str | None = Field(None, description="Model for live sessions (default: the default model).")
     live_max_sessions: int = Field(4, ge=1, description="Live sessions running at once.")
     live_max_session_s: float = Field(3600.0, gt=0, description="Longest live session, in seconds of data.")
@@ -141,9 +154,9 @@ class Settings(BaseSettings):
             return [Path(part).expanduser() for part in value.split(os.pathsep) if part.strip()]
         return value
 
-    @field_validator("cors_origins", mode="before")
+    @field_validator("cors_origins", "allowed_hosts", mode="before")
     @classmethod
-    def _split_origins(cls, value: object) -> object:
+    def _split_commas(cls, value: object) -> object:
         if isinstance(value, str):
             return [part.strip() for part in value.split(",") if part.strip()]
         return value

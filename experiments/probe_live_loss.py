@@ -87,7 +87,7 @@ def main() -> None:
     ]
     with tempfile.TemporaryDirectory() as runs:
         settings = Settings(viser_enabled=False, runs_dir=Path(runs))
-        with TestClient(create_app(settings)) as client:
+        with TestClient(create_app(settings), base_url="http://127.0.0.1") as client:  # an allowed Host
             for export in EXPORTS:
                 source = DEFAULT_DATA_ROOT / "phone" / export
                 for batch_s in (0.2, 0.5):

@@ -1,7 +1,7 @@
 """Live phone sessions: push messages in (any format of ``ftin.live.formats``), runs that grow as
 the person walks.
 
-``LiveService.check_access`` and ``accept`` run for each ``POST /live/{format}`` (in the request's
+``LiveService.accept`` runs for each ``POST /live/{format}`` (in the request's
 thread: checks and parsing only); one worker thread does the rest (``ftin.live``: order, clock,
 orientation, model) and hands every live run's trajectory so far to the run store
 (``RunStore.update``: ``GET /runs/{run_id}/trajectory.*`` sees it grow) and, for the followed
@@ -14,8 +14,8 @@ Decisions:
   without messages for ``FTIN_LIVE_IDLE_S`` ends and stays an ordinary run; so does one that reached
   ``FTIN_LIVE_MAX_SESSION_S`` or ``FTIN_MAX_SAMPLES`` (later messages of it get 409). A message of an
   idle-ended session starts a new part (a phone that lost the network for a while).
-- Safety: a push from another machine than this one is refused (403) unless ``FTIN_LIVE_TOKEN`` is
-  set, and with a token every push must carry it (``?token=`` in the push URL, or a bearer header).
+- Safety: a push from another machine must carry the app's one token (``?token=`` in the push URL,
+  or a bearer header), checked on every route by ``app.access`` (``FTIN_TOKEN``).
   Bodies (``FTIN_LIVE_MAX_BODY_KB``, checked at the door: ``app.api.routes.live``), sessions
   (``FTIN_LIVE_MAX_SESSIONS``) and the queue (``FTIN_LIVE_QUEUE_MESSAGES``) are bounded: beyond them
   a push gets 413 or 429 at once, and the message is lost as on a bad network (which a session
@@ -41,8 +41,6 @@ Decisions:
 
 from __future__ import annotations
 
-import hmac
-import ipaddress
 import logging
 import queue
 import threading
@@ -55,11 +53,9 @@ from typing import Any
 from app.services.errors import (
     BusyError,
     ConflictError,
-    ForbiddenError,
     InvalidInputError,
     NotFoundError,
     StartupError,
-    UnauthorizedError,
 )
 from app.services.features import ModelInput
 from app.services.listeners import Listeners
@@ -118,16 +114,6 @@ class LiveUpdate:
 LiveListener = Callable[[LiveUpdate], None]
 
 
-def is_local(host: str | None) -> bool:
-    """Whether a client address is this machine (no address or a test client's name: local too)."""
-    if not host:
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return host in ("testclient", "localhost")
-
-
 class LiveService:
     def __init__(self, settings: Settings, models: Any, runs: RunStore) -> None:
         self.settings = settings
@@ -152,24 +138,6 @@ class LiveService:
         self.refused = 0
 
     # --- the request side ------------------------------------------------------------------------
-
-    def check_access(self, client_host: str | None, token: str | None) -> None:
-        expected = self.settings.live_token
-        if expected is None:
-            if not is_local(client_host):
-                raise ForbiddenError(
-                    f"live pushes from other machines ({client_host}) are refused until a token is set: "
-                    "start the app with FTIN_LIVE_TOKEN=<a secret of 8+ characters> and put "
-                    "?token=<it> at the end of the phone app's push URL"
-                )
-            return
-        if token is None or not hmac.compare_digest(token.encode(), expected.encode()):
-            raise UnauthorizedError(
-                "this app needs the live token: add ?token=<FTIN_LIVE_TOKEN> to the push URL "
-                "(the upload page shows the whole URL)"
-                if token is None
-                else "wrong live token: copy the push URL from the upload page again"
-            )
 
     @property
     def max_body_bytes(self) -> int:

@@ -284,6 +284,37 @@ class RunArchive:
             (GONE_KEPT,),
         )
 
+    def delete(self, run_id: str) -> bool:
+        """Remove a run's file and its row (gone or not), and its recording when no other run uses it;
+        False when ``run_id`` is unknown. The file goes first: a crash in between leaves a row without
+        a file (set aside as damaged at the next start), never a file that comes back as a run."""
+        with self._lock:
+            if self._row(run_id) is None:
+                return False
+            self.run_path(run_id).unlink(missing_ok=True)
+            with self._db() as db:
+                db.execute("DELETE FROM runs WHERE run_id = ?", (run_id,))
+            self._drop_unused_sequences()
+        log.info("run %s deleted", run_id)
+        return True
+
+    def damage(self, run_id: str) -> tuple[RunRecord, str] | None:
+        """A stored run whose files were set aside as damaged (or are found so now, from their zip
+        directories: cheap), with the reason; None for a run that reads, an evicted or unknown one."""
+        row = self._row(run_id)
+        if row is None or (row["gone_s"] is not None and row["gone_why"] == "budget"):
+            return None
+        if row["gone_s"] is None:
+            problem = _zip_problem(self.run_path(run_id)) or _zip_problem(self.sequence_path(row["seq_hash"]))
+            if problem is None:
+                return None
+            self._mark_unreadable(run_id, problem)
+            row = self._row(run_id)
+            if row is None:  # deleted meanwhile
+                return None
+        why = str(row["gone_why"]).removeprefix("unreadable: ")
+        return RunRecord.from_row(row), f"{self._gone_words(row)} ({why})"
+
     def _mark_unreadable(self, run_id: str, why: str) -> None:
         log.warning("stored run %s is unreadable (%s): skipped", run_id, why)
         with self._lock:

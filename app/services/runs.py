@@ -50,6 +50,7 @@ class RunState(str, enum.Enum):
     RUNNING = "running"
     DONE = "done"
     FAILED = "failed"
+    DAMAGED = "damaged"  # finished, but its stored files are missing or damaged: set aside (410 downloads)
 
 
 @dataclass(frozen=True)
@@ -304,16 +305,48 @@ class RunStore:
         return run
 
     def status(self, run_id: str) -> RunStatus:
+        """A run's state; a finished run whose stored files are damaged says so (``DAMAGED``, with the
+        reason: its downloads answer 410), one evicted by the disk budget is a 410 itself."""
         with self._lock:
             status = self._status.get(run_id)
+            pending = run_id in self._pending
+        if status is not None and (status.state is not RunState.DONE or self.archive is None or pending):
+            return status
+        if self.archive is None:
+            raise NotFoundError(f"unknown run id {run_id!r}")
+        if status is None:
+            self.flush()
+        damaged = self.archive.damage(run_id)
+        if damaged is not None:
+            record, reason = damaged
+            with self._lock:  # out of memory too, so that its downloads say 410 as its status says
+                self._runs.pop(run_id, None)
+            return RunStatus(run_id, RunState.DAMAGED, record.model, record.sequence, message=reason)
         if status is not None:
             return status
-        if self.archive is not None:
-            self.flush()
-        record = None if self.archive is None else self.archive.record(run_id)  # 410 when gone
+        record = self.archive.record(run_id)  # 410 when gone
         if record is None:
             raise NotFoundError(f"unknown run id {run_id!r}")
         return RunStatus(run_id, RunState.DONE, record.model, record.sequence, record.windows, record.windows)
+
+    def delete(self, run_id: str) -> None:
+        """Forget a finished (or failed) run: memory, its stored files and index row; afterwards every
+        URL of it answers 404. ``ConflictError`` while it runs (a live session until it ends)."""
+        with self._lock:
+            status = self._status.get(run_id)
+            if run_id in self._live or (status is not None and status.state is RunState.RUNNING):
+                raise ConflictError(f"run {run_id!r} is still running; delete it once it has finished")
+        if self.archive is not None:
+            self.flush()  # a run still being written is written first, then deleted
+        with self._lock:
+            known = [
+                self._runs.pop(run_id, None),
+                self._status.pop(run_id, None),
+                self._expired.pop(run_id, None),
+            ]
+        stored = self.archive is not None and self.archive.delete(run_id)
+        if not stored and all(k is None for k in known):
+            raise NotFoundError(f"unknown run id {run_id!r}")
 
     def get(self, run_id: str) -> Run:
         with self._lock:

@@ -74,7 +74,8 @@ def _client(settings: Settings, testclient: bool) -> Iterator[tuple[httpx.Client
     if testclient:
         with _runs_elsewhere(settings) as settings:
             app = create_app(settings)
-            with TestClient(app) as client:
+            # Host 127.0.0.1: TestClient's own name, testserver, is on no allow-list (app.access)
+            with TestClient(app, base_url="http://127.0.0.1") as client:
                 yield client, app
         return
     with served(settings) as (base_url, app), httpx.Client(base_url=base_url, timeout=600) as client:

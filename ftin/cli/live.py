@@ -57,7 +57,12 @@ def replay(
         str, typer.Option("--device-id", help="The phone's id in the messages.")
     ] = "ftin-replay",
     token: Annotated[
-        str | None, typer.Option("--token", help="The app's FTIN_LIVE_TOKEN.", envvar="FTIN_LIVE_TOKEN")
+        str | None,
+        typer.Option(
+            "--token",
+            help="The app's token (FTIN_TOKEN, or the one it printed at start).",
+            envvar=["FTIN_TOKEN", "FTIN_LIVE_TOKEN"],
+        ),
     ] = None,
 ) -> None:
     """Stream EXPORT to a running app (``uvicorn app.main:app``) as Sensor Logger's HTTP Push would."""

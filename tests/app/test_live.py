@@ -107,18 +107,22 @@ def test_sessions_are_bounded(app_client: TestClient) -> None:
 
 
 def test_the_lan_needs_a_token(make_settings: Callable[..., Settings]) -> None:
-    app = create_app(make_settings())
+    app = create_app(make_settings())  # no FTIN_TOKEN: the app made one (app.access)
     with TestClient(app, client=("192.168.1.20", 50000)) as lan:
         response = lan.post(PUSH, json=push_body())
-        assert response.status_code == 403 and "FTIN_LIVE_TOKEN" in response.json()["detail"]
-    app = create_app(make_settings(live_token="s3cret-token"))
+        assert response.status_code == 401 and "?token=" in response.json()["detail"]
+        made = app.state.access.token
+        assert lan.post(PUSH, params={"token": made}, json=push_body()).status_code == 200
+        app.state.services.live.end_all()
+    app = create_app(make_settings(token="s3cret-token"))
     with TestClient(app, client=("192.168.1.20", 50000)) as lan:
         assert lan.post(PUSH, json=push_body()).status_code == 401
         assert lan.post(PUSH, params={"token": "wrong-token"}, json=push_body()).status_code == 401
         assert lan.post(PUSH, params={"token": "s3cret-token"}, json=push_body()).status_code == 200
         ok = lan.post(PUSH, json=push_body("b"), headers={"Authorization": "Bearer s3cret-token"})
         assert ok.status_code == 200
-        info = lan.get("/live/info").json()
+        assert lan.get("/live/info").status_code == 401  # every route but /health needs it (app.access)
+        info = lan.get("/live/info", headers={"Authorization": "Bearer s3cret-token"}).json()
         assert info["token_required"] and not info["token_shown"] and "s3cret" not in str(info)
         app.state.services.live.end_all()
     with TestClient(app) as local:

@@ -12,6 +12,7 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
+from app import access
 from app.api.routes import live as live_route
 from app.main import create_app
 from app.serve import serve_in_thread
@@ -32,9 +33,9 @@ def body(session: str, payload: list[dict[str, Any]], message_id: int = 0) -> di
 
 def test_no_documentation_or_loopback_address_is_offered() -> None:
     for address in ("192.0.2.2", "198.51.100.7", "203.0.113.9", "127.0.0.1", "169.254.3.4", "0.0.0.0"):
-        assert not live_route._usable(address), address
-    assert live_route._usable("192.168.1.20") and live_route._usable("10.0.0.5")
-    assert all(live_route._usable(a) for a in live_route.lan_addresses())
+        assert not access._usable(address), address
+    assert access._usable("192.168.1.20") and access._usable("10.0.0.5")
+    assert all(access._usable(a) for a in access.lan_addresses())
 
 
 def test_an_app_on_this_machine_only_says_how_to_reach_it(make_settings: Callable[..., Settings]) -> None:
@@ -61,8 +62,10 @@ def test_the_push_url_is_the_address_the_app_answers_on(
     finally:
         assert server.stop(), "uvicorn did not stop"
     if reachable:
-        assert info["lan_url"] == f"http://127.0.0.2:{port}/live/sensorlogger"
-        assert "FTIN_LIVE_TOKEN" in info["note"]
+        # A browser on this machine sees the token (FTIN_TOKEN, else the one made at start: app.access).
+        token = server.app.state.access.token
+        assert info["lan_url"] == f"http://127.0.0.2:{port}/live/sensorlogger?token={token}"
+        assert "FTIN_TOKEN" in info["note"]
     else:
         assert info["lan_url"] is None and "--host 0.0.0.0" in info["note"]
 

@@ -10,8 +10,9 @@ Decisions:
   as the other fuzzers.
 - Checks left out on purpose: ``positive_data_acceptance`` (a schema-valid JSON recording of random
   numbers is still refused, rightly, by the data checks: unsorted time, no gravity) and the
-  stateful/auth checks (``use_after_free``, ``ignored_auth``, ...): the API has no auth and no
-  DELETE.
+  stateful/auth checks (``use_after_free``, ``ignored_auth``, ...): the in-process client is on
+  this machine, which needs no token (``app.access``: ``tests/app/test_access.py`` tests it), and a
+  deleted run answering 404 is ``tests/app/routes/test_run_delete.py``'s.
 """
 
 from __future__ import annotations

@@ -8,7 +8,6 @@ declared length, else while it streams in, so an oversized body is never read wh
 from __future__ import annotations
 
 import asyncio
-import ipaddress
 import socket
 import time
 from collections.abc import Awaitable, Callable
@@ -18,10 +17,11 @@ from fastapi import APIRouter, Query, Request
 from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 
+from app.access import is_local, lan_addresses
 from app.api.deps import ModelQuery, ServicesDep
 from app.schemas import ErrorResponse
 from app.services.errors import BusyError, PayloadTooLargeError
-from app.services.live import PARSERS, is_local
+from app.services.live import PARSERS
 from ftin.live.formats import DEFAULT_FORMAT, FORMATS, PushFormat
 
 router = APIRouter(tags=["live"])
@@ -30,7 +30,12 @@ MAX_WAITING = 32  # pushes waiting for a parser before the next one gets 429
 PUSH_PATH = f"/live/{DEFAULT_FORMAT.name}"  # the push URL the upload page shows
 
 TokenQuery = Annotated[
-    str | None, Query(description="The live token (FTIN_LIVE_TOKEN), when set.", max_length=200)
+    str | None,
+    Query(
+        description="The token (FTIN_TOKEN, or the one printed at start), for a push from another machine "
+        "(app.access checks it, as on every route).",
+        max_length=200,
+    ),
 ]
 PlatformQuery = Annotated[
     str | None,
@@ -88,7 +93,9 @@ class LiveInfoResponse(BaseModel):
         description="The push URL for a phone on the LAN (token included when shown); null when the app "
         "listens on this machine only (the note says how to make it listen on the LAN)."
     )
-    token_required: bool
+    token_required: bool = Field(
+        description="Other machines need the token (always: one is made at start when FTIN_TOKEN is unset)."
+    )
     token_shown: bool = Field(description="The token is shown only to a browser on this machine.")
     note: str
     sessions: list[LiveSessionInfo]
@@ -144,11 +151,7 @@ def _push_endpoint(push_format: PushFormat) -> Callable[..., Awaitable[LivePushR
         ] = None,
     ) -> LivePushResponse:
         arrival_s = time.monotonic()
-        auth = request.headers.get("authorization", "")
-        if token is None and auth.lower().startswith("bearer "):
-            token = auth[7:].strip()
-        live = services.live
-        live.check_access(request.client.host if request.client else None, token)
+        live = services.live  # access (the token from other machines) was checked by app.access
         body = await _body(request, live.max_body_bytes, push_format.app)
         gate = _gate(request)
         if gate.waiting >= MAX_WAITING:
@@ -187,42 +190,7 @@ async def sessions(services: ServicesDep) -> list[LiveSessionInfo]:
     return [LiveSessionInfo(**s) for s in services.live.sessions()]
 
 
-# Documentation-only ranges (RFC 5737, RFC 3849): never an address a phone can reach.
-NOT_REACHABLE = tuple(
-    ipaddress.ip_network(n) for n in ("192.0.2.0/24", "198.51.100.0/24", "203.0.113.0/24", "2001:db8::/32")
-)
-ROUTE_PROBES = ("10.255.255.255", "192.168.255.255", "172.31.255.255", "8.8.8.8")  # UDP: nothing is sent
 LISTEN_PROBE_S = 0.3
-
-
-def _usable(address: str) -> bool:
-    """An address a phone on the LAN could reach: not loopback, link-local, unspecified or documentation."""
-    try:
-        ip = ipaddress.ip_address(address)
-    except ValueError:
-        return False
-    unusable = ip.is_loopback or ip.is_link_local or ip.is_unspecified
-    return not (unusable or any(ip in n for n in NOT_REACHABLE))
-
-
-def lan_addresses() -> list[str]:
-    """This machine's IPv4 addresses on its networks, the default route's first: a UDP "connect" only
-    picks the interface that would route to a probe address (no packet leaves), then the host name's
-    addresses (``getaddrinfo``) for a machine without a route."""
-    found: list[str] = []
-    for probe_address in ROUTE_PROBES:
-        try:
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-                probe.connect((probe_address, 9))
-                found.append(probe.getsockname()[0])
-        except OSError:
-            continue
-    try:
-        infos = socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET, socket.SOCK_STREAM)
-        found += [str(info[4][0]) for info in infos]
-    except OSError:
-        pass
-    return list(dict.fromkeys(a for a in found if _usable(a)))
 
 
 def listens_on(address: str, port: int) -> bool:
@@ -240,38 +208,35 @@ def reachable_lan_address(port: int) -> str | None:
     return next((a for a in lan_addresses() if listens_on(a, port)), None)
 
 
-def _note(token: str | None, lan: str | None, port: int) -> str:
+def _note(lan: str | None, port: int) -> str:
     if lan is None:
         return (
             "The app listens on this machine only (127.0.0.1), so a phone cannot reach it: restart it "
-            f"with --host 0.0.0.0 (uvicorn app.main:app --host 0.0.0.0 --port {port}) and set "
-            "FTIN_LIVE_TOKEN; the push URL for the phone then shows here."
+            f"with --host 0.0.0.0 (uvicorn app.main:app --host 0.0.0.0 --port {port}); the push URL for "
+            "the phone, with the token (FTIN_TOKEN, else one generated at start), then shows here."
         )
-    if token is None:
-        return (
-            "A phone on the same network reaches this URL once the app has a token: restart it with "
-            "FTIN_LIVE_TOKEN=<a secret of 8+ characters>; until then only pushes from this machine are taken."
-        )
-    return "Pushes must carry the token (it is in the URL above, shown only on this machine)."
+    return (
+        "Pushes from other machines must carry the token (FTIN_TOKEN, else the one generated at start: "
+        "it is in the URL above, shown only on this machine)."
+    )
 
 
 @router.get("/live/info", response_model=LiveInfoResponse)
 def info(request: Request, services: ServicesDep) -> LiveInfoResponse:
     """The push URL to type into Sensor Logger (HTTP Push, behind the gear icon on its Logger page):
     the machine's LAN address when the app listens on it, else a note saying how to make it listen."""
-    settings = services.settings
     port = request.url.port or (443 if request.url.scheme == "https" else 80)
     local = is_local(request.client.host if request.client else None)
-    token = settings.live_token
-    query = "" if token is None else f"?token={token if local else '<FTIN_LIVE_TOKEN>'}"
+    token = request.app.state.access.token
+    query = f"?token={token if local else '<FTIN_TOKEN>'}"
     lan = reachable_lan_address(port)
     body: dict[str, Any] = {
         "push_path": PUSH_PATH,
         "local_url": f"http://127.0.0.1:{port}{PUSH_PATH}{query}",
         "lan_url": None if lan is None else f"http://{lan}:{port}{PUSH_PATH}{query}",
-        "token_required": token is not None,
-        "token_shown": token is not None and local,
-        "note": _note(token, lan, port),
+        "token_required": True,
+        "token_shown": local,
+        "note": _note(lan, port),
         "sessions": [LiveSessionInfo(**s) for s in services.live.sessions()],
     }
     return LiveInfoResponse(**body)

@@ -1,5 +1,6 @@
 """GET /runs (the stored runs), GET /runs/{run_id} (progress as JSON; the upload page with the run
-loaded for a browser), its result again, its trajectory as CSV, and POST /runs/{run_id}/show (3D scene).
+loaded for a browser), its result again, its trajectory as CSV, POST /runs/{run_id}/show (3D scene)
+and DELETE /runs/{run_id}.
 
 Decision: one URL per run, ``/runs/{run_id}``, chosen by content negotiation: a request whose
 ``Accept`` names ``text/html`` (a browser opening the address, a bookmark, a shared link) gets the
@@ -18,7 +19,7 @@ from app.api.deps import ServicesDep
 from app.api.routes.exports import RUN_GONE, ClockQuery, RunIdPath, TimestampsQuery, attachment, file_route
 from app.api.routes.pages import STATIC_DIR
 from app.api.routes.predict import render
-from app.schemas import PredictionResponse, RunStatusResponse
+from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse
 from app.schemas_runs import RunSummary
 from app.services.exports import Clock, Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
@@ -75,6 +76,18 @@ def trajectory_csv(
     run = services.runs.get(run_id)
     name = f"{run.sequence.name}_{run.model_name}_trajectory.csv"
     return attachment(trajectory_csv_text(run, timestamps, clock), "text/csv", name)
+
+
+@router.delete(
+    "/runs/{run_id}",
+    status_code=204,
+    responses={404: {"model": ErrorResponse}, 409: {"model": ErrorResponse}},
+)
+def delete_run(run_id: RunIdPath, services: ServicesDep) -> Response:
+    """Delete a finished run: its stored files and index row (its recording too, when no other run
+    uses it). Afterwards each of its URLs answers 404; a run still running answers 409."""
+    services.runs.delete(run_id)
+    return Response(status_code=204)
 
 
 @router.post("/runs/{run_id}/show", response_model=RunStatusResponse, responses=RUN_GONE)
