@@ -140,7 +140,11 @@ def training_data(
         val_per_block=validation_blocks(window, parts, rate_hz),
         # datasets by name, recordings relative to the data folder (ftin.train.provenance)
         info={
-            "training_data": training_data_record(config.data, train_sequences, train.names),
+            "training_data": training_data_record(
+                config.data,
+                [*train_sequences, *sparse_sequences],
+                [*train.names, *([] if sparse is None else sparse.names)],
+            ),
             "split": split,
         },
     )

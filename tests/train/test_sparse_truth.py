@@ -54,6 +54,7 @@ def test_chunks_of_a_trace_and_training_on_them(tmp_path, sim_sequences):
     result = train(config, [*sim_sequences, trace], progress=False)
     meta = load_model(result.checkpoint).meta
     assert result.steps == 3 and meta["split"]["sparse"] == [trace.name]
+    assert "ilc" in meta["training_data"]["datasets"] and trace.name in meta["training_data"]["sequences"]
     assert trace.name not in meta["split"]["train"] + meta["split"]["val"]
     with pytest.raises(ValueError, match="sparse_chunks >= 1"):
         train(
