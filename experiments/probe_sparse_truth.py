@@ -20,6 +20,10 @@ forward over a batch that joins
   predicted displacement of a segment is the mean window velocity times its duration. Loss per segment
   ``(log |d_pred| - log L)^2``, per chunk ``TURN_WEIGHT * (1 - cos(turn_pred - turn_true))``.
 
+With ``--freeze-bn`` the batch-norm layers keep the shipped statistics (eval mode) while the rest trains:
+the second round, run after the first (whose fine-tunes, batch norm moving on batches of 32 dense windows
+plus ILC chunks, hurt every set) with ``--tag=-frozen-bn``.
+
 Arms: ``reference`` (untouched), ``dense`` (the dense windows alone: what fine-tuning itself does) and
 ``sparse+dense``. Held out: ILC floors ``VAL_FLOORS`` (every ``--every``-th walk), scored at the waypoints
 (``ftin.evaluate_sparse``); the dense validation walks of the default's JSON (OxIOD, RIDI, every 4th Inria
@@ -144,6 +148,10 @@ def fine_tune(
     loaded = load_model(START)
     model = loaded.model
     model.train()
+    if args.freeze_bn:  # keep the shipped normalisation statistics: small mixed batches must not move them
+        for module in model.modules():
+            if isinstance(module, torch.nn.modules.batchnorm._BatchNorm):
+                module.eval()
     optimizer = torch.optim.Adam(model.parameters(), lr=args.lr)
     rng = np.random.default_rng(0)
     torch.manual_seed(0)
@@ -259,6 +267,10 @@ def main() -> None:
     parser.add_argument("--dense", type=int, default=32, help="dense windows per step")
     parser.add_argument("--chunks", type=int, default=2, help="ILC chunks per step")
     parser.add_argument("--every", type=int, default=4, help="every k-th walk of a held-out floor")
+    parser.add_argument("--freeze-bn", action="store_true", help="batch norm statistics as shipped")
+    parser.add_argument(
+        "--tag", default="", help="suffix of the fine-tuned arms' cache files (a second round)"
+    )
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args = parse(parser)
@@ -269,7 +281,7 @@ def main() -> None:
     results: dict[str, dict] = {}
     dense = sparse = None
     for arm in ARMS:
-        cache = RUNS / f"{arm.replace('+', '-')}.json"
+        cache = RUNS / f"{arm.replace('+', '-')}{'' if arm == 'reference' else args.tag}.json"
         if cache.exists():
             results[arm] = json.loads(cache.read_text())
             continue
@@ -300,8 +312,10 @@ def main() -> None:
     lines = [
         "# A loss on the segments between waypoints (ILC), mixed with dense truth: a fine-tune of minutes",
         "",
-        f"Made by `nice -n 10 python -m experiments.probe_sparse_truth --steps {args.steps} --out "
-        f"docs/results/probes/sparse_truth.md` ({minutes:.0f} min in all this run, two shared cores). Its "
+        f"Made by `nice -n 10 python -m experiments.probe_sparse_truth --steps {args.steps} --lr {args.lr:g} "
+        f"--dense {args.dense}{' --freeze-bn' if args.freeze_bn else ''}"
+        f"{f' --tag={args.tag}' if args.tag else ''} --out {args.out}` ({minutes:.0f} min in all this run, "
+        "two shared cores). Its "
         "docstring: method and the rule, written before any arm was read. Held-out floors "
         f"{', '.join(VAL_FLOORS)} "
         f"(every {args.every}th walk); dense validation phone only, change against `reference` in brackets.",
