@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from app.schemas_profiles import AppliedProfilePayload
 from app.schemas_uncertainty import UncertainTrajectoryPayload, UncertaintyPayload
 from app.schemas_verdict import VerdictPayload
+from app.schemas_waypoints import WaypointMetricsPayload
 from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
@@ -346,6 +347,11 @@ class PredictionResponse(BaseModel):
         None, description="Does it look like a walk, read right? (ok/check/implausible)"
     )
     uncertainty: UncertaintyPayload | None = Field(None, description="How sure: the 95 % end radius.")
+    waypoints: WaypointMetricsPayload | None = Field(
+        None,
+        description="Scores at the waypoints where the truth is sparse (ILC traces); absent otherwise.",
+        exclude_if=lambda value: value is None,
+    )
     # Only where asked: an answer without the filter stays as it was (docs/filter.md).
     filter: str = Field(
         "none",
@@ -393,6 +399,7 @@ class PredictionResponse(BaseModel):
             z_note=z_note(run),
             verdict=VerdictPayload.from_run(run),
             uncertainty=UncertaintyPayload.from_run(run),
+            waypoints=WaypointMetricsPayload.from_run(run),
             filter=filter_of(pred),
             profile=AppliedProfilePayload.from_run(run),
         )

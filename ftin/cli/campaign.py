@@ -92,8 +92,9 @@ def plan_command(
         str,
         typer.Option(
             "--jobs",
-            help="A protocol campaign (table1, generalisation, tilt, stage-three, stage-three-retrain), "
-            "stage-two (stage one's choices, read from --choices), or a JSON file of job specs.",
+            help="A protocol campaign (table1, generalisation, tilt, stage-three, stage-three-retrain, "
+            "stride-retrain), stage-two (stage one's choices, read from --choices), or a JSON file of "
+            "job specs.",
         ),
     ] = "table1",
     choices: Annotated[

@@ -32,10 +32,14 @@ from ftin.cli.common import (
     user_errors,
 )
 from ftin.cli.predict import EKF_TEXT, FilterName, FilterOption, PrecisionOption
+from ftin.cli.waypoint_table import print_waypoint_report
 from ftin.data.loading import load_sequences
 from ftin.data.orientation_option import Orientation
 from ftin.evaluate import evaluate_checkpoint
+from ftin.evaluate_sparse import WaypointReport, evaluate_waypoints, has_waypoints
 from ftin.files import atomic_write_text
+from ftin.filter.choice import ekf_prediction
+from ftin.infer import predict_trajectory
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
 from ftin.precision import PrecisionSetting, choose
 from ftin.uncertainty.coverage import ONE_SIGMA, TWO_SIGMA
@@ -63,11 +67,22 @@ def evaluate_command(
     sequence and their mean, under a stated convention (in fp32 unless ``--precision`` says otherwise,
     so that reported numbers stay comparable); with ``--filter ekf`` the model re-read on the EKF's
     orientation (the upload's answer). Where the
-    ground truth has an orientation, the tilt error of the orientation used against it."""
+    ground truth has an orientation, the tilt error of the orientation used against it. Walks whose
+    truth is waypoints (ILC) get their own table: ATE at the marks, path ratio, segments, turns."""
     with user_errors(*MODEL_ERRORS):
         loaded = load_model(checkpoint)
         chosen = choose(precision, loaded.model_name)
-        sequences = load_sequences(data, "--data", orientation.value)
+        every = load_sequences(data, "--data", orientation.value)
+        sparse = [s for s in every if has_waypoints(s)]
+        sequences = [s for s in every if not has_waypoints(s)]
+        waypoints = _waypoint_report(loaded, sparse, orientation.value, chosen.precision.value, filter.value)
+        if not sequences:
+            if json_out is not None:
+                atomic_write_text(json_out, json.dumps(waypoints.to_json(), indent=2) + "\n")
+            print_waypoint_report(out_console(), waypoints)
+            if json_out is not None:
+                typer.echo(f"wrote {json_out}")
+            return
         with progress_bar() as bar:
             task = bar.add_task("evaluating", total=len(sequences), visible=len(sequences) > 1)
 
@@ -96,7 +111,10 @@ def evaluate_command(
             else:
                 report = evaluate_checkpoint(loaded, sequences, on_sequence=advance, **options)
         if json_out is not None:
-            atomic_write_text(json_out, json.dumps(report.to_json(), indent=2) + "\n")
+            found = report.to_json()
+            if waypoints is not None:
+                found["waypoints"] = waypoints.to_json()
+            atomic_write_text(json_out, json.dumps(found, indent=2) + "\n")
     table = Table(title=f"{loaded.name} ({loaded.model_name}): {len(report.sequences)} sequence(s)")
     table.add_column("sequence", overflow="fold")
     table.add_column("orientation", no_wrap=True)
@@ -157,8 +175,27 @@ def evaluate_command(
         highlight=False,
         soft_wrap=True,
     )
+    if waypoints is not None:
+        print_waypoint_report(console, waypoints)
     if json_out is not None:
         typer.echo(f"wrote {json_out}")
+
+
+def _waypoint_report(
+    loaded: Any, sequences: list[Any], orientation: str, precision: str, filter: str
+) -> WaypointReport | None:
+    """The walks with waypoints scored at them (``ftin.evaluate_sparse``), read as the rest are."""
+    if not sequences:
+        return None
+
+    def predict(model: Any, seq: Any) -> Any:
+        if filter == FilterName.EKF.value:
+            return ekf_prediction(model, seq, orientation=orientation, keep_prepared=False)
+        return predict_trajectory(
+            model, seq, keep_prepared=False, orientation=orientation, precision=precision
+        )
+
+    return evaluate_waypoints(loaded, sequences, predict=predict)
 
 
 def coverage_table(report: Any) -> Table | None:

@@ -6,15 +6,15 @@ scene's upload call it (through ``app.services.prediction``, which adds only HTT
 
 Decisions:
 
-* Detection is by content, never by the file name: gzip magic ``1f 8b`` -> decompress (at most
-  ``max_uncompressed_bytes``) and look again; ZIP magic ``PK`` -> a ZIP holding exactly one CSV in
-  the generic schema is that CSV, else the first reader of phone exports (``export_readers``, in
-  priority order: phyphox, a CSV whose first cell is ``Time (s)``; Sensor Logger, its file names and
-  headers) that claims its files, else its one CSV read as the generic CSV; otherwise a CSV: the
-  generic schema when its header names the required columns (phone apps' words are among its
-  aliases), else the first export reader that claims the lone file (phyphox's single-sensor file),
-  refused when that reader ``NEEDS_WHOLE_EXPORT`` (one file of a Sensor Logger export), else the
-  generic schema (its error names what is missing).
+* Detection is by content, never by the file name: gzip magic ``1f 8b`` (or xz's: an ILC trace as
+  shared) -> decompress (at most ``max_uncompressed_bytes``) and look again; ZIP magic ``PK`` -> a
+  ZIP holding exactly one CSV in the generic schema is that CSV, else the first reader of phone
+  exports (``export_readers``, in priority order: phyphox, a CSV whose first cell is ``Time (s)``;
+  Sensor Logger, its file names and headers) that claims its files, else its one CSV read as the
+  generic CSV; otherwise a CSV: the generic schema when its header names the required columns (phone
+  apps' words are among its aliases), else the first export reader that claims the lone file
+  (phyphox's single-sensor file), refused when that reader ``NEEDS_WHOLE_EXPORT`` (one file of a
+  Sensor Logger export), else the generic schema (its error names what is missing).
 * A CSV's bytes are read once (``ftin.data.io.csv_scan``): one pass counts the lines, checks UTF-8
   (a BOM is accepted; a binary file gets a plain "not a UTF-8 text file" message instead of a parser
   error) and finds the header, split and matched once; the detection here and the generic CSV
@@ -39,6 +39,7 @@ from types import ModuleType
 
 import ftin.data.io.phone_exports as phone_exports
 import ftin.data.readers.generic_csv as generic_csv
+import ftin.data.readers.ilc as ilc
 from ftin.data.errors import DataFormatError, TooManySamplesError
 from ftin.data.io.csv_columns import names_required
 from ftin.data.io.csv_scan import CsvScan, scan_csv
@@ -98,7 +99,7 @@ def read_bytes(
     label = filename or "upload"  # what messages name: a path for the CLI, a base name for uploads
     name = PurePath(label).name or "upload"
     stem = name
-    for suffix in (".gz", ".zip", ".csv"):
+    for suffix in (".gz", ".xz", ".zip", ".csv", ".txt"):
         if stem.lower().endswith(suffix):
             stem = stem[: -len(suffix)]
     stem = stem or "upload"
@@ -106,6 +107,8 @@ def read_bytes(
         raise DataFormatError(f"{label} is empty; expected {ACCEPTED}")
     if data[:2] == phone_exports.GZIP_MAGIC:
         data = gunzip(data, label, max_uncompressed_bytes, check)
+    elif data[:6] == ilc.XZ_MAGIC:  # an ILC trace as shared; its reader claims the text
+        data = ilc.unxz(data, label, max_uncompressed_bytes)
     bare = not phone_exports.is_zip(data)  # a CSV on its own; else the files of a ZIP export
     files = (
         ExportFiles(label, {name: data})

@@ -97,7 +97,15 @@ def _take(seq: ImuSequence, rows: np.ndarray) -> ImuSequence:
         tracked = None if seq.gt.tracked is None else seq.gt.tracked[rows]
         gt = type(seq.gt)(seq.gt.t_s[rows], seq.gt.p_world_m[rows], gt_q, tracked)
     return ImuSequence(
-        seq.name, seq.t_s[rows], seq.gyro_rad_s[rows], seq.acc_m_s2[rows], q, gt, dict(seq.meta), mag
+        seq.name,
+        seq.t_s[rows],
+        seq.gyro_rad_s[rows],
+        seq.acc_m_s2[rows],
+        q,
+        gt,
+        dict(seq.meta),
+        mag,
+        seq.waypoints,
     )
 
 

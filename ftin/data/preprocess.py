@@ -144,6 +144,7 @@ def resample(seq: ImuSequence, rate_hz: float, antialias: bool = True) -> ImuSeq
         gt,
         _meta_with_warning(seq.meta, *warnings, rate_hz=float(rate_hz)),
         mag,
+        seq.waypoints,  # marks in time, not samples: unchanged by the grid
     )
 
 

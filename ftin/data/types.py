@@ -75,6 +75,46 @@ class Trajectory:
 
 
 @dataclass(frozen=True)
+class Waypoints:
+    """Sparse ground truth: where the walker was marked at a few instants, in a map's plane.
+
+    A surveyor's marks (ILC: every ~6 m), not a tracked path: between two marks nothing is known
+    (taken to be straight), and the map frame's heading and origin are unrelated to the device's
+    world, so scoring fits one 2-D rotation and translation per walk (``ftin.metrics.waypoints``).
+    Never interpolated into a dense ``Trajectory``: a path made up between marks is not truth.
+    """
+
+    t_s: np.ndarray  # (K,) increasing seconds, on the IMU's clock
+    xy_map_m: np.ndarray  # (K, 2) metres in the map frame (x, y); no height
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
+        object.__setattr__(self, "xy_map_m", _as_float_array("xy_map_m", self.xy_map_m, (2,)))
+        if len(self.xy_map_m) != len(self.t_s):
+            raise ValueError(f"xy_map_m has {len(self.xy_map_m)} rows, t_s has {len(self.t_s)}")
+        if len(self.t_s) > 1 and not np.all(np.diff(self.t_s) > 0):
+            raise ValueError("waypoint times must increase")
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+    @property
+    def segment_lengths_m(self) -> np.ndarray:
+        """``(K-1,)`` straight distances between consecutive marks."""
+        return np.linalg.norm(np.diff(self.xy_map_m, axis=0), axis=1)
+
+    @property
+    def path_length_m(self) -> float:
+        """Length of the polyline through the marks."""
+        return float(self.segment_lengths_m.sum())
+
+    def within(self, t0_s: float, t1_s: float) -> Waypoints:
+        """The marks whose time lies in ``[t0_s, t1_s]``."""
+        keep = (self.t_s >= t0_s) & (self.t_s <= t1_s)
+        return Waypoints(self.t_s[keep], self.xy_map_m[keep])
+
+
+@dataclass(frozen=True)
 class ImuSequence:
     """One IMU recording in the device frame, with optional orientation and ground truth.
 
@@ -85,6 +125,10 @@ class ImuSequence:
 
     ``mag_uT`` (optional) is the calibrated magnetometer in the device frame, on the same clock: the
     orientation filter's heading reference (``ftin.data.preprocess``).
+
+    ``waypoints`` (optional) is sparse truth (:class:`Waypoints`) for a recording with no dense path:
+    then ``gt`` is None and ``meta["gt_kind"]`` is ``"waypoints"`` (dense truth: ``"path"`` or absent).
+    Waypoints live on the same clock but in a map frame of their own; resampling leaves them as they are.
 
     ``meta`` keys in use: ``dataset`` (format name), ``source`` (path), ``carry`` (handheld, pocket,
     trolley, ...), ``orientation_source`` ("device", "ground_truth", "estimated"), ``warnings``.
@@ -98,6 +142,7 @@ class ImuSequence:
     gt: Trajectory | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     mag_uT: np.ndarray | None = None  # (N, 3) device frame, calibrated
+    waypoints: Waypoints | None = None  # sparse truth in a map frame (no dense ``gt``)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t_s", _as_float_array("t_s", self.t_s, ()))
@@ -139,13 +184,18 @@ class ImuSequence:
         q = None if self.q_world_device_wxyz is None else self.q_world_device_wxyz[start:stop]
         gt = None if self.gt is None else self.gt.slice(start, stop)
         mag = None if self.mag_uT is None else self.mag_uT[start:stop]
+        t_s = self.t_s[start:stop]
+        waypoints = None
+        if self.waypoints is not None and len(t_s):
+            waypoints = self.waypoints.within(float(t_s[0]), float(t_s[-1]))
         return ImuSequence(
             self.name,
-            self.t_s[start:stop],
+            t_s,
             self.gyro_rad_s[start:stop],
             self.acc_m_s2[start:stop],
             q,
             gt,
             dict(self.meta),
             mag,
+            waypoints,
         )

@@ -285,12 +285,21 @@ def _stage_three_retrain(_variant: str | None = None) -> list[Job]:
     return stage_three_retrain_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain(_variant: str | None = None) -> list[Job]:
+    """The stride issue's retrain with the ILC floors as sparse truth (``stride_retrain``)."""
+    from ftin.files import DEFAULT_DATA_ROOT
+    from ftin.protocol.stride_retrain import stride_retrain_jobs
+
+    return stride_retrain_jobs(DEFAULT_DATA_ROOT)
+
+
 CAMPAIGNS = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
     "tilt": tilt_question_jobs,
     "stage-three": _stage_three,
     "stage-three-retrain": _stage_three_retrain,
+    "stride-retrain": _stride_retrain,
 }
 
 

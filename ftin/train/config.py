@@ -106,6 +106,11 @@ class TrainConfig:
     save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
     weights_dtype: str = "float32"  # storage of the best checkpoint: float32 or float16
     init_from: str | None = None  # checkpoint whose weights start the run (fine-tuning); None: seeded init
+    # Walks whose truth is waypoints (ILC) in ``data``: chunks of two segments per step and the weight of
+    # their segment loss beside the dense loss (ftin.train.sparse_truth); 0 chunks: such walks are refused.
+    sparse_chunks: int = 4
+    sparse_weight: float = 1.0
+    precision: str = "fp32"  # "bf16": the forward (and so the backward) under CPU bf16 autocast
     train_only: tuple[str, ...] = ()  # parameter-name prefixes that train; empty: all (module docstring)
 
     def __post_init__(self) -> None:
@@ -115,6 +120,8 @@ class TrainConfig:
         object.__setattr__(self, "log_std_range", tuple(float(v) for v in self.log_std_range))
         object.__setattr__(self, "model_kwargs", dict(self.model_kwargs))
         object.__setattr__(self, "augment", dict(self.augment or {}))
+        if self.precision not in ("fp32", "bf16"):
+            raise ConfigError(f"precision must be fp32 or bf16, got {self.precision!r}")
         if self.init_from is not None:
             object.__setattr__(self, "init_from", str(self.init_from))
         for name, kind in (("normalization", Normalization), ("loss", LossKind)):

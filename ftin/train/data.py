@@ -2,7 +2,8 @@
 
 ``training_data(config, train_sequences, val_sequences, ...)``: without validation sequences a seeded
 ``val_fraction`` of whole training sequences is held out (``ftin.data.loading.split_validation``); every
-sequence is prepared for the config's rate (``ftin.data.prepare.prepare``, as inference prepares it)
+sequence is prepared for the config's rate (walks whose truth is waypoints apart: their chunks,
+``ftin.train.sparse_truth``, join each step's batch) (``ftin.data.prepare.prepare``, as inference prepares it)
 and cut into ``WindowDataset``s with per-part targets (the training windows with the config's
 augmentations, ``ftin.train.augment``); the input normalisation is fitted on the
 training windows; each of N processes takes ``ceil(batch_size / N)`` windows per step, in the order
@@ -30,6 +31,7 @@ from ftin.train.config import TrainConfig
 from ftin.train.distributed import Distributed
 from ftin.train.losses import block_means, validation_blocks
 from ftin.train.provenance import training_data_record
+from ftin.train.sparse_truth import SparseBatch, SparseChunks, split_sparse, step_generator
 
 
 @dataclass
@@ -41,6 +43,13 @@ class TrainData:
     batch: int  # windows per step in this process
     val_per_block: int  # parts per ~1 s validation block (ftin.train.losses.validation_blocks)
     info: dict[str, Any]  # training data and split, for the checkpoint's JSON
+    sparse: SparseChunks | None = None  # walks whose truth is waypoints (ftin.train.sparse_truth)
+
+    def sparse_batch(self, config: TrainConfig, step: int) -> SparseBatch | None:
+        """This step's sparse-truth chunks (None without sparse walks); drawn as a resumed run would."""
+        if self.sparse is None:
+            return None
+        return self.sparse.batch(step_generator(config.seed, step), config.sparse_chunks)
 
     def validation_sums(
         self,
@@ -83,6 +92,11 @@ def training_data(
     """The windows of ``config`` (rate and window resolved) for a model predicting ``parts`` parts of
     ``out_dim`` velocities per window (module docstring)."""
     rate_hz, window = float(config.imu_rate_hz), config.resolved_window
+    train_sequences, sparse_sequences = split_sparse(train_sequences)
+    val_sequences, _ = split_sparse(val_sequences)  # the validation loss is a velocity MSE
+    if sparse_sequences and config.sparse_chunks < 1:
+        names = ", ".join(s.name for s in sparse_sequences[:3])
+        raise ValueError(f"walks with waypoints only ({names}, ...) need sparse_chunks >= 1 to train on")
     val_source = "paths" if val_sequences else "none"
     if not val_sequences:
         train_sequences, val_sequences = split_validation(train_sequences, config.val_fraction, config.seed)
@@ -113,7 +127,11 @@ def training_data(
             if s.meta.get("reference_check", {}).get("disagrees")
         ],
     }
+    sparse = SparseChunks(sparse_sequences, rate_hz, window, config.orientation) if sparse_sequences else None
+    if sparse is not None:
+        split["sparse"] = sparse.names
     return TrainData(
+        sparse=sparse,
         train=train,
         val=val,
         normalization=fit_normalization(train.imu_per_sequence, config.normalization),
@@ -122,7 +140,11 @@ def training_data(
         val_per_block=validation_blocks(window, parts, rate_hz),
         # datasets by name, recordings relative to the data folder (ftin.train.provenance)
         info={
-            "training_data": training_data_record(config.data, train_sequences, train.names),
+            "training_data": training_data_record(
+                config.data,
+                [*train_sequences, *sparse_sequences],
+                [*train.names, *([] if sparse is None else sparse.names)],
+            ),
             "split": split,
         },
     )

@@ -54,6 +54,7 @@ from ftin.train.config import ConfigError, TrainConfig
 from ftin.train.data import TrainData, training_data
 from ftin.train.distributed import Distributed, distributed, parts_module
 from ftin.train.losses import LossFn, make_loss, uses_nll
+from ftin.train.sparse_truth import segment_loss, split_output
 from ftin.train.state import (
     CONFIG_FILE,
     RESUME_FILE,
@@ -350,9 +351,15 @@ class _Run:
 
     def _step(self, indices: np.ndarray, epoch: int) -> float:
         x, v = self.data.train.get_batch(indices)
+        sparse = self.data.sparse_batch(self.config, self.progress.global_step)  # ftin.train.sparse_truth
+        x = x if sparse is None else torch.cat([x, sparse.x])
         x = self.data.normalization.apply(x.to(self.device))
-        output = self.net(x)  # forward_parts: velocity (B, K, D)
+        with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.config.precision == "bf16"):
+            output = self.net(x)  # forward_parts: velocity (B, K, D)
+        output, sparse_velocity = split_output(output, len(v))
         loss = self.loss_fn(output, v.to(self.device), epoch < self.config.nll_warmup_epochs)
+        if sparse is not None:
+            loss = loss + self.config.sparse_weight * segment_loss(sparse_velocity, sparse.layout)
         if not torch.isfinite(loss):
             raise FloatingPointError(
                 f"training loss became {loss.item()} at epoch {epoch + 1}, "

@@ -188,7 +188,7 @@ def test_every_reader_names_its_format_in_words_and_exports_are_offered_by_prior
     assert all(readers.reader_label(fmt) for fmt in readers.READERS)
     with pytest.raises(ValueError, match="no reader is registered for format 'nope'; formats: oxiod, "):
         readers.reader_label("nope")
-    assert [module.FORMAT for module in readers.export_readers()] == ["phyphox", "sensorlogger"]
+    assert [module.FORMAT for module in readers.export_readers()] == ["ilc", "phyphox", "sensorlogger"]
 
 
 def test_generic_csv_never_claims_a_file_of_another_layout(mixed):
@@ -307,7 +307,8 @@ def test_shared_data_lists_every_dataset(shared_data):
     by_format: dict[str, list[str]] = {}
     for ref in refs:
         by_format.setdefault(ref.format, []).append(ref.name)
-    assert sorted(by_format) == ["euroc", "inria_attitude", "oxiod", "phyphox", "ridi", "sensorlogger"]
+    assert sorted(by_format) == ["euroc", "ilc", "inria_attitude", "oxiod", "phyphox", "ridi", "sensorlogger"]
+    assert len(by_format["ilc"]) == 571 and "ilc/site1/F1/5dd9e7aac5b77e0006b1732b.txt" in by_format["ilc"]
     assert len(by_format["oxiod"]) == 42 and len(by_format["euroc"]) == 5 and len(by_format["ridi"]) == 21
     assert len(by_format["inria_attitude"]) == 84
     assert "inria_attitude/datasets/android/Thibaud_Nexus5_Dist_AR" in by_format["inria_attitude"]

@@ -1,0 +1,68 @@
+"""The stride issue's retrain (issue 54): the default's network and FTIN from scratch on the final recipe.
+
+Recipe (campaign ``stride-retrain``, ``ftin campaign plan --jobs stride-retrain``): stage three's pooled
+walkers without the walks whose reference disagrees with their IMU (``stage_three._parts``, the data the
+shipped default was trained on), plus the ILC mall walks of floors ``ILC_TRAIN_FLOORS`` as sparse truth:
+each step joins ``SPARSE_CHUNKS`` chunks of two waypoint segments to the dense batch, trained by the
+segment loss (``ftin.train.sparse_truth``: log length ratio and turn, no map heading) at weight
+``SPARSE_WEIGHT``. ILC floors ``ILC_HELD_OUT`` are in no part: they are the held-out floors the result
+is judged on (``experiments/probe_sparse_truth.py``, ``ftin.evaluate_sparse``), never chosen on.
+
+Per model, each family's own recipe as shipped: RoNIN ResNet with ``mirror``, in bf16 autocast
+(``ftin.precision.BF16_FAMILIES``: its validation moved by under 1 % in bf16); FTIN (``fdl_output``
+``mixed``) with ``mirror`` and ``pace``, in fp32 (its OxIOD validation moved by 2.5 % in bf16). The
+variance head is refitted afterwards as stage three did (``stage_three.HEAD_OPTIONS``), on the chosen
+network. The choice between the new network and the shipped default follows the rule written in
+``experiments/probe_sparse_truth.py`` (held-out floors' median path ratio closer to 1; no dense validation
+set worse by more than 5 %). The control is the shipped default: the same recipe and walkers without ILC.
+At a probe's budget (fine-tunes of 60-200 steps) the segment loss did not lengthen the held-out floors
+(``docs/results/probes/sparse_truth*.md``): this campaign is the full-budget test, not an adopted change.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ftin.protocol.datasets import WALKING
+from ftin.protocol.jobs import Job, model_options
+from ftin.protocol.stage_three import REFERENCE_DISAGREES, _parts
+
+ILC_TRAIN_FLOORS = ("F1", "F2", "F3")
+ILC_HELD_OUT = ("B1", "F4")
+ILC_SITE = Path("ilc") / "site1"
+SPARSE_CHUNKS = 4
+SPARSE_WEIGHT = 1.0
+# model -> options beyond its window and stride (model_options)
+RECIPES: dict[str, dict[str, Any]] = {
+    "ronin_resnet": {"augment": {"mirror": None}, "precision": "bf16"},
+    "ftin": {"augment": {"mirror": None, "pace": None}, "model_kwargs": {"fdl_output": "mixed"}},
+}
+
+
+def ilc_walks(data_root: Path, floors: tuple[str, ...]) -> tuple[str, ...]:
+    """The ILC traces of ``floors``, relative to the data root, in file-name order."""
+    root = Path(data_root)
+    return tuple(
+        str(path.relative_to(root))
+        for floor in floors
+        for path in sorted((root / ILC_SITE / floor).glob("*.txt.xz"))
+    )
+
+
+def stride_retrain_jobs(data_root: Path) -> list[Job]:
+    """One job per model of ``RECIPES``: the pooled walkers plus the ILC training floors (docstring)."""
+    parts = _parts(data_root, REFERENCE_DISAGREES)
+    parts = {**parts, "train": (*parts["train"], *ilc_walks(data_root, ILC_TRAIN_FLOORS))}
+    jobs = []
+    for model, recipe in RECIPES.items():
+        options = {
+            **model_options(model, WALKING),
+            **recipe,
+            "sparse_chunks": SPARSE_CHUNKS,
+            "sparse_weight": SPARSE_WEIGHT,
+        }
+        jobs.append(
+            Job(f"stride-retrain/{model}-sparse-s0", model, WALKING, 0, "sparse", options, None, parts)
+        )
+    return jobs

@@ -1,0 +1,31 @@
+"""The stride issue's retrain (ftin/protocol/stride_retrain.py): each family's recipe with the ILC training
+floors as sparse truth beside stage three's pooled walkers; the held-out floors in no part."""
+
+from __future__ import annotations
+
+import pytest
+
+from ftin.files import DEFAULT_DATA_ROOT
+from ftin.protocol.jobs import CAMPAIGNS
+from ftin.protocol.stage_three import REFERENCE_DISAGREES
+from ftin.protocol.stride_retrain import ILC_HELD_OUT, ILC_TRAIN_FLOORS, stride_retrain_jobs
+from ftin.train.config import TrainConfig
+
+ILC = DEFAULT_DATA_ROOT / "ilc" / "site1"
+
+
+@pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
+def test_the_retrain_mixes_the_ilc_training_floors_and_holds_the_others_out():
+    jobs = stride_retrain_jobs(DEFAULT_DATA_ROOT)
+    assert [j.model for j in jobs] == ["ronin_resnet", "ftin"] and "stride-retrain" in CAMPAIGNS
+    for job in jobs:
+        train, every = job.parts["train"], [r for part in job.parts.values() for r in part]
+        ilc = [r for r in train if r.startswith("ilc/")]
+        assert {r.split("/")[2] for r in ilc} == set(ILC_TRAIN_FLOORS) and len(ilc) == 305
+        assert not any(f"/{floor}/" in r for floor in ILC_HELD_OUT for r in every)
+        assert not set(REFERENCE_DISAGREES) & set(every)
+        config = TrainConfig.from_json({**job.config(DEFAULT_DATA_ROOT), "out_dir": "x"})
+        assert config.sparse_chunks == 4 and config.imu_rate_hz == 100.0
+    resnet, ftin = (j.options for j in jobs)
+    assert resnet["precision"] == "bf16" and resnet["augment"] == {"mirror": None}
+    assert ftin.get("precision", "fp32") == "fp32" and ftin["augment"] == {"mirror": None, "pace": None}
