@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from app.schemas_heading import HeadingErrorPayload, OrientationStretchPayload, heading_error_json
 from app.schemas_profiles import AppliedProfilePayload
 from app.schemas_uncertainty import UncertainTrajectoryPayload, UncertaintyPayload
 from app.schemas_verdict import VerdictPayload
@@ -296,6 +297,11 @@ class OrientationChoicePayload(BaseModel):
         "hard and soft iron from the recording's own turns, or dropped it (docs/orientation.md); null: as "
         "given or not read.",
     )
+    stretches: list[OrientationStretchPayload] | None = Field(
+        None,
+        description="Where auto judged the magnetometer stretch by stretch (ftin.data.mag_trust): what each "
+        "stretch's heading used and why; null: the walk-level choice ran throughout.",
+    )
 
 
 class ModelChoicePayload(BaseModel):
@@ -329,6 +335,9 @@ class PredictionResponse(BaseModel):
     )
     metrics: MetricsPayload | None = Field(
         description="Every registered metric by name (GET /metrics says which)."
+    )
+    heading_error: HeadingErrorPayload | None = Field(
+        None, description="Heading error over 10-s windows against the ground truth (None: no ground truth)."
     )
     plausibility: PlausibilityPayload | None = Field(
         None, description="Path length, speed, steps, cadence, step length, GPS: figures without ground truth"
@@ -390,6 +399,7 @@ class PredictionResponse(BaseModel):
             warnings=verdict.warnings,
             notes=[*verdict.notes, *run.plausibility.notes],  # GPS fixes left out, if any
             metrics=MetricsPayload.from_run(run),
+            heading_error=heading_error_json(run),
             plausibility=PlausibilityPayload.from_run(run),
             csv_url=f"/runs/{run.run_id}/trajectory.csv",
             tum_url=f"/runs/{run.run_id}/trajectory.tum",

@@ -5,7 +5,8 @@ follow one stated convention (``ftin.metrics``, RoNIN's by default). The mean we
 equally, as the paper's tables do. Beside every result stands the predictor that never moves
 (``ftin.metrics.stand_still``, scored on the same ground truth under the same convention): in a
 motion-capture room it scores an ATE of metres, so a model is judged by how far below it gets; and
-every result carries its path-length ratio (predicted / true horizontal path).
+every result carries its path-length ratio (predicted / true horizontal path) and its heading error over
+10-s windows (``ftin.metrics.heading``: the series, its median and its median after minute 2).
 
 ``score(prediction)`` is the one scoring step (evo's ``ape(traj_ref, traj_est)``: outside the
 estimator): the CLI, the evaluation, the report and the app call it on what inference returned.
@@ -54,6 +55,7 @@ from ftin.metrics import (
     mean_metrics,
     stand_still,
 )
+from ftin.metrics.heading import HeadingError, heading_error_of
 from ftin.uncertainty import path_uncertainty
 from ftin.uncertainty.coverage import Coverage, CoverageSummary, coverage_of, pooled
 
@@ -70,6 +72,9 @@ class SequenceResult:
     )
     coverage: Coverage | None = None  # how well the path's uncertainty holds the truth (None: no uncertainty)
     tilt_error_deg: float | None = None  # mean, against the ground truth's orientation (None: it has none)
+    heading_error: HeadingError | None = (
+        None  # over 10-s windows, start-aligned as scored (ftin.metrics.heading)
+    )
 
 
 def _values(m: TrajectoryMetrics | None) -> dict[str, Any] | None:
@@ -119,6 +124,7 @@ class EvaluationReport:
                     "orientation_choice": r.orientation_choice,
                     "uncertainty_coverage": None if r.coverage is None else r.coverage.to_json(),
                     "tilt_error_deg": r.tilt_error_deg,
+                    "heading_error": None if r.heading_error is None else r.heading_error.to_json(),
                 }
                 for r in self.sequences
             ],
@@ -261,6 +267,7 @@ def evaluate_checkpoint(
                 prediction.orientation_choice,
                 uncertainty_coverage(prediction, loaded.name, seq),
                 mean_tilt_error_deg(prediction),
+                heading_error_of(prediction.trajectory, scored.truth_in_estimate_frame(prediction.truth)),
             )
         )
     if not results:

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from app.schemas import MetricsPayload, PlausibilityPayload  # the fields POST /predict answers
+from app.schemas_heading import heading_error_json
 from app.schemas_verdict import VerdictPayload
 from app.services.errors import InvalidInputError
 from app.services.runs import Run
@@ -134,6 +135,7 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "model_choice": None if run.model_choice is None else run.model_choice.to_json(),
         "frame": run.prediction.frame,
         "metrics": None if metrics is None else metrics.model_dump(),
+        "heading_error": heading_error_json(run),  # as POST /predict: 10-s windows against the truth
         "metric_definitions": [metric.as_dict() for metric in list_metrics()],
         "plausibility": PlausibilityPayload.from_run(run).model_dump(),
         "warnings": run.verdict.warnings,

@@ -160,11 +160,20 @@ def show_written(written: list[Path]) -> None:
     echo_written(written)
 
 
-def orientation_text(choice: dict[str, str] | None) -> str:
+def orientation_text(choice: dict[str, Any] | None) -> str:
     """``vqf (asked: auto; magnetometer steady ...)``: the source that ran, what was asked and why."""
     if not choice:
         return "the recording's own"
-    return f"{choice['source']} (asked: {choice['requested']}; {choice['reason']})"
+    text = f"{choice['source']} (asked: {choice['requested']}; {choice['reason']})"
+    stretches = choice.get("stretches")
+    if stretches:  # where auto judged the magnetometer per stretch (ftin.data.mag_trust)
+        parts = [
+            f"{s['t0_s']:.0f}-{s['t1_s']:.0f} s {s['source']}"
+            + ("" if s["source"] == "vqf" else f" ({s['reason']})")
+            for s in stretches
+        ]
+        text += "; per stretch: " + ", ".join(parts)
+    return text
 
 
 def config_options(config_type: type, params: Mapping[str, Any]) -> dict[str, Any]:

@@ -157,6 +157,14 @@ def evaluate_command(
             highlight=False,
             soft_wrap=True,
         )
+    headings = [
+        f"{r.name} {_deg(r.heading_error.median_deg)} / {_deg(r.heading_error.median_after_2min_deg)}"
+        for r in report.sequences
+        if r.heading_error is not None
+    ]
+    if headings:
+        line = "heading error over 10-s windows (median / median after minute 2): " + "; ".join(headings)
+        console.print(escape(line), highlight=False, soft_wrap=True)
     console.print(f"precision: {chosen.precision.value} ({chosen.reason})", highlight=False, soft_wrap=True)
     aligned = [r for r in report.sequences if r.metrics.alignment is not None]
     if aligned:
@@ -196,6 +204,10 @@ def _waypoint_report(
         )
 
     return evaluate_waypoints(loaded, sequences, predict=predict)
+
+
+def _deg(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}°"
 
 
 def coverage_table(report: Any) -> Table | None:

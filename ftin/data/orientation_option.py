@@ -37,7 +37,7 @@ from __future__ import annotations
 from enum import Enum
 from typing import Any
 
-from ftin.data import magnetometer
+from ftin.data import mag_trust, magnetometer
 from ftin.data.errors import DataFormatError
 from ftin.data.magnetometer import MagnetometerAction, MagnetometerDecision
 from ftin.data.messages import with_messages
@@ -89,7 +89,7 @@ def phone_only(seq: ImuSequence) -> ImuSequence:
     return seq.with_(q_world_device_wxyz=None, meta=meta)
 
 
-def apply_phone_only(seq: ImuSequence) -> ImuSequence:
+def apply_phone_only(seq: ImuSequence, *, per_stretch: bool = True) -> ImuSequence:
     """What ``auto`` gives a phone alone, scored as the device rows are: the source is chosen from
     ``phone_only(seq)`` (the phone's attitude unseen) and the estimate, which reads only gyroscope,
     accelerometer and magnetometer, runs on ``seq``, so that its ground truth is turned into the
@@ -109,7 +109,8 @@ def apply_phone_only(seq: ImuSequence) -> ImuSequence:
         )
     seq, field = magnetometer.checked(seq)
     source, reason = choose_orientation(phone_only(seq))
-    return _with_source(seq, Orientation.AUTO, source, _with_field(field, source, reason), field)
+    reason, trust = _per_stretch(seq, source, _with_field(field, source, reason), per_stretch)
+    return _with_source(seq, Orientation.AUTO, source, reason, field, trust)
 
 
 def _own_is_reference(seq: ImuSequence) -> bool:
@@ -143,7 +144,9 @@ def orient(seq: ImuSequence, choice: Orientation | str | None = None) -> ImuSequ
     return ensure_orientation(seq) if choice is None else apply_orientation(seq, choice)
 
 
-def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orientation.AUTO) -> ImuSequence:
+def apply_orientation(
+    seq: ImuSequence, choice: Orientation | str | None = Orientation.AUTO, *, per_stretch: bool = True
+) -> ImuSequence:
     """``seq`` with the orientation ``choice`` asks for, and ``meta["orientation_choice"]`` saying which
     source ran and why (module docstring). A sequence that already carries this choice is returned as is:
     a prepared one read back (``ftin.campaign.burst`` packs the model's input with its identity attitude)
@@ -153,6 +156,7 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
     if isinstance(done, dict) and done.get("requested") == choice.value:
         return seq
     field = None  # the magnetometer check's decision, where the choice reads the field
+    trust = None  # auto's per-stretch trust of the field (ftin.data.mag_trust), where it chose VQF 9-D
     if choice is Orientation.AUTO:
         if _own_is_reference(seq):
             source = Orientation.GROUND_TRUTH.value
@@ -160,7 +164,7 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
         else:
             seq, field = magnetometer.checked(seq)
             source, reason = choose_orientation(seq)
-            reason = _with_field(field, source, reason)
+            reason, trust = _per_stretch(seq, source, _with_field(field, source, reason), per_stretch)
     elif choice is Orientation.VQF and seq.mag_uT is None:
         source = Orientation.VQF6D.value
         reason = "VQF asked for, but the recording has no magnetometer: VQF 6-D (heading from the gyroscope)"
@@ -175,7 +179,20 @@ def apply_orientation(seq: ImuSequence, choice: Orientation | str | None = Orien
             reason = f"asked for: VQF 9-D (heading from the magnetometer, {field.text})"
     else:
         source, reason = choice.value, _REASONS[choice]
-    return _with_source(seq, choice, source, reason, field)
+    return _with_source(seq, choice, source, reason, field, trust)
+
+
+def _per_stretch(
+    seq: ImuSequence, source: str, reason: str, enabled: bool
+) -> tuple[str, mag_trust.MagTrust | None]:
+    """Where ``auto`` chose VQF 9-D, the field judged stretch by stretch (``ftin.data.mag_trust``): the
+    reason followed by what that found, and the verdicts (None: not judged, the walk-level choice runs)."""
+    if not enabled or source != Orientation.VQF.value:
+        return reason, None
+    trust = mag_trust.assess_sequence(seq)
+    if trust is None:
+        return reason, None
+    return f"{reason}; per stretch: {trust.summary()}", trust
 
 
 def _with_field(field: MagnetometerDecision | None, source: str, reason: str) -> str:
@@ -202,7 +219,12 @@ _REASONS = {
 
 
 def _with_source(
-    seq: ImuSequence, choice: Orientation, source: str, reason: str, field: MagnetometerDecision | None = None
+    seq: ImuSequence,
+    choice: Orientation,
+    source: str,
+    reason: str,
+    field: MagnetometerDecision | None = None,
+    trust: mag_trust.MagTrust | None = None,
 ) -> ImuSequence:
     if source == Orientation.DEVICE.value:
         if seq.q_world_device_wxyz is None:
@@ -210,6 +232,8 @@ def _with_source(
         if _own_is_reference(seq):
             raise _unavailable(seq, choice, "its only orientation is its reference, not a phone's attitude")
         out = seq
+    elif trust is not None:
+        out, source = mag_trust.oriented(seq, trust), trust.source
     elif source in (Orientation.VQF.value, Orientation.VQF6D.value):
         out = estimate_orientation(seq, use_magnetometer=source == Orientation.VQF.value)
     else:
@@ -218,6 +242,8 @@ def _with_source(
     meta["orientation_choice"] = {"requested": choice.value, "source": source, "reason": reason}
     if field is not None and field.action is not MagnetometerAction.AS_GIVEN:  # as given: keys as before
         meta["orientation_choice"]["magnetometer"] = field.text
+    if trust is not None:  # what each stretch's heading used, and why
+        meta["orientation_choice"]["stretches"] = [s.to_json() for s in trust.stretches]
     return out.with_(meta=meta)  # an estimate's own message names the filter and its heading
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ftin.metrics.heading import heading_error
 from ftin.metrics.registry import Better, Comparison, register
 
 HEADLINE = (
@@ -167,6 +168,32 @@ def _heading_error(c: Comparison) -> float | None:
     e, g = d_est[moving], d_gt[moving]
     angle = np.arctan2(g[:, 0] * e[:, 1] - g[:, 1] * e[:, 0], np.sum(g * e, axis=1))
     return float(np.degrees(np.sqrt(np.mean(angle**2))))
+
+
+@register(
+    "heading_error_10s_deg",
+    "Heading 10 s",
+    "deg",
+    "median angle between the predicted and the true horizontal displacement over consecutive 10-s "
+    "windows (where the truth moved at least 1 m; ftin.metrics.heading)",
+    in_tables=False,
+    digits=1,
+)
+def _heading_error_10s(c: Comparison) -> float | None:
+    return heading_error(c.t_s, c.est_m, c.gt_m).median_deg
+
+
+@register(
+    "heading_error_10s_after_2min_deg",
+    "Heading 10 s after 2 min",
+    "deg",
+    "the same median over the 10-s windows that start two minutes or more into the walk (a heading that "
+    "drifts shows here)",
+    in_tables=False,
+    digits=1,
+)
+def _heading_error_10s_late(c: Comparison) -> float | None:
+    return heading_error(c.t_s, c.est_m, c.gt_m).median_after_2min_deg
 
 
 # --- the arithmetic, shared with the array functions of ftin.metrics.trajectory ---------------------

@@ -1,0 +1,254 @@
+"""Probe (issue 50): does trusting the magnetometer per stretch (``ftin.data.mag_trust``) hold the heading?
+
+    nice -n 10 .venv/bin/python -m experiments.probe_mag_trust --phase orientation \
+        --out docs/results/probes/mag_trust_orientation.md
+    nice -n 10 .venv/bin/python -m experiments.probe_mag_trust --phase model \
+        --checkpoint checkpoints/ronin_resnet-walking --out docs/results/probes/mag_trust.md
+
+Every walk is read phone only (``ftin.data.orientation_option.apply_phone_only``: ``auto`` from the
+gyroscope, accelerometer and magnetometer, the truth turned into the estimate's world at the start).
+
+``--phase orientation`` (cheap; where the thresholds were chosen): the orientation's heading against the
+truth's (motion capture, Tango), the yaw of ``R_est R_true^-1`` minus its mean over the first 5 s, as the
+median of its absolute value over the walk and after minute 2, for arms: ``before`` (today's ``auto``),
+``after`` (``auto`` with the per-stretch trust), ``vqf6d``, ``vqf9d`` and VQF 9-D with its own rejection
+options changed (``vqf9d-norej``: rejection off; ``vqf9d-hold``: ``magMaxRejectionTime`` 600 s, never
+taking a new field as its reference within a walk; ``vqf9d-tight``: ``magNormTh`` 0.05 and ``magDipTh``
+5 deg). Per stretch kind too: the samples of the stretches ``after`` found clean and disturbed.
+
+``--phase model``: the default network on ``before`` and ``after``, start-aligned (RoNIN convention):
+the heading error over 10-s windows (``ftin.metrics.heading``: median, median after minute 2, and per
+stretch kind by window centre), ATE and ATE over standing still's.
+
+Sets. Thresholds were chosen on the training walks (``inria-train``: Thibaud, Nexus 5 and iPhone 5,
+``Dist`` and ``NoDist``; ``oxiod-train`` and stage three's ``oxiod-new-train``); judged on walks held out
+from that choice: the ten floor walks (Tango), Inria's validation walker (Guillaume, ``Dist`` and
+``NoDist`` separately), the OxIOD validation walks and stage three's new validation walks.
+
+Adoption rule (written before any result was read): adopted when, on the held-out sets, the median
+heading error of ``after`` is no worse than ``before`` on every set by more than 1 deg, better on the
+floor walks or Inria's ``Dist`` walks, and no set's mean ATE worse by more than 5 %.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from experiments.common import argument_parser, parse, weights_key, write_report
+from ftin import protocol
+from ftin.data import mag_trust
+from ftin.data.loading import load_sequences
+from ftin.data.orientation_choice import heading_drift_deg
+from ftin.data.orientation_option import apply_phone_only
+from ftin.data.preprocess import estimate_orientation
+from ftin.files import DEFAULT_DATA_ROOT
+from ftin.metrics.heading import heading_error_of
+
+TUNING = ("inria-train", "oxiod-train", "oxiod-new-train")
+HELD_OUT = ("oxiod-floor", "inria-val-Dist", "inria-val-NoDist", "oxiod-val", "oxiod-new-val")
+VQF_ARMS = {
+    "vqf9d-norej": {"magDistRejectionEnabled": False},
+    "vqf9d-hold": {"magMaxRejectionTime": 600.0},
+    "vqf9d-tight": {"magNormTh": 0.05, "magDipTh": 5.0},
+}
+ARMS = ("before", "after", "after-hold", "vqf6d", "vqf9d", *VQF_ARMS)
+AFTER_S = 120.0
+
+
+def set_paths(data_root: Path, name: str) -> list[Path]:
+    if name == "oxiod-floor":
+        return [data_root / rel for rel in protocol.FLOOR_DRIFT]
+    if name == "oxiod-new-train":
+        return [data_root / rel for rel in protocol.NEW_TRAIN]
+    if name == "oxiod-new-val":
+        return [data_root / rel for rel in protocol.NEW_VAL]
+    if name.startswith("inria-val-"):
+        kind = name.rsplit("-", 1)[1]
+        return [p for p in protocol.split_paths(data_root, protocol.INRIA, "val") if f"_{kind}_" in p.name]
+    dataset, part = name.split("-", 1)
+    return protocol.split_paths(data_root, dataset, part)
+
+
+def arm_sequence(seq, arm: str):
+    if arm in ("before", "after"):
+        return apply_phone_only(seq, per_stretch=arm == "after")
+    if arm == "after-hold":  # the per-stretch trust on VQF 9-D that holds its rejection
+        saved = dict(mag_trust.VQF_PARAMS)
+        mag_trust.VQF_PARAMS.update(VQF_ARMS["vqf9d-hold"])
+        try:
+            return apply_phone_only(seq, per_stretch=True)
+        finally:
+            mag_trust.VQF_PARAMS.clear()
+            mag_trust.VQF_PARAMS.update(saved)
+    options = VQF_ARMS.get(arm, {})
+    return estimate_orientation(seq, use_magnetometer=arm != "vqf6d", **options)
+
+
+def stretch_mask(t_s: np.ndarray, stretches: list[dict] | None) -> np.ndarray:
+    """True where ``after`` found the field clean (VQF 9-D's heading)."""
+    clean = np.zeros(len(t_s), dtype=bool)
+    for s in stretches or []:
+        if s["source"] == "vqf":
+            clean |= (t_s >= s["t0_s"]) & (t_s <= s["t1_s"])
+    return clean
+
+
+def _median(x: np.ndarray) -> float | None:
+    return float(np.median(np.abs(x))) if len(x) else None
+
+
+def orientation_rows(path: Path) -> list[dict]:
+    seq = load_sequences([path], orientation="device")[0]
+    if seq.mag_uT is None or seq.gt is None or seq.gt.q_world_body_wxyz is None:
+        return []
+    truth = seq.gt
+    after = apply_phone_only(seq, per_stretch=True)
+    choice = after.meta.get("orientation_choice", {})
+    clean = stretch_mask(seq.t_s, choice.get("stretches"))
+    rows = []
+    for arm in ARMS:
+        est = after if arm == "after" else arm_sequence(seq, arm)
+        tracked = truth.tracked_mask & np.isfinite(truth.q_world_body_wxyz).all(axis=1)
+        t = seq.t_s[tracked]
+        err = heading_drift_deg(t, est.q_world_device_wxyz[tracked], truth.q_world_body_wxyz[tracked])
+        late = t >= t[0] + AFTER_S
+        rows.append(
+            {
+                "walk": str(path),
+                "arm": arm,
+                "median": _median(err),
+                "after_2min": _median(err[late]),
+                "clean": _median(err[clean[tracked]]),
+                "disturbed": _median(err[~clean[tracked]]),
+                "clean_fraction": float(clean.mean()),
+                "source": (est.meta.get("orientation_choice") or {}).get(
+                    "source", est.meta.get("orientation_filter")
+                ),
+            }
+        )
+    return rows
+
+
+def model_rows(loaded, path: Path) -> list[dict]:
+    from ftin.evaluate import score
+    from ftin.infer import predict_trajectory
+
+    seq = load_sequences([path], orientation="device")[0]
+    rows = []
+    for arm in ("before", "after"):
+        oriented = apply_phone_only(seq, per_stretch=arm == "after")
+        prediction = predict_trajectory(loaded, oriented, keep_prepared=False)
+        scored = score(prediction, "start")
+        truth = scored.fit.gt_in_estimate_frame(prediction.truth)
+        found = heading_error_of(prediction.trajectory, truth)
+        choice = oriented.meta.get("orientation_choice", {})
+        clean = stretch_mask(found.t_s, choice.get("stretches")) if found is not None else np.zeros(0, bool)
+        rows.append(
+            {
+                "walk": str(path),
+                "arm": arm,
+                "median": found.median_deg,
+                "after_2min": found.median_after_2min_deg,
+                "clean": _median(found.deg[clean]),
+                "disturbed": _median(found.deg[~clean]),
+                "ate": scored.metrics.ate,
+                "still": scored.stand_still.ate,
+                "source": choice.get("source"),
+            }
+        )
+    return rows
+
+
+def cached(cache: Path, key: str, make) -> list[dict]:
+    file = cache / (key.replace("/", "_").replace(" ", "_") + ".json")
+    if file.exists():
+        return json.loads(file.read_text())
+    rows = make()
+    cache.mkdir(parents=True, exist_ok=True)
+    file.write_text(json.dumps(rows))
+    return rows
+
+
+def _fmt(x: float | None, digits: int = 1) -> str:
+    return "-" if x is None or not np.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _med(rows: list[dict], key: str) -> float | None:
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return float(np.median(values)) if values else None
+
+
+def table(results: dict[str, list[dict]], arms: tuple[str, ...], with_ate: bool) -> list[str]:
+    head = "| set | walks | arm | heading median (deg) | after minute 2 | clean stretches | disturbed |"
+    head += " field clean |"
+    sep = "|:--|--:|:--|--:|--:|--:|--:|--:|"
+    if with_ate:
+        head = head.replace(" field clean |", " ATE (m) | x standing still |")
+        sep = sep[: -len("--:|")] + "--:|--:|"
+    lines = [head, sep]
+    for name, rows in results.items():
+        walks = sorted({r["walk"] for r in rows})
+        for arm in arms:
+            mine = [r for r in rows if r["arm"] == arm]
+            if not mine:
+                continue
+            cells = [name, str(len(walks)), arm, _fmt(_med(mine, "median")), _fmt(_med(mine, "after_2min"))]
+            cells += [_fmt(_med(mine, "clean")), _fmt(_med(mine, "disturbed"))]
+            if with_ate:
+                ate = float(np.mean([r["ate"] for r in mine]))
+                ratio = ate / float(np.mean([r["still"] for r in mine]))
+                cells += [f"{ate:.2f}", f"{ratio:.2f}"]
+            else:
+                cells.append(_fmt(100 * float(np.mean([r["clean_fraction"] for r in mine])), 0) + " %")
+            lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def main() -> None:
+    parser = argument_parser(__doc__)
+    parser.add_argument("--phase", choices=("orientation", "model"), required=True)
+    parser.add_argument("--checkpoint", default="checkpoints/ronin_resnet-walking")
+    parser.add_argument("--sets", nargs="+", default=[*TUNING, *HELD_OUT])
+    parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
+    parser.add_argument("--cache", type=Path, default=Path("runs/probes/mag_trust"))
+    parser.add_argument("--out", type=Path, default=None)
+    args = parse(parser)
+    loaded = None
+    if args.phase == "model":
+        from ftin.checkpoint import load_model
+
+        loaded = load_model(args.checkpoint)
+    results: dict[str, list[dict]] = {}
+    for name in args.sets:
+        rows: list[dict] = []
+        for path in set_paths(args.data_root, name):
+            rel = path.relative_to(args.data_root).as_posix()
+            if args.phase == "orientation":
+                rows += cached(args.cache / "orientation", rel, lambda p=path: orientation_rows(p))
+            else:
+                key = f"{weights_key(loaded)}-{rel}"
+                rows += cached(args.cache / "model", key, lambda p=path: model_rows(loaded, p))
+        results[name] = rows
+        print(name, len(rows), flush=True)
+    arms = ARMS if args.phase == "orientation" else ("before", "after")
+    what = (
+        "orientation heading against the truth's"
+        if args.phase == "orientation"
+        else "heading error over 10-s windows"
+    )
+    lines = [
+        f"# Magnetometer trust per stretch: {what} (phone only)",
+        "",
+        f"`{' '.join(['python -m experiments.probe_mag_trust', '--phase', args.phase])}` "
+        "(module docstring: arms, sets, adoption rule). Medians over the walks of each walk's median.",
+        "",
+        *table(results, arms, args.phase == "model"),
+    ]
+    write_report(args.out, lines)
+
+
+if __name__ == "__main__":
+    main()
