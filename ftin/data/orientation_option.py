@@ -20,7 +20,10 @@ check below did, when it calibrated or dropped the field) beside ``meta["orienta
 on a bag, a rig's axes: ``ftin.data.reference_check``) is applied with a warning saying so. Before
 ``auto`` and ``vqf`` read the magnetometer, its field is checked (``ftin.data.magnetometer``): used as
 given, calibrated from the recording's own turns, or dropped, and the reason says which when it is not
-as given. A choice the recording cannot give raises ``OrientationUnavailableError`` naming the choices
+as given. Where ``auto`` chose VQF 9-D, the field is then judged stretch by stretch (``ftin.data.mag_trust``:
+the heading from the magnetometer only where the field is clean), and ``meta["orientation_choice"]
+["stretches"]`` says what each stretch used and why (``per_stretch=False``: the walk-level choice alone,
+for comparison). A choice the recording cannot give raises ``OrientationUnavailableError`` naming the choices
 it can. Readers that hold both a phone attitude and a reference (OxIOD, RIDI, the Inria benchmark) read
 the one the choice needs (:func:`reader_orientation`).
 
