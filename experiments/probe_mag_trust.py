@@ -100,7 +100,7 @@ def _median(x: np.ndarray) -> float | None:
     return float(np.median(np.abs(x))) if len(x) else None
 
 
-def orientation_rows(path: Path) -> list[dict]:
+def orientation_rows(path: Path, arms: tuple[str, ...] = ARMS) -> list[dict]:
     seq = load_sequences([path], orientation="device")[0]
     if seq.mag_uT is None or seq.gt is None or seq.gt.q_world_body_wxyz is None:
         return []
@@ -109,7 +109,7 @@ def orientation_rows(path: Path) -> list[dict]:
     choice = after.meta.get("orientation_choice", {})
     clean = stretch_mask(seq.t_s, choice.get("stretches"))
     rows = []
-    for arm in ARMS:
+    for arm in arms:
         est = after if arm == "after" else arm_sequence(seq, arm)
         tracked = truth.tracked_mask & np.isfinite(truth.q_world_body_wxyz).all(axis=1)
         t = seq.t_s[tracked]
@@ -212,6 +212,7 @@ def main() -> None:
     parser.add_argument("--phase", choices=("orientation", "model"), required=True)
     parser.add_argument("--checkpoint", default="checkpoints/ronin_resnet-walking")
     parser.add_argument("--sets", nargs="+", default=[*TUNING, *HELD_OUT])
+    parser.add_argument("--arms", nargs="+", default=list(ARMS), help="orientation arms (default: all)")
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--cache", type=Path, default=Path("runs/probes/mag_trust"))
     parser.add_argument("--out", type=Path, default=None)
@@ -227,13 +228,15 @@ def main() -> None:
         for path in set_paths(args.data_root, name):
             rel = path.relative_to(args.data_root).as_posix()
             if args.phase == "orientation":
-                rows += cached(args.cache / "orientation", rel, lambda p=path: orientation_rows(p))
+                arms = tuple(args.arms)
+                found = cached(args.cache / "orientation", rel, lambda p=path, a=arms: orientation_rows(p, a))
+                rows += [r for r in found if r["arm"] in arms]
             else:
                 key = f"{weights_key(loaded)}-{rel}"
                 rows += cached(args.cache / "model", key, lambda p=path: model_rows(loaded, p))
         results[name] = rows
         print(name, len(rows), flush=True)
-    arms = ARMS if args.phase == "orientation" else ("before", "after")
+    arms = tuple(args.arms) if args.phase == "orientation" else ("before", "after")
     what = (
         "orientation heading against the truth's"
         if args.phase == "orientation"

@@ -51,14 +51,18 @@ RESIDUAL_TOLERANCE_DEG = 12.0
 NEIGHBOURS_S = 30.0
 QUIET_FRACTION = 1 / 3
 MIN_CLEAN_FRACTION = 0.2
+REJECTED_FRACTION = 0.5  # of a stretch's samples VQF flags itself: it holds the heading there already
 # Below the clean fraction a walk runs as 6-D only where 6-D holds: a gyroscope whose heading turns
 # faster than this against the field keeps VQF 9-D (its own rejection) rather than drift for minutes.
 MAX_GYRO_DRIFT_DEG_MIN = 10.0
 ALIGN_WINDOW_S = 2.0  # as ``estimate_orientation`` aligns the truth
+MARGIN_S = 10.0  # of clean field beside a 6-D stretch not used for the heading correction
 MIN_STRETCHES = 3  # a shorter recording is judged as a whole (``ftin.data.orientation_choice``)
 
 VQF9D, VQF6D = "vqf", "vqf6d"
-VQF_PARAMS: dict[str, float] = {}  # VQF's own options for the 9-D run (none: its defaults)
+# VQF's own options for the 9-D run: hold the rejection for a whole walk (its default takes a disturbed
+# field as the new reference after 60 s: an office floor disturbed for minutes turned its heading).
+VQF_PARAMS: dict[str, float] = {"magMaxRejectionTime": 600.0}
 
 
 @dataclass(frozen=True)
@@ -192,18 +196,39 @@ def assess(
         )
         whole = [Stretch(float(t[0]), float(t[-1]), VQF9D, why)]
         return MagTrust(whole, q9, q9, clean_fraction, ref_norm, ref_dip)
+    # A disturbed stretch VQF itself rejected (``magDistDetected`` over most of it) keeps VQF 9-D: it
+    # already holds the gyroscope's heading there, sample by sample, with no interpolation to drift.
+    rejected = np.array([np.mean(out["magDistDetected"][a:b]) >= REJECTED_FRACTION for a, b in bounds])
+    use9 = clean | rejected
     if clean_fraction < MIN_CLEAN_FRACTION:
-        clean[:] = False
+        use9[:] = False
         q = np.asarray(out["quat6D"], dtype=np.float64)
     else:
         # VQF's heading correction from 6-D's world to magnetic north (``delta``: the yaw of R9 R6^-1) where
-        # the field is clean, interpolated through the disturbed stretches: 9-D's heading where clean.
-        in_clean = np.concatenate([np.arange(a, b) for (a, b), c in zip(bounds, clean, strict=True) if c])
+        # 9-D is kept, interpolated through the stretches VQF took a disturbed field in.
+        kept = np.concatenate([np.arange(a, b) for (a, b), k in zip(bounds, use9, strict=True) if k])
+        # VQF's offline heading is smoothed forwards and backwards (``tauMag``): beside a stretch taken
+        # from 6-D its correction already leans toward the disturbed field, so the knots keep away.
+        far = np.ones(len(t), dtype=bool)
+        for (a, b), k in zip(bounds, use9, strict=True):
+            if not k:
+                far &= (t < t[a] - MARGIN_S) | (t > t[b - 1] + MARGIN_S)
+        kept = kept[far[kept]] if far[kept].any() else kept
         delta = np.unwrap(np.asarray(out["delta"], dtype=np.float64))
-        turn_deg = np.degrees(np.interp(t, t[in_clean], delta[in_clean]))
+        turn_deg = np.degrees(np.interp(t, t[kept], delta[kept]))
         q = frames.wxyz_from_rotation(frames.rotation_from_wxyz(_yaw_wxyz(np.radians(turn_deg))) * R6)
         q = frames.make_continuous(q)
-    stretches = _merged(t, bounds, clean, reasons)
+    texts = []
+    for ok, keep, why in zip(clean, use9, reasons, strict=True):
+        if ok:
+            texts.append("field clean: heading from the magnetometer (VQF 9-D)")
+        elif keep:
+            texts.append(f"{why}: VQF 9-D rejected it itself (its gyroscope heading held there)")
+        elif clean_fraction < MIN_CLEAN_FRACTION:
+            texts.append(f"{why}; the walk's field is clean too rarely: VQF 6-D")
+        else:
+            texts.append(f"{why}, taken by VQF 9-D: VQF 6-D's relative heading")
+    stretches = _merged(t, bounds, [VQF9D if k else VQF6D for k in use9], texts)
     return MagTrust(stretches, q, q9, clean_fraction, ref_norm, ref_dip)
 
 
@@ -267,37 +292,27 @@ def _yaw_wxyz(yaw_rad: np.ndarray) -> np.ndarray:
 
 
 def _merged(
-    t: np.ndarray, bounds: list[tuple[int, int]], clean: np.ndarray, reasons: list[str | None]
+    t: np.ndarray, bounds: list[tuple[int, int]], sources: list[str], texts: list[str]
 ) -> list[Stretch]:
-    """Consecutive stretches with the same source merged; a disturbed run keeps its first reason and counts
-    the stretches that had others."""
+    """Consecutive stretches with the same source and reason merged; a run of 6-D stretches keeps its
+    first reason and counts the stretches that had others."""
     found: list[Stretch] = []
-    run_reasons: list[str] = []
-    for (a, b), ok, why in zip(bounds, clean, reasons, strict=True):
-        source = VQF9D if ok else VQF6D
-        text = (
-            "field clean: heading from the magnetometer (VQF 9-D)"
-            if ok
-            else (
-                f"{why}: VQF 6-D's relative heading"
-                if why
-                else "the walk's field is clean too rarely: VQF 6-D"
-            )
-        )
-        if found and found[-1].source == source:
+    run_texts: list[str] = []
+    for (a, b), source, text in zip(bounds, sources, texts, strict=True):
+        if found and found[-1].source == source and (source == VQF6D or found[-1].reason == text):
             found[-1] = Stretch(found[-1].t0_s, float(t[b - 1]), source, found[-1].reason)
-            run_reasons.append(text)
+            run_texts.append(text)
             continue
-        _note_more(found, run_reasons)
+        _note_more(found, run_texts)
         found.append(Stretch(float(t[a]), float(t[b - 1]), source, text))
-        run_reasons = [text]
-    _note_more(found, run_reasons)
+        run_texts = [text]
+    _note_more(found, run_texts)
     return found
 
 
-def _note_more(found: list[Stretch], run_reasons: list[str]) -> None:
-    if found and found[-1].source == VQF6D and len(run_reasons) > 1:
+def _note_more(found: list[Stretch], run_texts: list[str]) -> None:
+    if found and found[-1].source == VQF6D and len(run_texts) > 1:
         last = found[-1]
         found[-1] = Stretch(
-            last.t0_s, last.t1_s, last.source, f"{last.reason} (and {len(run_reasons) - 1} more stretches)"
+            last.t0_s, last.t1_s, last.source, f"{last.reason} (and {len(run_texts) - 1} more stretches)"
         )
