@@ -44,10 +44,10 @@ from ftin.data.preprocess import estimate_orientation
 from ftin.data.types import ImuSequence
 
 STRETCH_S = 5.0
-NORM_TOLERANCE = 0.12  # relative to the reference norm
-DIP_TOLERANCE_DEG = 8.0
-SPREAD_TOLERANCE_DEG = 25.0  # the field's heading within a stretch, robust spread (1.4826 MAD)
-RESIDUAL_TOLERANCE_DEG = 12.0
+NORM_TOLERANCE = 0.15  # relative to the reference norm
+DIP_TOLERANCE_DEG = 10.0
+SPREAD_TOLERANCE_DEG = 35.0  # the field's heading within a stretch, robust spread (1.4826 MAD)
+RESIDUAL_TOLERANCE_DEG = 20.0
 NEIGHBOURS_S = 30.0
 QUIET_FRACTION = 1 / 3
 MIN_CLEAN_FRACTION = 0.2
