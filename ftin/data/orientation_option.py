@@ -112,8 +112,8 @@ def apply_phone_only(seq: ImuSequence, *, per_stretch: bool = True) -> ImuSequen
         )
     seq, field = magnetometer.checked(seq)
     source, reason = choose_orientation(phone_only(seq))
-    reason, trust = _per_stretch(seq, source, _with_field(field, source, reason), per_stretch)
-    return _with_source(seq, Orientation.AUTO, source, reason, field, trust)
+    per = _per_stretch(seq, source, per_stretch)
+    return _with_source(seq, Orientation.AUTO, source, _with_field(field, source, reason), field, per)
 
 
 def _own_is_reference(seq: ImuSequence) -> bool:
@@ -159,7 +159,7 @@ def apply_orientation(
     if isinstance(done, dict) and done.get("requested") == choice.value:
         return seq
     field = None  # the magnetometer check's decision, where the choice reads the field
-    trust = None  # auto's per-stretch trust of the field (ftin.data.mag_trust), where it chose VQF 9-D
+    per = False  # auto's VQF 9-D stretch by stretch (ftin.data.mag_trust)
     if choice is Orientation.AUTO:
         if _own_is_reference(seq):
             source = Orientation.GROUND_TRUTH.value
@@ -167,7 +167,8 @@ def apply_orientation(
         else:
             seq, field = magnetometer.checked(seq)
             source, reason = choose_orientation(seq)
-            reason, trust = _per_stretch(seq, source, _with_field(field, source, reason), per_stretch)
+            reason = _with_field(field, source, reason)
+            per = _per_stretch(seq, source, per_stretch)
     elif choice is Orientation.VQF and seq.mag_uT is None:
         source = Orientation.VQF6D.value
         reason = "VQF asked for, but the recording has no magnetometer: VQF 6-D (heading from the gyroscope)"
@@ -182,20 +183,12 @@ def apply_orientation(
             reason = f"asked for: VQF 9-D (heading from the magnetometer, {field.text})"
     else:
         source, reason = choice.value, _REASONS[choice]
-    return _with_source(seq, choice, source, reason, field, trust)
+    return _with_source(seq, choice, source, reason, field, per)
 
 
-def _per_stretch(
-    seq: ImuSequence, source: str, reason: str, enabled: bool
-) -> tuple[str, mag_trust.MagTrust | None]:
-    """Where ``auto`` chose VQF 9-D, the field judged stretch by stretch (``ftin.data.mag_trust``): the
-    reason followed by what that found, and the verdicts (None: not judged, the walk-level choice runs)."""
-    if not enabled or source != Orientation.VQF.value:
-        return reason, None
-    trust = mag_trust.assess_sequence(seq)
-    if trust is None:
-        return reason, None
-    return f"{reason}; per stretch: {trust.summary()}", trust
+def _per_stretch(seq: ImuSequence, source: str, enabled: bool) -> bool:
+    """Whether ``auto``'s VQF 9-D runs stretch by stretch (``ftin.data.mag_trust``)."""
+    return enabled and source == Orientation.VQF.value and seq.mag_uT is not None
 
 
 def _with_field(field: MagnetometerDecision | None, source: str, reason: str) -> str:
@@ -227,16 +220,19 @@ def _with_source(
     source: str,
     reason: str,
     field: MagnetometerDecision | None = None,
-    trust: mag_trust.MagTrust | None = None,
+    per_stretch: bool = False,
 ) -> ImuSequence:
+    trust = None
     if source == Orientation.DEVICE.value:
         if seq.q_world_device_wxyz is None:
             raise _unavailable(seq, choice, "the recording carries no phone attitude")
         if _own_is_reference(seq):
             raise _unavailable(seq, choice, "its only orientation is its reference, not a phone's attitude")
         out = seq
-    elif trust is not None:
-        out, source = mag_trust.oriented(seq, trust), trust.source
+    elif per_stretch:
+        out, trust = mag_trust.oriented(seq)
+        if trust is not None:  # the source stays the filter that ran; the stretches say what each took
+            reason = f"{reason}; per stretch: {trust.summary()}"
     elif source in (Orientation.VQF.value, Orientation.VQF6D.value):
         out = estimate_orientation(seq, use_magnetometer=source == Orientation.VQF.value)
     else:
