@@ -8,7 +8,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.mag_trust import VQF6D, VQF9D, oriented
+from ftin.data.mag_trust import HOLD_PARAMS, VQF6D, VQF9D, oriented
 from ftin.data.orientation_option import apply_orientation
 from ftin.data.preprocess import estimate_orientation
 from ftin.data.types import ImuSequence
@@ -79,15 +79,24 @@ def test_a_disturbed_stretch_is_said_and_its_heading_is_the_gyroscopes():
     assert np.max(np.abs(err[seq.t_s > 10.0])) < 5.0
 
 
-def test_a_disturbance_longer_than_a_minute_is_still_rejected():
+def test_a_disturbance_longer_than_a_minute_is_taken_by_default_and_the_stretches_say_so():
     # VQF's default takes a disturbed field as its new reference after 60 s; held for the walk, it does not.
     seq = walk(duration_s=150.0, disturbed=(30.0, 130.0))
     out, trust = oriented(seq)
-    assert _source_at(trust, 110.0) == VQF6D and _source_at(trust, 140.0) == VQF9D
-    held = np.abs(_heading_error_deg(seq, out.q_world_device_wxyz))
-    default = np.abs(_heading_error_deg(seq, estimate_orientation(seq).q_world_device_wxyz))
+    held_out, held = oriented(seq, HOLD_PARAMS)
+    assert _source_at(trust, 50.0) == VQF6D and _source_at(trust, 110.0) == VQF9D  # said as it ran
+    assert _source_at(held, 110.0) == VQF6D and _source_at(held, 140.0) == VQF9D
     late = (seq.t_s > 95.0) & (seq.t_s < 130.0)
-    assert np.max(held[late]) < 5.0 < np.max(default[late])
+    default_err = np.abs(_heading_error_deg(seq, out.q_world_device_wxyz))
+    held_err = np.abs(_heading_error_deg(seq, held_out.q_world_device_wxyz))
+    assert np.max(held_err[late]) < 5.0 < np.max(default_err[late])
+
+
+def test_the_orientation_is_vqf_9d_s_own():
+    seq = walk(disturbed=(35.0, 55.0))
+    per_stretch = apply_orientation(seq, "auto").q_world_device_wxyz
+    assert np.array_equal(per_stretch, apply_orientation(seq, "auto", per_stretch=False).q_world_device_wxyz)
+    assert np.array_equal(per_stretch, estimate_orientation(seq).q_world_device_wxyz)
 
 
 def test_a_field_disturbed_throughout_runs_on_the_gyroscope():
