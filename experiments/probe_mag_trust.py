@@ -217,6 +217,51 @@ def table(results: dict[str, list[dict]], arms: tuple[str, ...], with_ate: bool)
     return lines
 
 
+def differing(results: dict[str, list[dict]], arms: tuple[str, ...]) -> list[str]:
+    """One row per walk whose arms' heading medians differ by over 0.5 deg."""
+    lines = ["| walk | " + " | ".join(f"{a} heading / after min 2 / source" for a in arms) + " |"]
+    lines.append("|:--|" + "--:|" * len(arms))
+    for rows in results.values():
+        for walk in sorted({r["walk"] for r in rows}):
+            mine = {r["arm"]: r for r in rows if r["walk"] == walk}
+            medians = [mine[a]["median"] for a in arms if a in mine and mine[a]["median"] is not None]
+            if len(medians) == len(arms) and max(medians) - min(medians) > 0.5:
+                cells = [
+                    f"{_fmt(mine[a]['median'])} / {_fmt(mine[a]['after_2min'])} / {mine[a]['source']}"
+                    for a in arms
+                ]
+                lines.append(f"| {Path(walk).name} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def verdict(results: dict[str, list[dict]], old: str, new: str) -> list[str]:
+    """The adoption rule (module docstring) applied to ``new`` against ``old`` on the held-out sets."""
+    lines, worse, better, ate_worse = [], [], [], []
+    for name, rows in results.items():
+        if name not in HELD_OUT:
+            continue
+        a, b = (
+            _med([r for r in rows if r["arm"] == old], "median"),
+            _med([r for r in rows if r["arm"] == new], "median"),
+        )
+        ate_a = float(np.mean([r["ate"] for r in rows if r["arm"] == old]))
+        ate_b = float(np.mean([r["ate"] for r in rows if r["arm"] == new]))
+        change = 100.0 * (ate_b / ate_a - 1.0)
+        lines.append(f"- {name}: heading {a:.1f} -> {b:.1f} deg, ATE {change:+.1f} %")
+        worse += [name] if b > a + 1.0 else []
+        better += [name] if b < a and name in ("oxiod-floor", "inria-val-Dist") else []
+        ate_worse += [name] if change > 5.0 else []
+    adopted = not worse and better and not ate_worse
+    why = f"heading worse by over 1 deg on {', '.join(worse) or 'none'}; "
+    why += f"better on {', '.join(better) or 'neither'}"
+    why += f" of the floor and Inria Dist walks; ATE worse by over 5 % on {', '.join(ate_worse) or 'none'}"
+    return [
+        f"Adoption rule, {new} against {old}: **{'adopted' if adopted else 'not adopted'}** ({why}).",
+        "",
+        *lines,
+    ]
+
+
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--phase", choices=("orientation", "model"), required=True)
@@ -259,6 +304,12 @@ def main() -> None:
         "(module docstring: arms, sets, adoption rule). Medians over the walks of each walk's median.",
         "",
         *table(results, arms, args.phase == "model"),
+        "",
+        *(verdict(results, "before", "hold") if args.phase == "model" else []),
+        "",
+        f"Walks where {' and '.join(arms[:2])} differ by over 0.5 deg:",
+        "",
+        *differing(results, arms[:2]),
     ]
     write_report(args.out, lines)
 

@@ -17,7 +17,7 @@ Measured and not adopted (``experiments/probe_mag_trust.py``, its report
 
 * holding VQF's rejection for the whole walk (``HOLD_PARAMS``): better on the training walks (median
   heading 8.9 -> 8.2 / 3.3 -> 3.0 / 1.1 -> 1.1 deg) and on the floor walks after minute 2, but Inria's
-  held-out ``Dist`` walks 1.4 deg worse and the floor walks' ATE 5.2 % worse: the adoption rule fails;
+  held-out ``Dist`` walks 1.4 deg worse and the floor walks' ATE 5.1 % worse: the adoption rule fails;
 * a test of our own per stretch (norm and dip against the walk's quietest stretches, the field's
   heading spread in 6-D's world and its residual against the neighbouring stretches, as MiHDE and
   Ettlinger et al., NAVIGATION 2024, test a quasi-static field), carrying 6-D's heading through the
