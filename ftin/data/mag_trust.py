@@ -86,11 +86,8 @@ class MagTrust:
         took = f"VQF 9-D took the field in {self.clean_fraction:.0%} of the walk"
         if self.reference_norm_uT is not None:
             took += f" (clean: {self.reference_norm_uT:.0f} µT, dip {self.reference_dip_deg:.0f} deg)"
-        return (
-            f"{took} and held the gyroscope's heading where the field left it, for the whole walk if need be "
-            f"({len(self.stretches)} stretch{'es' if len(self.stretches) != 1 else ''} of {STRETCH_S:.0f} s "
-            "merged)"
-        )
+        runs = f"{len(self.stretches)} run{'s' if len(self.stretches) != 1 else ''}"
+        return f"{took} and held the gyroscope's heading where the field left its reference ({runs} of stretches)"
 
 
 def assess(
@@ -199,4 +196,9 @@ def _merged(
 def _note_more(found: list[Stretch], count: int) -> None:
     if found and found[-1].source == VQF6D and count:
         last = found[-1]
-        found[-1] = Stretch(last.t0_s, last.t1_s, last.source, f"{last.reason}; {count} more stretches alike")
+        found[-1] = Stretch(
+            last.t0_s,
+            last.t1_s,
+            last.source,
+            f"{last.reason}; {count} more {'stretch' if count == 1 else 'stretches'} alike",
+        )
