@@ -87,7 +87,7 @@ class MagTrust:
         if self.reference_norm_uT is not None:
             took += f" (clean: {self.reference_norm_uT:.0f} µT, dip {self.reference_dip_deg:.0f} deg)"
         runs = f"{len(self.stretches)} run{'s' if len(self.stretches) != 1 else ''}"
-        return f"{took} and held the gyroscope's heading where the field left its reference ({runs} of stretches)"
+        return f"{took} and held the gyroscope's heading where the field left its reference ({runs})"
 
 
 def assess(
