@@ -139,7 +139,7 @@ async function compareModels() {
       const started = performance.now();
       const model = `${encodeURIComponent(name)}&group=${encodeURIComponent(base.run_id)}`; // listed under base
       let r;
-      if (source.file) {
+      if (source && source.file) {
         const form = new FormData();
         form.append("file", source.file, source.file.name);
         r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST", body: form });
