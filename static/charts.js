@@ -59,7 +59,8 @@ const FtinCharts = (() => {
     let t0 = Math.min(...all), t1 = Math.max(...all);
     if (ticks.length) { t0 = Math.min(t0, ...ticks); t1 = Math.max(t1, ...ticks); }
     const values = series.flatMap((s) => s.v.filter(finite));
-    let v0 = yMin !== null ? yMin : Math.min(...values), v1 = Math.max(...values);
+    // yMin: the axis' floor unless a value lies below it (a signed heading error).
+    let v0 = yMin !== null ? Math.min(yMin, ...values) : Math.min(...values), v1 = Math.max(...values);
     if (!(v1 > v0)) v1 = v0 + 1;
     v1 += (v1 - v0) * 0.08;
     const px = (t) => M.left + ((t - t0) / (t1 - t0 || 1)) * (width - M.left - M.right);

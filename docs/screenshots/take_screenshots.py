@@ -136,8 +136,8 @@ def main() -> None:
             start = time.perf_counter()
             scene.flush(120)
             _timed("scene drew every run", start)
-            scene.gui_time.value = args.time
-            scene._update_time()
+            scene.timeline.gui_time.value = args.time
+            scene.timeline.update()
             scene_page.reload()
             scene_page.wait_for_selector("canvas")
             _close_notifications(scene_page)

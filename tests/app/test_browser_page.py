@@ -30,7 +30,14 @@ MEASURE = """() => {
     - parseFloat(getComputedStyle(card).paddingRight);
   const overflowing = [...document.querySelectorAll('.card')].filter((c) => !c.hidden)
     .filter((c) => c.scrollWidth > c.clientWidth).map((c) => `${c.id}: ${c.scrollWidth} > ${c.clientWidth}`);
-  return {plot, card: card.clientWidth, inner, overflowing};
+  // a select fits its options: the widest option's text and the arrow inside the select's box
+  const ctx = document.createElement('canvas').getContext('2d');
+  const tight = [...document.querySelectorAll('select')].filter((s) => s.offsetParent).flatMap((s) => {
+    ctx.font = getComputedStyle(s).font;
+    return [...s.options].filter((o) => ctx.measureText(o.textContent).width + 28 > s.clientWidth)
+      .map((o) => `${s.id}: ${o.textContent}`);
+  });
+  return {plot, card: card.clientWidth, inner, overflowing, tight};
 }"""
 
 
@@ -66,6 +73,7 @@ def test_the_plot_is_the_hero_the_map_shows_the_walk_and_compare_works_on_its_ad
         m = page.evaluate(MEASURE)
         assert m["plot"] >= 0.55 * m["card"], m  # the hero: not a thumbnail in a corner
         assert m["overflowing"] == [], m["overflowing"]  # the GPS legend and the push URL wrap
+        assert m["tight"] == [], m["tight"]  # every select shows its options whole
 
         # zoom about the cursor with the wheel, pan by dragging, back with "Reset view"
         box = page.locator("#plot svg").bounding_box()
