@@ -158,6 +158,20 @@ const FtinPlot = (() => {
       const dash = s.dashed ? "stroke-dasharray='6 4'" : "";
       item(`<svg width="26" height="10"><line x1="0" y1="5" x2="26" y2="5" stroke="${s.color}" stroke-width="3" ${dash}/></svg>`, s.label, true);
     }
+    // Many paths (compare-all): hide every model at once, then show the few to compare.
+    const models = series.filter((s) => s.model).map((s) => s.label);
+    if (models.length > 2) {
+      const any = models.some((label) => !hidden.has(label));
+      const all = document.createElement("button");
+      all.type = "button";
+      all.className = "link-button legend-all";
+      all.textContent = any ? "hide every model" : "show every model";
+      all.addEventListener("click", () => {
+        for (const label of models) if (any) hidden.add(label); else hidden.delete(label);
+        redraw();
+      });
+      legend.appendChild(all);
+    }
     const shown = series.filter((s) => !hidden.has(s.label));
     for (const s of shown.filter((b) => b.band)) {
       item(`<svg width="26" height="12"><rect x="0" y="1" width="26" height="10" rx="5" fill="${s.color}" fill-opacity="${BAND_OPACITY}"/><line x1="0" y1="6" x2="26" y2="6" stroke="${s.color}" stroke-width="2"/></svg>`,
