@@ -23,9 +23,9 @@ port is picked free) and saves, in ``--out``:
   walks: the path ratio and the warning naming the path;
 - ``upload_phone_walk.png`` and ``scene_phone_walk.png``: a phone walk without ground truth, its
   plausibility panel and its GPS track beside the prediction, on the page also the map under the plot
-  (tiles from ``FTIN_MAP_TILES``; on a machine without internet the page says they could not load). The export is synthetic (Sensor Logger's
-  layout, as ``tests/utils/phone_walk.py`` builds it): the real exports with GPS in the shared data
-  have an empty Location.csv.
+  (tiles from ``FTIN_MAP_TILES``; on a machine without internet the page says they could not load).
+  The export is synthetic (Sensor Logger's layout, as ``tests/utils/phone_walk.py`` builds it): the
+  real exports with GPS in the shared data have an empty Location.csv.
 
 Needs Playwright and Debian's chromium (``/usr/bin/chromium``).
 """
@@ -153,9 +153,9 @@ def main() -> None:
             scene_page.screenshot(path=str(out / "scene_error.png"))
 
             # The Spectra tab following a model without FDL.
-            other = next((label for label in scene.plots.gui_run.options if "tlio" in label), None)
+            other = next((label for label in scene.plots.spectra.gui_run.options if "tlio" in label), None)
             if other is not None:
-                scene.plots.gui_run.value = other
+                scene.plots.spectra.gui_run.value = other
             scene_page.get_by_text("Spectra", exact=True).click()
             scene_page.wait_for_timeout(2_000)
             _close_notifications(scene_page)

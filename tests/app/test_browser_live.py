@@ -1,7 +1,8 @@
 """In a real browser (as ``test_browser``: Debian's chromium and Playwright, skipped without them
 unless ``FTIN_REQUIRE_BROWSER=1``): while a replay streams a walk into the app, the 3D scene's page
 shows the live status line and the distance walked grows; once the phone falls silent both pages say
-"waiting for the phone"; the upload page lists the session and the push URL. ``FTIN_SCREENSHOT_DIR`` saves ``live_walk.png``."""
+"waiting for the phone"; the upload page lists the session and the push URL. ``FTIN_SCREENSHOT_DIR``
+saves ``live_walk.png``."""
 
 from __future__ import annotations
 
