@@ -263,8 +263,12 @@ function showResult(result, label) {
   $("convention").textContent = convention(m, duration);
   showPlausibility(result.plausibility);
   // Each message once: the plausibility panel shows its own warnings.
+  // and a warning the verdict's banner or its reasons already say ("worse than standing still") goes.
   const own = new Set(result.plausibility ? result.plausibility.warnings : []);
-  fillList($("warnings"), result.warnings.filter((w) => !own.has(w)));
+  const said = result.verdict
+    ? [result.verdict.says, ...result.verdict.reasons.map((r) => r.says)].map((x) => x.toLowerCase()) : [];
+  const new_ = (w) => !said.some((x) => x.length > 20 && w.toLowerCase().includes(x));
+  fillList($("warnings"), result.warnings.filter((w) => !own.has(w) && new_(w)));
   fillList($("notes"), result.notes || []);
   $("result-meta").textContent = [
     ORIENTATION_WORDS[result.orientation_source] || `orientation: ${result.orientation_source}`,
