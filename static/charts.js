@@ -1,7 +1,7 @@
 // Charts over time under the trajectory plot: the walk's speed (from the predicted path) with the
 // accelerometer's steps as ticks, and the heading error against the ground truth where the answer
 // has one. Dependency-free SVG at the container's width, like plot.js.
-// FtinCharts.timeSeries(container, {series: [{t, v, color, label}], ticks: [t...], yLabel, yMin})
+// FtinCharts.timeSeries(container, {series: [{t, v, color, label}], ticks: [t...], yLabel, yMin, minSpan})
 // FtinCharts.speed(t, x, y): the speed in m/s every SPEED_STEP_S, over SPEED_SPAN_S (centred).
 "use strict";
 
@@ -50,7 +50,9 @@ const FtinCharts = (() => {
     return 10 * magnitude;
   }
 
-  function timeSeries(container, { series, ticks = [], yLabel, yMin = null }) {
+  // minSpan: the least the y axis spans (a phone lying still walks 0.004 m/s: drawn flat at the floor,
+  // not magnified into a full-height line).
+  function timeSeries(container, { series, ticks = [], yLabel, yMin = null, minSpan = 0 }) {
     container.textContent = "";
     const width = Math.max(Math.round(container.clientWidth || 720), 320);
     const finite = (v) => v !== null && Number.isFinite(v);
@@ -62,6 +64,7 @@ const FtinCharts = (() => {
     // yMin: the axis' floor unless a value lies below it (a signed heading error).
     let v0 = yMin !== null ? Math.min(yMin, ...values) : Math.min(...values), v1 = Math.max(...values);
     if (!(v1 > v0)) v1 = v0 + 1;
+    v1 = Math.max(v1, v0 + minSpan);
     v1 += (v1 - v0) * 0.08;
     const px = (t) => M.left + ((t - t0) / (t1 - t0 || 1)) * (width - M.left - M.right);
     const py = (v) => HEIGHT - M.bottom - ((v - v0) / (v1 - v0)) * (HEIGHT - M.top - M.bottom);

@@ -217,7 +217,7 @@ function showTimeCharts(result) {
   if (speed.t.length) {
     FtinCharts.timeSeries($("speed-chart"), {
       series: [{ t: speed.t, v: speed.v, color: modelColor(result.model), label: displayName(result.model) }],
-      ticks: steps, yLabel: "m/s", yMin: 0,
+      ticks: steps, yLabel: "m/s", yMin: 0, minSpan: 1.5, // a walk's 1-1.5 m/s fills it
     });
   }
   const heading = result.heading_error;
@@ -228,7 +228,7 @@ function showTimeCharts(result) {
       `windows: ${heading.median_deg.toFixed(1)}°` + (after == null ? "" : `, after the first 2 min ${after.toFixed(1)}°`) + ")";
     FtinCharts.timeSeries($("heading-chart"), {
       series: [{ t: heading.t_s, v: heading.deg, color: modelColor(result.model), label: displayName(result.model) }],
-      yLabel: "°", yMin: 0,
+      yLabel: "°", yMin: 0, minSpan: 10,
     });
   }
 }
