@@ -73,9 +73,7 @@ PARSERS = 2  # push bodies parsed at once (threads); the rest wait on the event 
 TICK_S = 0.05  # the worker's look at held messages and idle sessions
 DRAIN_MESSAGES = 256  # messages used before one publication
 CLOSED_KEPT = 20
-WAITING_AFTER_S = (
-    2.0  # a live session this long without a message is "waiting for the phone" (pushes come each second)
-)
+WAITING_AFTER_S = 2.0  # this long without a message: "waiting for the phone" (a phone pushes every second)
 PLATFORMS = ("android", "ios")
 EMPTY_PUSH = (
     "the message carries no sensor samples, so no session was started: tick sensors in the app "
