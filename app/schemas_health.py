@@ -37,3 +37,7 @@ class HealthResponse(BaseModel):
         description="Longest a prediction may go without progress (FTIN_INFERENCE_TIMEOUT_S)."
     )
     precision: PrecisionPayload
+    map_tiles: str = Field(
+        "", description="Tile URL template of the page's map (FTIN_MAP_TILES; empty: no map)."
+    )
+    map_attribution: str = Field("", description="The map tiles' credit (FTIN_MAP_ATTRIBUTION), HTML.")

@@ -25,6 +25,8 @@ Decisions:
   generated at each start. ``FTIN_ALLOWED_HOSTS`` adds names to the ``Host`` allow-list (loopback and
   this machine's own names and addresses are always on it; ``*`` allows any).
 - Live pushes (``FTIN_LIVE_*``): bounded body, sessions, session length, idle time and queue.
+- ``FTIN_MAP_TILES`` (OpenStreetMap's tiles by default): the only thing the page fetches from outside,
+  in the user's browser, for the map under a walk with GPS; offline the page says so and keeps the plot.
 - ``FTIN_TORCH_THREADS`` (default 1) sets torch's intra-op threads for the whole process while the
   app runs. One thread, because the app shares its CPU with the event loop, viser and the drawing
   thread (and, on a workstation, with everything else): on a busy 2-core machine a one-minute
@@ -58,6 +60,10 @@ from ftin.precision import PrecisionSetting
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SAMPLES_DIR = Path(ftin.__file__).resolve().parent / "sim" / "samples"
+DEFAULT_MAP_TILES = "https://tile.openstreetmap.org/{z}/{x}/{y}.png"
+DEFAULT_MAP_ATTRIBUTION = (
+    '&copy; <a href="https://www.openstreetmap.org/copyright">OpenStreetMap</a> contributors'
+)
 
 
 def default_runs_dir() -> Path:
@@ -146,6 +152,14 @@ class Settings(BaseSettings):
     live_idle_s: float = Field(30.0, gt=0, description="A live session without messages this long ends.")
     live_max_body_kb: float = Field(2048.0, gt=0, description="Largest push message, in KiB.")
     live_queue_messages: int = Field(256, ge=1, description="Push messages waiting to be used (429 beyond).")
+    # The upload page's map under a walk with GPS: the browser fetches these tiles (nothing else leaves).
+    map_tiles: str = Field(
+        DEFAULT_MAP_TILES,
+        description="Map tile URL template with {z}, {x}, {y} (empty: no map, the plot alone).",
+    )
+    map_attribution: str = Field(
+        DEFAULT_MAP_ATTRIBUTION, description="Credit shown on the map (HTML allowed)."
+    )
 
     @field_validator("data_dirs", mode="before")
     @classmethod
@@ -160,6 +174,14 @@ class Settings(BaseSettings):
         if isinstance(value, str):
             return [part.strip() for part in value.split(",") if part.strip()]
         return value
+
+    @field_validator("map_tiles", mode="after")
+    @classmethod
+    def _tile_template(cls, value: str) -> str:
+        missing = [part for part in ("{z}", "{x}", "{y}") if part not in value]
+        if value.strip() and missing:
+            raise ValueError(f"FTIN_MAP_TILES needs {', '.join(missing)} in its URL template; got {value!r}")
+        return value.strip()
 
     @field_validator("checkpoint_dir", "runs_dir", mode="after")
     @classmethod

@@ -10,6 +10,8 @@ async function loadModels() {
   ]);
   state.metrics = metrics;
   state.sceneUrl = sceneHref(health.scene_url);
+  state.mapTiles = health.map_tiles || "";
+  state.mapAttribution = health.map_attribution || "";
   state.maxUploadMb = health.max_upload_mb;
   if (state.sceneUrl) {
     $("scene-link-header").href = state.sceneUrl;
@@ -26,6 +28,7 @@ async function loadModels() {
     const option = document.createElement("option");
     option.value = m.name;
     option.textContent = m.display_name === m.name ? m.name : `${m.display_name} (${m.name})`;
+    option.title = `${m.display_name} (API name ${m.name})` + (m.summary ? `: ${m.summary}` : "");
     select.appendChild(option);
   }
   if (!models.length) {
@@ -39,9 +42,11 @@ async function loadModels() {
 function describeModel(models) {
   const picked = $("model-select").value;
   const m = models.find((x) => (picked ? x.name === picked : x.default));
-  $("model-info").textContent = (picked ? "" : defaultModelWords(state.defaultWhy)) + (m
-    ? `${m.architecture}, window ${m.window} samples (${(m.window / m.imu_rate_hz).toFixed(2)} s at ${m.imu_rate_hz} Hz)` +
-      (m.trained_on ? `, trained on ${m.trained_on}` : "") + `; API name ${m.name}`
+  // The model in at most 25 words (GET /models' summary) where the server gives one.
+  $("model-info").textContent = (picked ? "" : defaultModelWords()) + (m
+    ? (m.summary ? `${m.summary} ` : "") +
+      `${m.architecture}, window ${m.window} samples (${(m.window / m.imu_rate_hz).toFixed(2)} s at ${m.imu_rate_hz} Hz)` +
+      (m.trained_on && !m.summary ? `, trained on ${m.trained_on}` : "") + `; API name ${m.name}`
     : "");
 }
 
@@ -231,6 +236,8 @@ function setUp() {
   }
   $("scene-link").addEventListener("click", openInScene);
   $("compare-button").addEventListener("click", compareModels);
+  $("plot-reset").addEventListener("click", () => FtinPlot.reset($("plot")));
+  $("delete-run").addEventListener("click", (e) => deleteRun(e.currentTarget.dataset.runId, $("expired")));
   $("sample-button").addEventListener("click", () => predictSample());
   const models = loadModels().catch(() => showError("Could not load the model list from the server."));
   const samples = loadSamples().catch(() => { /* the sample list is optional */ });

@@ -26,8 +26,14 @@ function choiceText(result) {
   }
   const m = result.model_choice;
   if (m) {
+    // The model's short summary (GET /models, at most 25 words) where it has one, not the long why.
+    const info = (typeof state !== "undefined" ? state.models : []).find((x) => x.name === m.model);
+    const summary = info && info.summary;
+    // With a summary: the reason's first clause ("a phone app's export (sensorlogger)"), not its story.
+    const clause = m.reason.split(": ")[0];
+    const forThis = summary && clause.length < 80 ? `${clause}; ${summary}` : m.reason;
     const who = m.rule === "requested" ? "you chose"
-      : m.rule === "default" ? `default: ${m.reason}` : `chosen for this recording: ${m.reason}`;
+      : m.rule === "default" ? `default: ${summary || m.reason}` : `chosen for this recording: ${forThis}`;
     parts.push(`Model: ${m.model} (${who}).`);
   }
   return parts.join(" ");
@@ -40,23 +46,24 @@ function modelParam() {
   return select && select.value ? `&model=${encodeURIComponent(select.value)}` : "";
 }
 
-// The model select's first option: the default, with the reason it is the default.
+// The model select's first option: the default by name (the select fits it); why, under the select.
 function defaultOption(model, why) {
   const option = document.createElement("option");
   option.value = "";
   option.selected = true;
-  option.textContent = `default: ${model.display_name || model.name}` + (why ? ` (${why})` : "");
-  option.title = option.textContent;
+  option.textContent = `default: ${model.display_name || model.name}`;
+  option.title = why || option.textContent;
   return option;
 }
 
 // Under the select while the default is chosen: what the server does with no model named.
-function defaultModelWords(why) {
+function defaultModelWords() {
   return "No model named: the server runs the model trained on the recording's kind when it recognises " +
-    "it, else the default" + (why ? `, ${why}` : "") + ". ";
+    "it, else the default. ";
 }
 
 function showChoices(result) {
   const element = document.getElementById("choice-text");
   if (element) element.textContent = choiceText(result);
+  if (element) element.title = result.model_choice ? result.model_choice.reason : ""; // the whole why
 }

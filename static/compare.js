@@ -5,7 +5,8 @@
 // run beyond the basic four (GPX / GeoJSON for a walk with GPS, times on the phone's clock).
 "use strict";
 
-const compareView = { table: null, sort: null, token: 0 }; // the last table, {key, dir}, latest fetch
+// The last table, {key, dir}, the latest fetch, and why a model of the last compare-all could not run.
+const compareView = { table: null, sort: null, token: 0, failure: "" };
 
 function comparedRuns() {
   return [state.result, ...state.compared].filter(Boolean);
@@ -110,7 +111,7 @@ function drawCompareTable() {
     const values = data.columns.map((c) => (c.key in still ? fmt(still[c.key], c.digits, c.scale) : ""));
     for (const v of ["standing still", ...values, "", "", ""]) tr.insertCell().textContent = v;
   }
-  $("compare-summary").textContent = rows.length > 1 ? data.summary : "";
+  $("compare-summary").textContent = rows.length > 1 ? [data.summary, compareView.failure].filter(Boolean).join(" ") : "";
   // The downloads list the rows in the order shown.
   const ids = encodeURIComponent(rows.map((r) => r.run_id).join(","));
   $("compare-csv").href = `/compare.csv?ids=${ids}`;
@@ -122,9 +123,14 @@ async function compareModels() {
   const button = $("compare-button");
   const source = state.source;
   const base = state.result;
-  if (!source || !base) return;
+  if (!base) {
+    $("compare-summary").textContent = "No result is shown: predict a recording first, then compare every model on it.";
+    return;
+  }
   button.disabled = true;
   state.comparing = true;
+  let failure = "";
+  compareView.failure = "";
   const others = state.models.map((m) => m.name)
     .filter((name) => name !== base.model && !state.compared.some((r) => r.model === name));
   try {
@@ -133,19 +139,23 @@ async function compareModels() {
       const started = performance.now();
       const model = `${encodeURIComponent(name)}&group=${encodeURIComponent(base.run_id)}`; // listed under base
       let r;
-      if (source.file) {
+      if (source && source.file) {
         const form = new FormData();
         form.append("file", source.file, source.file.name);
         r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST", body: form });
-      } else if (source.sampleId) {
+      } else if (source && source.sampleId) {
         r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
       } else {
-        showError("This kept run's file is not on the page: upload it again to compare models on it.");
-        return;
+        // A run opened from its address (/runs/...): its file is not on the page, but the server keeps
+        // the recording with the run; it answers why where it cannot (expired: 410).
+        r = await fetch(`/runs/${encodeURIComponent(base.run_id)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
       }
       if (state.result !== base) return; // a new prediction replaced this one meanwhile
       if (!r.ok) {
-        showError(`${displayName(name)}: ${errorText(r.status, await r.text())}`);
+        failure = `${displayName(name)}: ${errorText(r.status, await r.text())}`;
+        compareView.failure = failure;
+        $("compare-summary").textContent = failure; // beside the button, where the user looks
+        if (r.status === 404 || r.status === 410) return; // the recording is gone: no model can run on it
         continue;
       }
       const result = await r.json();
@@ -159,6 +169,7 @@ async function compareModels() {
     setProgress(null);
     button.disabled = false;
     renderCompareTable();
+    if (failure && !state.compared.length) $("compare-summary").textContent = failure; // not cleared
     refreshKeptRuns();
   }
 }

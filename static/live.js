@@ -5,7 +5,7 @@
 "use strict";
 
 (() => {
-  const POLL_MS = 2000;
+  const POLL_MS = 1000; // with the server's 2 s of silence: "waiting for the phone" within 3 s
   const COLUMNS = ["Phone", "State", "Samples", "Rates", "Latency", "Dropped", "Distance", "Steps", "Trajectory"];
   const el = (id) => document.getElementById(id);
 
@@ -40,7 +40,9 @@
       const row = table.insertRow();
       row.dataset.runId = s.run_id || "";
       cell(row, s.device_id + (s.part > 1 ? ` (part ${s.part})` : ""));
-      cell(row, s.state + (s.ended_because ? `: ${s.ended_because}` : ""));
+      const state = s.waiting ? `waiting for the phone (nothing for ${s.silent_s.toFixed(0)} s)`
+        : s.state === "live" ? "streaming" : s.state;
+      cell(row, state + (s.ended_because ? `: ${s.ended_because}` : "")).className = "live-state";
       cell(row, String(s.samples));
       cell(row, ratesText(s.rates_hz));
       cell(row, s.latency_s == null ? "–" : `${s.latency_s.toFixed(2)} s`);

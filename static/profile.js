@@ -10,7 +10,7 @@
 // access token) applies to them too.
 
 (function () {
-  const PREDICT = /^\/(predict|sequences\/[^/?]+\/predict)(\?|$)/;
+  const PREDICT = /^\/(predict|sequences\/[^/?]+\/predict|runs\/[^/?]+\/predict)(\?|$)/; // runs/{id}/predict: compare-all on a kept run
   const RESULT = /^\/runs\/[^/?]+\/result(\?|$)/;
   let shownRun = null; // the run_id of the last answer the page showed
 

@@ -15,6 +15,7 @@ const FRAME_WORDS = {
 // A result whose plot and metrics no longer match the file and model picked: take it away.
 function hideResult() {
   $("result").hidden = true;
+  FtinMap.hide(null);
   state.result = null;
   state.compared = [];
 }
@@ -44,7 +45,9 @@ function renderPlot() {
   if (mine && traj.cov_xx && traj.cov_xx.length === traj.x.length) {
     mine.band = { t: traj.t, xx: traj.cov_xx, xy: traj.cov_xy, yy: traj.cov_yy };
   }
-  if (mine && result.uncertainty) mine.endRadius = result.uncertainty.end_radius_95_m;
+  if (mine && result.uncertainty && result.uncertainty.end_radius_95_m != null) {
+    mine.endRadius = result.uncertainty.end_radius_95_m;
+  }
   FtinPlot.render($("plot"), series, $("plot-legend"));
 }
 
@@ -85,8 +88,10 @@ function fillTable(table, rows) {
   }
 }
 
-// The walk's verdict (ok / check / implausible): its line first in the card, coloured by its level;
-// every reason in the line's tooltip. Made here, so the card needs no edit in index.html.
+// The walk's verdict (ok / check / implausible): the card's one banner, coloured by its level, with
+// its reasons listed beneath it (each figure said once: the standing-still comparison is among them).
+// Made here, so the card needs no edit in index.html. A result without one (an older answer) keeps
+// the standing-still sentence as a plain line above the metrics.
 const VERDICT_MARKS = { ok: "✓", check: "⚠", implausible: "✗" };
 
 function showWalkVerdict(verdict) {
@@ -95,23 +100,36 @@ function showWalkVerdict(verdict) {
     line = document.createElement("p");
     line.id = "walk-verdict";
     line.setAttribute("role", "status");
-    $("result-title").after(line);
+    const reasons = document.createElement("ul");
+    reasons.id = "walk-reasons";
+    reasons.className = "walk-reasons";
+    $("result-title").after(line, reasons);
   }
-  line.hidden = !verdict;
+  const reasons = $("walk-reasons");
+  line.hidden = reasons.hidden = !verdict;
   if (!verdict) return;
   line.className = `walk-verdict level-${verdict.level}`;
   line.dataset.level = verdict.level;
   line.textContent = `${VERDICT_MARKS[verdict.level] || ""} ${verdict.says}`.trim();
   line.title = verdict.reasons.map((r) => `${r.level}: ${r.says}`).join("\n");
+  // The reasons the banner's line leaves out (a reason of another level than the verdict's own).
+  reasons.textContent = "";
+  for (const r of verdict.reasons.filter((x) => x.level !== "ok" && !verdict.says.includes(x.says))) {
+    const li = document.createElement("li");
+    li.className = `level-${r.level}`;
+    li.textContent = r.says;
+    reasons.appendChild(li);
+  }
+  reasons.hidden = !reasons.children.length;
 }
 
-// Worse than standing still: said first, in words, where nobody can miss it.
-function showVerdict(m) {
+// Worse than standing still, in words: only where no walk verdict says it already (one banner).
+function showVerdict(m, verdict) {
   const box = $("verdict");
-  box.hidden = !(m && m.standing_still_text);
-  box.className = "verdict" + (isWorseThanStill(m) ? " bad" : " good");
-  // The sentence names the verdict itself ("Worse than standing still: ATE ... against ...").
-  box.textContent = m && m.standing_still_text ? (isWorseThanStill(m) ? "⚠ " : "") + m.standing_still_text : "";
+  const text = m && m.standing_still_text;
+  box.hidden = !text || !!verdict;
+  box.className = "verdict-line small" + (isWorseThanStill(m) ? " flagged" : "");
+  box.textContent = text ? (isWorseThanStill(m) ? "⚠ " : "") + text : "";
   $("scope-note").textContent = (m && m.scope_note) || "";
   $("scope-note").hidden = !(m && m.scope_note);
 }
@@ -148,20 +166,71 @@ function convention(m, duration) {
 }
 
 // How sure: the radius around the predicted end that holds the true end with 95 % (docs/metrics.md,
-// "How sure is it"), under the verdict; how it was calibrated in its tooltip. Made here, as the verdict.
-function showUncertainty(uncertainty) {
+// "How sure is it"), under the verdict; how it was calibrated in its tooltip. No radius where the
+// server withholds it (an implausible walk: uncertainty.withheld_reason says why); with ground truth,
+// whether the true end lies inside (uncertainty.true_end_inside).
+function endRadiusText(uncertainty) {
+  const r = uncertainty.end_radius_95_m;
+  if (r === null || r === undefined) {
+    return uncertainty.withheld_reason ? `No 95 % end circle: ${uncertainty.withheld_reason}` : "";
+  }
+  let text = `Ends within ${r >= 10 ? r.toFixed(0) : r.toFixed(1)} m of here (95 %)`;
+  if (uncertainty.true_end_inside === true) text += "; the true end lies inside this circle.";
+  else if (uncertainty.true_end_inside === false) text += ", but the true end lies outside it: this walk is read worse than the circle claims.";
+  return text;
+}
+
+function showUncertainty(uncertainty, verdict) {
   let line = $("end-radius");
   if (!line) {
     line = document.createElement("p");
     line.id = "end-radius";
     line.className = "end-radius";
-    (document.getElementById("walk-verdict") || $("result-title")).after(line);
+    ($("walk-reasons") || $("result-title")).after(line);
   }
-  line.hidden = !uncertainty;
-  if (!uncertainty) return;
-  const r = uncertainty.end_radius_95_m;
-  line.textContent = `Ends within ${r >= 10 ? r.toFixed(0) : r.toFixed(1)} m of here (95 %)`;
-  line.title = uncertainty.calibration;
+  let text = uncertainty ? endRadiusText(uncertainty) : "";
+  // The banner names the circle already: the line only adds whether the true end lies inside.
+  if (verdict && verdict.says.includes("(95 %)") && uncertainty && uncertainty.true_end_inside == null) text = "";
+  line.hidden = !text;
+  line.textContent = text;
+  line.dataset.inside = uncertainty && uncertainty.true_end_inside != null ? String(uncertainty.true_end_inside) : "";
+  line.title = uncertainty ? uncertainty.calibration || "" : "";
+}
+
+// Under the plot: the loop closure (a walk back to its start), the speed over time with the steps as
+// ticks, and the heading error over time where the answer has one (ground truth).
+function loopClosureText(p) {
+  const loop = p && p.loop_closure;
+  if (!loop) return "";
+  const gap = loop.gap_m >= 10 ? loop.gap_m.toFixed(0) : loop.gap_m.toFixed(1);
+  return `The loop closes within ${gap} m (${(100 * loop.share).toFixed(1)} % of the ${loop.path_m.toFixed(0)} m path).`;
+}
+
+function showTimeCharts(result) {
+  $("loop-closure").textContent = loopClosureText(result.plausibility);
+  $("loop-closure").hidden = !$("loop-closure").textContent;
+  const traj = result.trajectory;
+  const speed = FtinCharts.speed(traj.t, traj.x, traj.y);
+  const steps = (result.plausibility && result.plausibility.step_times_s) || [];
+  $("speed-box").hidden = !speed.t.length;
+  $("steps-caption").textContent = steps.length ? `; ticks: the ${steps.length} steps the accelerometer counted` : "";
+  if (speed.t.length) {
+    FtinCharts.timeSeries($("speed-chart"), {
+      series: [{ t: speed.t, v: speed.v, color: modelColor(result.model), label: displayName(result.model) }],
+      ticks: steps, yLabel: "m/s", yMin: 0, minSpan: 1.5, // a walk's 1-1.5 m/s fills it
+    });
+  }
+  const heading = result.heading_error;
+  $("heading-box").hidden = !(heading && heading.t_s && heading.t_s.length);
+  if (!$("heading-box").hidden) {
+    const after = heading.median_after_2min_deg;
+    $("heading-caption").textContent = `Heading error against the ground truth (median over ${heading.window_s} s ` +
+      `windows: ${heading.median_deg.toFixed(1)}°` + (after == null ? "" : `, after the first 2 min ${after.toFixed(1)}°`) + ")";
+    FtinCharts.timeSeries($("heading-chart"), {
+      series: [{ t: heading.t_s, v: heading.deg, color: modelColor(result.model), label: displayName(result.model) }],
+      yLabel: "°", yMin: 0, minSpan: 10,
+    });
+  }
 }
 
 // Which filter ran (docs/filter.md): a line only where the EKF did.
@@ -180,19 +249,26 @@ function showResult(result, label) {
   $("expired").hidden = true;
   $("result-caption").textContent = `${label || result.sequence} · ${displayName(result.model)}`;
   showWalkVerdict(result.verdict);
-  showUncertainty(result.uncertainty);
+  showUncertainty(result.uncertainty, result.verdict);
   showFilter(result);
   renderPlot();
+  showTimeCharts(result);
+  FtinMap.show(result, anchoredOnGps(result));
+  $("delete-run").dataset.runId = result.run_id;
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];
   const m = result.metrics;
-  showVerdict(m);
+  showVerdict(m, result.verdict);
   fillTable($("metrics"), metricsRows(result)); // the duration is among the plausibility figures
   $("convention").textContent = convention(m, duration);
   showPlausibility(result.plausibility);
   // Each message once: the plausibility panel shows its own warnings.
+  // and a warning the verdict's banner or its reasons already say ("worse than standing still") goes.
   const own = new Set(result.plausibility ? result.plausibility.warnings : []);
-  fillList($("warnings"), result.warnings.filter((w) => !own.has(w)));
+  const said = result.verdict
+    ? [result.verdict.says, ...result.verdict.reasons.map((r) => r.says)].map((x) => x.toLowerCase()) : [];
+  const new_ = (w) => !said.some((x) => x.length > 20 && w.toLowerCase().includes(x));
+  fillList($("warnings"), result.warnings.filter((w) => !own.has(w) && new_(w)));
   fillList($("notes"), result.notes || []);
   $("result-meta").textContent = [
     ORIENTATION_WORDS[result.orientation_source] || `orientation: ${result.orientation_source}`,

@@ -42,7 +42,38 @@ function keptItem(run) {
     if (i) li.append(" ");
     li.appendChild(downloadLink(href, text));
   }
+  const remove = document.createElement("button");
+  remove.type = "button";
+  remove.className = "link-button delete-button-small";
+  remove.textContent = "delete";
+  remove.title = "Delete this run from the server";
+  remove.addEventListener("click", () => deleteRun(run.run_id, $("kept-error")));
+  li.append(" · ", remove);
   return li;
+}
+
+// DELETE /runs/{id}: gone from the server (its downloads and address too). The server's own words
+// where it refuses (a server without the route answers 405: said as it is).
+async function deleteRun(runId, errorBox) {
+  if (!runId || !window.confirm("Delete this run from the server? Its downloads and address stop working.")) return;
+  errorBox.hidden = true;
+  try {
+    const r = await fetch(`/runs/${encodeURIComponent(runId)}`, { method: "DELETE" });
+    if (!r.ok) {
+      errorBox.textContent = `Could not delete the run: ${errorText(r.status, await r.text())}`;
+      errorBox.hidden = false;
+      return;
+    }
+  } catch (_) {
+    errorBox.textContent = `Could not delete the run: ${errorText(0, "")}`;
+    errorBox.hidden = false;
+    return;
+  }
+  if (state.result && state.result.run_id === runId) {
+    hideResult();
+    if (runIdInUrl() === runId) history.pushState({}, "", "/");
+  }
+  refreshKeptRuns();
 }
 
 // A compare-all's runs carry the run_id it started from (group): listed beneath that run, or

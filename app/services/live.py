@@ -73,6 +73,7 @@ PARSERS = 2  # push bodies parsed at once (threads); the rest wait on the event 
 TICK_S = 0.05  # the worker's look at held messages and idle sessions
 DRAIN_MESSAGES = 256  # messages used before one publication
 CLOSED_KEPT = 20
+WAITING_AFTER_S = 2.0  # this long without a message: "waiting for the phone" (a phone pushes every second)
 PLATFORMS = ("android", "ios")
 EMPTY_PUSH = (
     "the message carries no sensor samples, so no session was started: tick sensors in the app "
@@ -226,6 +227,8 @@ class LiveService:
             "model": live.model_name,
             "state": live.state,
             "ended_because": live.ended_because,
+            "silent_s": round(max(time.monotonic() - s.last_message_s, 0.0), 2),
+            "waiting": live.state == "live" and time.monotonic() - s.last_message_s >= WAITING_AFTER_S,
             "samples": s.n_samples,
             "duration_s": round(s.duration_s, 2),
             "rate_hz": s.rate_hz(),

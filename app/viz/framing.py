@@ -15,6 +15,9 @@ Decisions:
   window); each browser is re-aimed for its own canvas when it connects.
 - A canvas too narrow for the panels to leave ``MIN_VISIBLE_SHARE`` of it uncovered (a phone, where
   the panels stack) is framed whole, as before.
+- A live walk is framed whole, not followed at a fixed distance: following kept the walker in view
+  but let the rest of the path (and, with a sideways shift of the wrong size, the walker itself)
+  slide under the panels. ``live_frame`` re-frames only when the path leaves its square.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ DEFAULT_CANVAS_PX = (1360.0, 860.0)
 HIDPI_CANVAS_PX = 2600.0
 MIN_VISIBLE_SHARE = 0.35
 FIT_MARGIN = 1.3  # the framed square and room around it (the grid is 1.3 times its side)
+LIVE_HEADROOM = 1.6  # a live walk's square is this much wider than the path so far (room to grow)
+LIVE_MIN_SIZE_M = 8.0  # the first seconds of a live walk: a few steps, not a close-up of a point
 
 
 def covered_px(canvas_w_px: float) -> tuple[float, float]:
@@ -67,22 +72,15 @@ def aim(
     return target + distance * VIEW_DIRECTION, target
 
 
-def follow(
-    walker: np.ndarray,
-    position: np.ndarray,
-    look_at: np.ndarray,
-    fov_rad: float,
-    canvas_px: tuple[float, float] = DEFAULT_CANVAS_PX,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Eye and target keeping a camera's angle and distance (``position - look_at``) with ``walker``
-    in the middle of the uncovered part."""
-    offset = np.asarray(position, dtype=np.float64) - np.asarray(look_at, dtype=np.float64)
-    distance = float(np.linalg.norm(offset))
-    right = np.cross(-offset, [0.0, 0.0, 1.0])  # the screen's right, on the ground plane
-    norm = float(np.linalg.norm(right))
-    right = right / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])  # looking straight down
-    _, height = _css(*canvas_px)
-    left, right = covered_px(canvas_px[0])
-    shift = 0.5 * (right - left) * metres_per_px(distance, fov_rad, height)
-    target = np.asarray(walker, dtype=np.float64) + shift * right
-    return target + offset, target
+def live_frame(
+    path_m: np.ndarray, new_m: np.ndarray, frame: tuple[np.ndarray, float] | None
+) -> tuple[np.ndarray, float]:
+    """The square (centre ``(3,)``, side in metres) a growing live walk is framed in: ``frame`` (the
+    same object) while its ``new_m`` points all lie inside it, else a new square around the whole
+    ``path_m`` with ``LIVE_HEADROOM`` to grow into (at least ``LIVE_MIN_SIZE_M``), so the camera moves
+    now and then, never on every update, and the whole path stays in view."""
+    if frame is not None and np.all(np.abs(new_m[:, :2] - frame[0][:2]) <= frame[1] / 2.0):
+        return frame
+    lo, hi = path_m.min(axis=0), path_m.max(axis=0)
+    size = max(float(max(hi[0] - lo[0], hi[1] - lo[1])) * LIVE_HEADROOM, LIVE_MIN_SIZE_M)
+    return (lo + hi) / 2.0, size

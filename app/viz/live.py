@@ -8,16 +8,23 @@ Decisions:
   with each update; nothing here calls the service.
 - Updates are coalesced: however many arrive while the drawing thread is busy, it draws the latest
   of each live run once (``receive`` only records it), so a fast stream never queues stale frames.
+- A phone that stops pushing sends no update, so the status line is checked every ``CHECK_S`` by a
+  thread of its own: ``WAITING_AFTER_S`` (``app.services.live``) after the last message it says
+  "waiting for the phone" (it said "streaming" for the 30 s until the session ended idle).
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any
 
 import viser
 
-from app.services.live import LiveUpdate
+from app.services.live import WAITING_AFTER_S, LiveUpdate
+
+CHECK_S = 0.5
+WAITING = "waiting for the phone"
 
 IDLE_TEXT = (
     "No phone is streaming. In Sensor Logger, tap the gear icon on the Logger page, turn HTTP Push on, "
@@ -31,10 +38,14 @@ def rates_text(session: dict[str, Any]) -> str:
     return " · ".join(f"{kind} {hz:.0f} Hz" for kind, hz in rates.items() if hz is not None)
 
 
-def status_markdown(session: dict[str, Any]) -> str:
-    """The "Live" folder's status line for one session's figures (``LiveService.sessions()``' entry)."""
+def status_markdown(session: dict[str, Any], silent_s: float | None = None) -> str:
+    """The "Live" folder's status line for one session's figures (``LiveService.sessions()``' entry);
+    ``silent_s``: how long the phone has been silent now (default: as the figures say)."""
     latency = "–" if session["latest_latency_s"] is None else f"{session['latest_latency_s']:.2f} s"
-    state = "streaming" if session["state"] == "live" else session["state"]
+    silent = session.get("silent_s", 0.0) if silent_s is None else silent_s
+    state = session["state"]
+    if state == "live":
+        state = f"{WAITING}: nothing for {silent:.0f} s" if silent >= WAITING_AFTER_S else "streaming"
     return (
         f"Phone **{session['device_id']}** ({state}), {session['model']}  \n"
         f"{rates_text(session)}, latency {latency}, dropped {session['dropped_messages']} messages  \n"
@@ -50,6 +61,10 @@ class LiveView:
             self.gui_live = gui.add_markdown(IDLE_TEXT)
         self._lock = threading.Lock()
         self._pending: dict[str, LiveUpdate] = {}  # run id -> its latest update, in arrival order
+        self._shown: tuple[dict[str, Any], float] | None = None  # the figures shown, and when
+        self._stop = threading.Event()
+        self._watch = threading.Thread(target=self._watch_silence, name="live-status", daemon=True)
+        self._watch.start()
 
     def receive(self, update: LiveUpdate) -> bool:
         """Record ``update`` (the service's thread); True when the drawing thread must be asked to
@@ -66,4 +81,24 @@ class LiveView:
         return list(pending.values())
 
     def show_status(self, session: dict[str, Any]) -> None:
+        with self._lock:
+            self._shown = (session, time.monotonic())
         self.gui_live.content = status_markdown(session)
+
+    def _watch_silence(self) -> None:
+        """Every ``CHECK_S``: a live session shown whose phone fell silent says so (module docstring)."""
+        while not self._stop.wait(CHECK_S):
+            with self._lock:
+                shown = self._shown
+            if shown is None or shown[0]["state"] != "live":
+                continue
+            session, at = shown
+            silent = session.get("silent_s", 0.0) + time.monotonic() - at
+            if silent >= WAITING_AFTER_S:
+                text = status_markdown(session, silent)
+                if self.gui_live.content != text:
+                    self.gui_live.content = text
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._watch.join(timeout=2.0)

@@ -25,7 +25,7 @@ from app.services.checkpoint_store import ModelStore
 from app.services.runs import Run
 from app.viz.drawing import GridNodes, PathNodes, draw_gps, draw_grid, draw_path, extent_of, set_window
 from app.viz.filter_series import filter_label
-from app.viz.framing import aim, follow
+from app.viz.framing import aim, live_frame
 from app.viz.live_path import GrowingPath
 from app.viz.palette import START_COLOR, TRUTH_COLOR, ColorBook
 from app.viz.run_scene_data import RunView, sequence_key
@@ -44,6 +44,7 @@ class Overlay:
         self.views: dict[str, RunView] = {}  # shown runs, in arrival order
         self.nodes: dict[str, PathNodes] = {}
         self._growing: dict[str, GrowingPath] = {}  # live runs' paths drawn since they were first drawn
+        self._live_frames: dict[str, tuple[np.ndarray, float]] = {}  # live run -> the square it is framed in
         self.truth: PathNodes | None = None
         self.grid: GridNodes | None = None
         self.sequence_key: tuple[Any, ...] | None = None  # the recording on screen
@@ -83,6 +84,7 @@ class Overlay:
             if old.model_name == view.model_name:
                 self.nodes.pop(old_id).remove()
                 self._growing.pop(old_id, None)
+                self._live_frames.pop(old_id, None)
                 views[view.run_id] = view
             else:
                 views[old_id] = old
@@ -106,7 +108,7 @@ class Overlay:
         if nodes.end is not None:
             nodes.end.position = view.trajectory.p_world_m[-1]
         self._reframe_if_outside(view, new_points)
-        self._follow(view.trajectory.p_world_m[-1])
+        self._keep_in_view(view, new_points)
         return view
 
     def move_to(self, t_s: float) -> None:
@@ -129,6 +131,7 @@ class Overlay:
             nodes.remove()
         self.nodes.clear()
         self._growing.clear()
+        self._live_frames.clear()
         self.views.clear()
         if self.truth is not None:
             self.truth.remove()
@@ -192,12 +195,17 @@ class Overlay:
             shown.append(first.truth)
         self._place_grid_and_camera(*extent_of(shown))
 
-    def _follow(self, position: np.ndarray) -> None:
-        """Keep the walker at ``position`` in view: every camera keeps its angle and distance, and the
-        walker sits in the middle of the part of the canvas the right panel leaves uncovered."""
+    def _keep_in_view(self, view: RunView, new_points: np.ndarray) -> None:
+        """Keep a growing live walk whole in view: when its new points leave the square it is framed
+        in, every camera frames the whole path again, beside the panels (``app.viz.framing``)."""
+        if not len(new_points):
+            return
+        old = self._live_frames.get(view.run_id)
+        frame = live_frame(view.trajectory.p_world_m, new_points, old)
+        if frame is old:
+            return
+        self._live_frames[view.run_id] = frame
         for client in self.server.get_clients().values():
             camera = client.camera
-            canvas = (camera.image_width, camera.image_height)
-            eye, target = follow(position, camera.position, camera.look_at, camera.fov, canvas)
-            camera.position = eye  # viser moves look_at along with the position
-            camera.look_at = target
+            eye, target = aim(frame[0], frame[1], camera.fov, (camera.image_width, camera.image_height))
+            camera.position, camera.look_at = eye, target

@@ -88,6 +88,7 @@ class DashboardScene(RunListener):
         return scene
 
     def stop(self) -> None:
+        self.live.stop()
         self.timeline.stop()
         self.services.runs.unsubscribe(self)
         self.services.live.unsubscribe(self.live_updated)

@@ -22,9 +22,10 @@ port is picked free) and saves, in ``--out``:
 - ``upload_path_warning.png``: a recording where the phone lies still while the ground truth
   walks: the path ratio and the warning naming the path;
 - ``upload_phone_walk.png`` and ``scene_phone_walk.png``: a phone walk without ground truth, its
-  plausibility panel and its GPS track beside the prediction. The export is synthetic (Sensor Logger's
-  layout, as ``tests/utils/phone_walk.py`` builds it): the real exports with GPS in the shared data
-  have an empty Location.csv.
+  plausibility panel and its GPS track beside the prediction, on the page also the map under the plot
+  (tiles from ``FTIN_MAP_TILES``; on a machine without internet the page says they could not load).
+  The export is synthetic (Sensor Logger's layout, as ``tests/utils/phone_walk.py`` builds it): the
+  real exports with GPS in the shared data have an empty Location.csv.
 
 Needs Playwright and Debian's chromium (``/usr/bin/chromium``).
 """
@@ -136,8 +137,8 @@ def main() -> None:
             start = time.perf_counter()
             scene.flush(120)
             _timed("scene drew every run", start)
-            scene.gui_time.value = args.time
-            scene._update_time()
+            scene.timeline.gui_time.value = args.time
+            scene.timeline.update()
             scene_page.reload()
             scene_page.wait_for_selector("canvas")
             _close_notifications(scene_page)
@@ -152,9 +153,9 @@ def main() -> None:
             scene_page.screenshot(path=str(out / "scene_error.png"))
 
             # The Spectra tab following a model without FDL.
-            other = next((label for label in scene.spectra.gui_run.options if "tlio" in label), None)
+            other = next((label for label in scene.plots.spectra.gui_run.options if "tlio" in label), None)
             if other is not None:
-                scene.spectra.gui_run.value = other
+                scene.plots.spectra.gui_run.value = other
             scene_page.get_by_text("Spectra", exact=True).click()
             scene_page.wait_for_timeout(2_000)
             _close_notifications(scene_page)

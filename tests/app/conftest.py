@@ -81,6 +81,10 @@ def data_dir(tmp_path_factory: pytest.TempPathFactory, csv_with_gt: bytes, csv_w
     return root
 
 
+# A tile every map can load offline: the app's own icon (an image) for every tile of the page's map.
+LOCAL_TILES = "/favicon.ico?z={z}&x={x}&y={y}"
+
+
 @pytest.fixture(scope="session")
 def make_settings(
     checkpoint_dir: Path, data_dir: Path, tmp_path_factory: pytest.TempPathFactory
@@ -93,6 +97,7 @@ def make_settings(
             "viser_enabled": False,
             "viser_port": 0,
             "scene_first_run": False,  # tests start from an empty scene (the start-up run has its own)
+            "map_tiles": LOCAL_TILES,  # tests run offline: the page's map takes its tiles from the app
         }
         if "checkpoint_dir" not in overrides:
             # The built-in default (ftin-pedestrian) is not among the tiny checkpoints: name theirs.

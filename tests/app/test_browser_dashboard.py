@@ -26,6 +26,10 @@ def test_the_page_opens_on_the_bundled_samples_result(live_server, page) -> None
     assert page.inner_text("#result-caption") == f"walk_gt (bundled) · {DEFAULT_SHOWN}"
     assert page.eval_on_selector_all("#plot polyline.series", "els => els.length") == 2
     assert "standing still" in page.inner_text("#verdict")
+    # one banner: the walk's verdict says how it compares with standing still, once on the card
+    shown = page.inner_text("#result").split("Compare models on this recording")[0]
+    assert page.is_visible("#walk-verdict") and page.is_hidden("#verdict")
+    assert shown.count("than standing still") <= 1, shown
     # Models under the names people know, with the API name beside them.
     option = page.inner_text(f"#model-select option[value='{DEFAULT_MODEL}']")
     assert option == f"{DEFAULT_SHOWN} ({DEFAULT_MODEL})"

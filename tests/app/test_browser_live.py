@@ -1,7 +1,8 @@
 """In a real browser (as ``test_browser``: Debian's chromium and Playwright, skipped without them
 unless ``FTIN_REQUIRE_BROWSER=1``): while a replay streams a walk into the app, the 3D scene's page
-shows the live status line and the distance walked grows; the upload page lists the session and the
-push URL. ``FTIN_SCREENSHOT_DIR`` saves ``live_walk.png``."""
+shows the live status line and the distance walked grows; once the phone falls silent both pages say
+"waiting for the phone"; the upload page lists the session and the push URL. ``FTIN_SCREENSHOT_DIR``
+saves ``live_walk.png``."""
 
 from __future__ import annotations
 
@@ -62,8 +63,12 @@ def test_the_scene_page_shows_the_walk_growing_during_a_replay(real_server, page
             close.click()
         screenshot(page, "live_walk.png")
     replay.join(60)
+    # The phone fell silent (the replay ended): both pages say so within seconds, not 30 s later.
+    page.wait_for_function("() => document.body.innerText.includes('waiting for the phone')", timeout=5_000)
     upload = page.context.new_page()
     upload.goto(live_server.base_url)
     upload.wait_for_function("() => document.querySelector('#live-sessions tr td') !== null", timeout=15_000)
     assert "browser-phone" in upload.inner_text("#live-sessions")
+    state = upload.inner_text("#live-sessions td.live-state")
+    assert state.startswith("waiting for the phone") or state.startswith("ended"), state
     assert "/live/sensorlogger" in upload.inner_text("#live-url")

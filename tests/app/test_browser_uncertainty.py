@@ -56,5 +56,7 @@ def test_the_plot_draws_the_band_and_the_end_circle_after_an_upload(
     radius = page.get_attribute("#plot circle.end-radius", "r")
     assert float(radius) == pytest.approx(result["uncertainty"]["end_radius_95_m"] * px_per_m, rel=0.02)
     legend = page.inner_text("#plot-legend")
-    assert "2σ band: holds 86 % of true positions" in legend and "95 %: the true end lies within" in legend
+    # the band's coverage is a validation figure, said so; the circle is named, not claimed for this run
+    assert "2σ band (on validation walks it held 86 % of true positions)" in legend
+    assert "95 % end circle: " in legend
     screenshot(page, "uncertainty_band.png")

@@ -9,6 +9,7 @@ import time
 
 from app.settings import BUNDLED_SAMPLES_DIR
 from app.viz.controls import LIVE
+from app.viz.live import WAITING
 from app.viz.scene import DashboardScene
 from ftin.data.readers.generic_csv import read
 from ftin.live.formats import FORMATS
@@ -43,6 +44,7 @@ def test_the_scene_follows_a_live_walk(scene: DashboardScene, wait_for) -> None:
     first_len = len(scene.overlay.views[run_id].trajectory)
     first_max = scene.timeline.gui_time.max
     _push(scene, bodies[16:])
+    silent_since = time.monotonic()  # the phone's last message
     wait_for(lambda: len(scene.overlay.views[run_id].trajectory) > first_len + 1000, what="the walk to grow")
     assert (
         scene.timeline.gui_time.max > first_max
@@ -50,6 +52,9 @@ def test_the_scene_follows_a_live_walk(scene: DashboardScene, wait_for) -> None:
     )  # follows the end
     status = scene.live.gui_live.content
     assert "pixel-7" in status and "Hz" in status and " m** walked" in status and "steps" in status
+    # The phone fell silent: said within 3 s (it said "streaming" until the session ended, 30 s later).
+    wait_for(lambda: WAITING in scene.live.gui_live.content, timeout_s=5.0, what="waiting for the phone")
+    assert time.monotonic() - silent_since < 3.0
     info = live.sessions()[0]
     assert info["latency_s"] is not None and info["latency_s"] < 5.0
     live.end_all()

@@ -32,6 +32,8 @@ async def health(services: ServicesDep) -> HealthResponse:
         max_samples=services.settings.max_samples,
         inference_timeout_s=services.settings.inference_timeout_s,
         precision=_precision(services),
+        map_tiles=services.settings.map_tiles,
+        map_attribution=services.settings.map_attribution,
     )
 
 

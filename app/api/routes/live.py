@@ -65,6 +65,10 @@ class LiveSessionInfo(BaseModel):
     model: str
     state: str = Field(description="live, ended or failed.")
     ended_because: str | None
+    silent_s: float = Field(0.0, description="Seconds since the phone's last message.")
+    waiting: bool = Field(
+        False, description="Live, but the phone has been silent for 2 s or more: 'waiting for the phone'."
+    )
     samples: int = Field(description="Samples on the model's clock so far.")
     duration_s: float
     rate_hz: float = Field(description="The gyroscope's rate as it arrives.")

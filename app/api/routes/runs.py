@@ -14,15 +14,17 @@ from typing import Annotated
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import FileResponse, Response
+from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep
 from app.api.routes.exports import RUN_GONE, ClockQuery, RunIdPath, TimestampsQuery, attachment, file_route
 from app.api.routes.pages import STATIC_DIR
-from app.api.routes.predict import render
+from app.api.routes.predict import PredictOptionsDep, answer, render
 from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse
 from app.schemas_runs import RunSummary
 from app.services.exports import Clock, Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
+from app.services.runs import Run
 
 router = APIRouter(tags=["runs"])
 
@@ -88,6 +90,23 @@ def delete_run(run_id: RunIdPath, services: ServicesDep) -> Response:
     uses it). Afterwards each of its URLs answers 404; a run still running answers 409."""
     services.runs.delete(run_id)
     return Response(status_code=204)
+
+
+@router.post(
+    "/runs/{kept_id}/predict",
+    response_model=PredictionResponse,
+    responses={**RUN_GONE, **{status: {"model": ErrorResponse} for status in (404, 413, 422, 429, 504)}},
+)
+async def predict_kept_run(kept_id: RunIdPath, services: ServicesDep, options: PredictOptionsDep) -> Response:
+    """Run a model (``model=``) on a kept run's recording again: the page's compare-all on a run opened
+    from its address, whose file the browser no longer has."""
+
+    def again() -> Run:
+        kept = services.runs.get(kept_id)
+        return services.predictor.predict_imu(kept.sequence, options, source=kept.source)
+
+    with services.predictor.uploads.enter():  # as POST /predict: 429 beyond FTIN_MAX_PENDING_UPLOADS
+        return await answer(await run_in_threadpool(again), services.scene_url)
 
 
 @router.post("/runs/{run_id}/show", response_model=RunStatusResponse, responses=RUN_GONE)

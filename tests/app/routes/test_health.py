@@ -76,3 +76,13 @@ def test_auto_on_a_bf16_cpu_keeps_fp32_for_families_not_shown_within_the_bar(
         for model in (DEFAULT_MODEL, OTHER_MODEL):
             assert upload(test_client, csv_with_gt, model=model).status_code == 200
     assert [p.value for p in asked] == ["bf16", "fp32"]
+
+
+def test_the_map_tiles_are_a_setting_checked_at_start_up(client: TestClient) -> None:
+    body = client.get("/health").json()
+    assert body["map_tiles"] == "/favicon.ico?z={z}&x={x}&y={y}"  # the tests' own (tests/app/conftest.py)
+    assert "OpenStreetMap" in body["map_attribution"]
+    assert Settings().map_tiles == "https://tile.openstreetmap.org/{z}/{x}/{y}.png"  # the default
+    with pytest.raises(ValueError, match=r"FTIN_MAP_TILES needs \{x\}, \{y\}"):
+        Settings(map_tiles="https://tiles.example/{z}.png")
+    assert Settings(map_tiles="").map_tiles == ""  # no map: the page keeps its plot

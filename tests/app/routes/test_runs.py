@@ -50,3 +50,23 @@ def test_an_expired_run_says_so_and_how_to_get_it_back(
             assert "expired" in detail(response) and "Predict again" in detail(response)
             assert "FTIN_RUNS_DISK_BUDGET_MB" in detail(response)
         assert small.get("/runs/never-was-a-run/trajectory.csv").status_code == 404
+
+
+def test_a_kept_run_is_predicted_again_with_another_model(client: TestClient, csv_with_gt: bytes) -> None:
+    """The page's compare-all on a run opened from its address: the server runs another model on the
+    recording it kept (POST /runs/{id}/predict), listed under the first run (group)."""
+    first = upload(client, csv_with_gt, run_id="page-kept-0001").json()
+    other = next(name for name in client.get("/health").json()["models"] if name != first["model"])
+    again = client.post("/runs/page-kept-0001/predict", params={"model": other, "group": "page-kept-0001"})
+    assert again.status_code == 200, again.text
+    body = again.json()
+    assert body["model"] == other and body["run_id"] != first["run_id"]
+    assert len(body["trajectory"]["t"]) == len(first["trajectory"]["t"])  # the same recording
+    listed = {r["run_id"]: r for r in client.get("/runs").json()}
+    assert (
+        listed[body["run_id"]]["group"] == "page-kept-0001" and listed[body["run_id"]]["source"] == "upload"
+    )
+    gone = client.post("/runs/nosuchrun/predict", params={"model": other})
+    assert gone.status_code == 404 and "nosuchrun" in detail(gone)
+    unknown = client.post("/runs/page-kept-0001/predict", params={"model": "no-such-model"})
+    assert unknown.status_code == 404 and "no-such-model" in detail(unknown)
