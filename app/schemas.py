@@ -32,6 +32,7 @@ class ErrorResponse(BaseModel):
 class ModelInfo(BaseModel):
     name: str = Field(description="The API name (the checkpoint's file stem): use it in ?model=.")
     display_name: str = Field(description="The name people know, for menus: 'RNIN · OxIOD'.")
+    summary: str = Field("", description="The model in at most 25 plain words, for the page.")
     architecture: str
     trained_on: str | None = Field(description="Training data recorded in the checkpoint.")
     imu_rate_hz: float
@@ -48,6 +49,7 @@ class ModelInfo(BaseModel):
         return cls(
             name=entry.name,
             display_name=entry.display_name,
+            summary=entry.summary(entry.name == default_name),
             architecture=entry.architecture,
             trained_on=entry.trained_on,
             imu_rate_hz=float(loaded.imu_rate_hz),

@@ -50,7 +50,7 @@ class EndCircle:
 def coverage_text(checkpoint: str) -> str:
     """The band's coverage in words, as measured: on the validation walks the constants were fitted on."""
     found = calibration_for(checkpoint)
-    share = f"{TWO_SIGMA:.0%}"
+    share = f"{TWO_SIGMA * 100:.0f} %"
     walks = found.fitted_on or "validation walks"
     if found.model != checkpoint:
         return (

@@ -29,7 +29,7 @@ LimitQuery = Annotated[int, Query(ge=1, le=1000, description="At most this many 
 OffsetQuery = Annotated[int, Query(ge=0, description="Skip this many of the newest runs first.")]
 
 
-@router.get("/runs", response_model=list[RunSummary])
+@router.get("/runs", response_model=list[RunSummary], summary="List runs")
 def list_runs(
     services: ServicesDep, response: Response, limit: LimitQuery = 100, offset: OffsetQuery = 0
 ) -> list[RunSummary]:
@@ -40,7 +40,9 @@ def list_runs(
     return [RunSummary.from_record(record) for record in services.runs.records(limit, offset)]
 
 
-@router.get("/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE)
+@router.get(
+    "/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE, summary="A run's result"
+)
 def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
     """A kept run's POST /predict answer again (the page shows a kept run with it)."""
     return render(services.runs.get(run_id), services.scene_url)  # serialised here, off the event loop
@@ -48,6 +50,7 @@ def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
 
 @router.get(
     "/runs/{run_id}",
+    summary="A run's progress (or its page)",
     response_model=RunStatusResponse,
     responses={**RUN_GONE, 200: {"content": {"text/html": {}}, "description": "JSON status, or the page"}},
 )
@@ -62,7 +65,7 @@ def run_status(
     return RunStatusResponse.from_status(services.runs.status(run_id))
 
 
-@file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv")
+@file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv", "Download the trajectory (CSV)")
 def trajectory_csv(
     run_id: RunIdPath,
     services: ServicesDep,
@@ -77,7 +80,12 @@ def trajectory_csv(
     return attachment(trajectory_csv_text(run, timestamps, clock), "text/csv", name)
 
 
-@router.post("/runs/{run_id}/show", response_model=RunStatusResponse, responses=RUN_GONE)
+@router.post(
+    "/runs/{run_id}/show",
+    response_model=RunStatusResponse,
+    responses=RUN_GONE,
+    summary="Show a run in the 3D scene",
+)
 def show_run(run_id: RunIdPath, services: ServicesDep) -> RunStatusResponse:
     """Bring a finished run to the front of the 3D scene (for every connected browser)."""
     services.runs.focus(run_id)
