@@ -112,3 +112,16 @@ def test_every_operation_has_a_readable_name_in_docs(module) -> None:
         generated = route.name.replace("_", " ").title()  # what /docs shows without a summary
         assert route.summary and route.summary != generated, route.path
         assert not route.summary.endswith("Route"), route.path
+
+
+def test_a_csv_with_truth_and_no_orientation_warns_only_when_scored_unaligned(
+    client: TestClient, sample_frame
+) -> None:
+    columns = ["t", "gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z"]
+    data = sample_frame[[*columns, *(f"gt_device_world_{a}" for a in "xyz")]].to_csv(index=False).encode()
+    aligned = upload(client, data).json()  # the default: the truth's start aligned to the prediction's
+    assert aligned["metrics"]["alignment"] == "start"
+    assert not [w for w in aligned["warnings"] if "heading" in w and "truth" in w], aligned["warnings"]
+    assert any("keeps its own heading" in n for n in aligned["notes"])
+    unaligned = upload(client, data, align="none").json()
+    assert any(w.startswith("the ground truth's heading is not aligned") for w in unaligned["warnings"])
