@@ -16,12 +16,12 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from app.schemas_heading import HeadingErrorPayload, OrientationStretchPayload, heading_error_json
 from app.schemas_profiles import AppliedProfilePayload
 from app.schemas_uncertainty import UncertainTrajectoryPayload, UncertaintyPayload
-from app.schemas_verdict import VerdictPayload
+from app.schemas_verdict import LoopClosurePayload, StepLengthPayload, VerdictPayload
 from app.schemas_waypoints import WaypointMetricsPayload
 from app.services.catalog import SequenceEntry, SequenceSummary
 from app.services.checkpoint_store import ModelEntry
 from app.services.runs import Run, RunStatus
-from app.services.verdict import z_note
+from app.services.verdict import loop_closure_of, z_note
 from ftin.data import Trajectory
 from ftin.filter.choice import filter_of
 from ftin.metrics import HEADLINE_METRIC, describe, describe_alignment, list_metrics
@@ -34,6 +34,7 @@ class ErrorResponse(BaseModel):
 class ModelInfo(BaseModel):
     name: str = Field(description="The API name (the checkpoint's file stem): use it in ?model=.")
     display_name: str = Field(description="The name people know, for menus: 'RNIN · OxIOD'.")
+    summary: str = Field("", description="The model in at most 25 plain words, for the page.")
     architecture: str
     trained_on: str | None = Field(description="Training data recorded in the checkpoint.")
     imu_rate_hz: float
@@ -50,6 +51,7 @@ class ModelInfo(BaseModel):
         return cls(
             name=entry.name,
             display_name=entry.display_name,
+            summary=entry.summary(entry.name == default_name),
             architecture=entry.architecture,
             trained_on=entry.trained_on,
             imu_rate_hz=float(loaded.imu_rate_hz),
@@ -270,6 +272,17 @@ class PlausibilityPayload(BaseModel):
     figures: list[FigurePayload]
     warnings: list[str]
     gps: GpsPayload | None = Field(None, description="Present when the export has GPS fixes (Location.csv).")
+    step_times_s: list[float] | None = Field(
+        None, description="Times of the detected steps, s on the trajectory's clock (null: not detected)."
+    )
+    step_length: StepLengthPayload | None = Field(
+        None, description="One step length, labelled: from the path and from the cadence."
+    )
+    loop_closure: LoopClosurePayload | None = Field(
+        None,
+        description="Present when the walk returns near its start: by the ground truth or good GPS, else "
+        "a prediction ending within 10 % of its path from its start after 20 m or more (docs/metrics.md).",
+    )
 
     @classmethod
     def from_run(cls, run: Run) -> PlausibilityPayload:
@@ -284,7 +297,14 @@ class PlausibilityPayload(BaseModel):
                 accuracy_m=accuracy,
                 figures=[FigurePayload(**vars(f)) for f in p.gps_figures],
             )
-        return cls(figures=[FigurePayload(**vars(f)) for f in p.figures], warnings=p.warnings, gps=gps)
+        return cls(
+            figures=[FigurePayload(**vars(f)) for f in p.figures],
+            warnings=p.warnings,
+            gps=gps,
+            step_times_s=None if p.steps is None else np.round(p.steps.t_s, 3).tolist(),
+            step_length=StepLengthPayload(**p.step_length.as_dict()),
+            loop_closure=loop_closure_of(run),
+        )
 
 
 class OrientationChoicePayload(BaseModel):

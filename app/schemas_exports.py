@@ -27,6 +27,10 @@ class CompareRowPayload(BaseModel):
     worse_than_standing_still: bool | None = Field(description="None without ground truth.")
     verdict: str | None = Field(None, description="The walk's verdict: ok, check or implausible.")
     verdict_says: str | None = Field(None, description="The verdict in one line.")
+    levels: dict[str, str] = Field(
+        default_factory=dict,
+        description="Each reason of the verdict by its code: ok, check or implausible.",
+    )
 
 
 class CompareResponse(BaseModel):

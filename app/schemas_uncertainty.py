@@ -1,6 +1,7 @@
 """How sure is a path, in the API (``POST /predict``, ``GET /runs/{run_id}/result``, ``metrics.json``):
 the predicted trajectory with its per-sample 2x2 horizontal position covariance, and the radius around
-the predicted end that holds the true end with 95 % (``ftin.uncertainty``; ``docs/metrics.md``)."""
+the predicted end that holds the true end with 95 %, withheld on an implausible walk, and with ground
+truth whether the true end lies inside it (``ftin.uncertainty.end_circle``; ``docs/metrics.md``)."""
 
 from __future__ import annotations
 
@@ -9,17 +10,35 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, Field
 
+from app.services.verdict import end_circle_of
+
 
 class UncertaintyPayload(BaseModel):
-    end_radius_95_m: float = Field(
-        description="Radius (m) around the predicted end that holds the true end with 95 % (start-aligned)."
+    end_radius_95_m: float | None = Field(
+        description="Radius (m) around the predicted end that holds the true end with 95 % (start-aligned); "
+        "null where withheld (withheld_reason)."
+    )
+    withheld_reason: str | None = Field(
+        None, description="Why there is no radius: the walk's verdict is implausible, its end unknown."
+    )
+    true_end_inside: bool | None = Field(
+        None,
+        description="With ground truth: whether the true end (start-aligned) lies inside the radius; null "
+        "without ground truth or without a radius.",
+    )
+    true_end_error_m: float | None = Field(
+        None, description="With ground truth: start-aligned distance from the predicted to the true end, m."
     )
     calibration: str = Field(description="How the uncertainty was calibrated, and on what.")
+    coverage_text: str = Field(
+        "",
+        description="What the 2-sigma band's coverage (86 %) was measured on: validation walks.",
+    )
 
     @classmethod
     def from_run(cls, run: Any) -> UncertaintyPayload | None:
-        found = run.uncertainty
-        return None if found is None else cls.model_validate(found.summary())
+        circle = end_circle_of(run)
+        return None if circle is None else cls.model_validate(circle.as_dict())
 
 
 class UncertainTrajectoryPayload(BaseModel):

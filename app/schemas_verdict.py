@@ -1,5 +1,6 @@
 """The walk's verdict in the API (``POST /predict``, ``GET /runs/{run_id}/result`` for uploads and live
-runs, ``metrics.json``): a copy of ``ftin.metrics.walk_verdict``'s ``WalkVerdict``."""
+runs, ``metrics.json``): a copy of ``ftin.metrics.walk_verdict``'s ``WalkVerdict``, and the
+figures the page reads beside it under ``plausibility``: the one step length and the loop closure."""
 
 from __future__ import annotations
 
@@ -35,3 +36,20 @@ class VerdictPayload(BaseModel):
     @classmethod
     def from_run(cls, run: Any) -> VerdictPayload:
         return cls.model_validate(walk_verdict(run).as_dict())
+
+
+class StepLengthPayload(BaseModel):
+    """The run's one step length, in its two readings (ftin.metrics.plausibility.StepLength)."""
+
+    from_path_m: float | None = Field(description="What the path gives per step: predicted path / steps, m.")
+    from_cadence_m: float | None = Field(
+        description="What the cadence suggests, m (null: under 10 steps, too few to judge by)."
+    )
+    low_m: float | None = Field(None, description="The path's step judged right from this length, m ...")
+    high_m: float | None = Field(None, description="... to this one (the verdict's step_distance range).")
+
+
+class LoopClosurePayload(BaseModel):
+    gap_m: float = Field(description="The predicted end's distance from the predicted start, m.")
+    path_m: float = Field(description="The path walked: the ground truth's, GPS's, else the prediction's, m.")
+    share: float = Field(description="gap_m / path_m.")

@@ -15,6 +15,8 @@ of ``ftin.metrics.alignment_modes``: the given alignment, else, under RoNIN's co
 default (``start`` where the ground truth may be in another world frame, else ``none``); an
 alignment that cannot be fitted falls back to the unaligned metrics with a warning, and a ground
 truth that cannot be scored at all (one that never moves has no drift ratio) gives no metrics and a warning.
+A ground truth whose heading is its own (``gt_frame`` "unknown": a recording without orientation) is
+aligned at the start by default; scored without alignment (``none`` asked for), a warning says so.
 The result stands beside the prediction (``Scored``), which it never changes, as evo's ``ape()``
 returns a result and leaves the reference alone. Path lengths are compared over the model's window
 (``ftin.metrics.definitions``).
@@ -55,6 +57,7 @@ from ftin.metrics import (
     mean_metrics,
     stand_still,
 )
+from ftin.metrics.alignment_modes import GT_FRAME_UNKNOWN
 from ftin.metrics.heading import HeadingError, heading_error_of
 from ftin.uncertainty import path_uncertainty
 from ftin.uncertainty.coverage import Coverage, CoverageSummary, coverage_of, pooled
@@ -140,6 +143,12 @@ class EvaluationReport:
         }
 
 
+UNALIGNED_TRUTH = (
+    "the ground truth's heading is not aligned with the prediction's (the recording had no orientation "
+    "to relate them, and no alignment was asked for): the errors include that turn"
+)
+
+
 @dataclass(frozen=True)
 class Scored:
     """What ``score`` found, beside the prediction it scored (which it never changes): the metrics
@@ -182,10 +191,13 @@ def score(
         chosen = default_alignment(prediction.truth_frame)
     still = _stand_still(gt, convention, rte_window_s, smooth_s)
     warnings: list[str] = []
+    unaligned = chosen is Alignment.NONE or (chosen is None and convention is Convention.RONIN)
+    if prediction.truth_frame == GT_FRAME_UNKNOWN and unaligned:
+        warnings.append(UNALIGNED_TRUTH)  # its heading is not the prediction's: the errors hold that turn
     if chosen is not None:
         try:
             metrics, fit = evaluate_aligned(trajectory, gt, chosen, rte_window_s, smooth_s=smooth_s)
-            return Scored(metrics, fit, [], still)
+            return Scored(metrics, fit, warnings, still)
         except ValueError as exc:  # e.g. a ground truth that never moves
             warnings.append(f"alignment {chosen.value} not possible ({exc}); metrics without it")
     try:

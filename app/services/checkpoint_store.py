@@ -27,7 +27,7 @@ from typing import Any
 
 from app.services.errors import NotFoundError, StartupError
 from app.services.kinds import labels, training_kinds
-from app.services.model_names import display_name
+from app.services.model_names import display_name, summary
 from ftin.checkpoint import CheckpointError, LoadedModel, load_model, read_default_choice
 
 log = logging.getLogger(__name__)
@@ -90,6 +90,13 @@ class ModelEntry:
                 return where
             return f"{where} ({len(sequences)} sequence{'' if len(sequences) == 1 else 's'})"
         return str(data)
+
+    def summary(self, default: bool) -> str:
+        """The model in at most 25 plain words (``app.services.model_names.summary``)."""
+        data = self.meta.get("training_data")
+        sequences = data.get("sequences") if isinstance(data, dict) else None
+        count = len(sequences) if isinstance(sequences, list) else None
+        return summary(self.architecture, self.data_kinds, count, default)
 
     @property
     def n_parameters(self) -> int:

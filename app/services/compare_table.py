@@ -9,15 +9,17 @@ Decisions:
   steps, the step length, the end-to-start gap (the loop-closure error where the walk ends where it
   began), and the distance to GPS where the export has GPS.
 - The step count comes from the accelerometer, not from the model: it is the same on every row and
-  is shown so that each row reads on its own (path / steps = step length).
+  is shown so that each row reads on its own (path / steps = the step the path gives, labelled so);
+  the step the cadence suggests is the same for every row and is said once, in the summary.
 - Values are kept as the library gives them (SI units, ratios as ratios); each column says its
   display scale, unit and digits, and the CSV writes what the page shows.
-- Flags in words, as the page's legend explains them: "worse than standing still", "path too short"
-  / "too long" (against the truth, ``app.services.verdict``), and for a walk without ground truth
-  "steps too short" / "too long" (the step length outside the human range at the walk's cadence,
-  ``ftin.metrics.plausibility.step_length_range``) or "see warnings" for any other plausibility warning.
-- Each row carries the walk's verdict (``app.services.verdict.walk_verdict``: ok, check or
-  implausible, and its line), the same one the result card shows first.
+- Flags in words, read off the walk's verdict (``app.services.verdict.walk_verdict``), so a row is
+  flagged exactly where a reason is not ok: "not a walk" (a reason that finds no walk), "path too
+  short" / "too long" (against the truth), "steps too short" / "too long" (the path's step outside
+  the range the cadence suggests, ``ftin.metrics.plausibility.step_length_range``), "GPS disagrees",
+  "loop does not close", "worse than standing still", or "see the verdict" for any other.
+- Each row carries the walk's verdict (ok, check or implausible, and its line), the same one the
+  result card shows first, and each reason's level by its code (``levels``).
 - Every run must be on the same recording (same name and sample count): a table across recordings
   would compare nothing.
 """
@@ -35,9 +37,10 @@ import numpy as np
 from app.services.errors import InvalidInputError
 from app.services.exports import Clock, Timestamps, ground_truth_tum, trajectory_tum
 from app.services.runs import Run
-from app.services.verdict import MAX_PATH_RATIO, MIN_PATH_RATIO, walk_verdict
+from app.services.verdict import walk_verdict
 from ftin.metrics import list_metrics
-from ftin.metrics.plausibility import FIGURES, GPS_FIGURES, MIN_STEPS_TO_JUDGE, step_length_range
+from ftin.metrics.plausibility import FIGURES, GPS_FIGURES
+from ftin.metrics.reasons import NOT_WALKING, Level, WalkVerdict
 
 MAX_RUNS = 64  # a compare-all makes one run per loaded model (18-20 today)
 
@@ -45,7 +48,7 @@ MAX_RUNS = 64  # a compare-all makes one run per loaded model (18-20 today)
 PLAUSIBILITY_COLUMNS = (
     ("path_length", "Path", 1, "neither"),
     ("step_count", "Steps", 0, "neither"),
-    ("step_length", "Step length", 2, "neither"),
+    ("step_length", "Step (path / steps)", 2, "neither"),
     ("start_to_end", "End-to-start gap", 1, "neither"),
 )
 GPS_COLUMNS = (
@@ -83,6 +86,7 @@ class Row:
     worse_than_standing_still: bool | None = None
     verdict: str | None = None  # the walk's verdict level (ok, check, implausible: app.services.verdict)
     verdict_says: str | None = None  # ... in one line
+    levels: dict[str, str] = field(default_factory=dict)  # each reason's level by its code
 
 
 @dataclass(frozen=True)
@@ -133,28 +137,32 @@ def _values(run: Run) -> dict[str, float | None]:
     return values
 
 
-def flags(run: Run) -> list[str]:
-    """Why a row is flagged, in a few words each (module docstring)."""
+# (reason code, flag where the reason's figure is below its range, flag where above or otherwise)
+_FLAGS = {
+    "path_ratio": ("path too short", "path too long"),
+    "step_distance": ("steps too short", "steps too long"),
+    "gps_path": ("GPS disagrees", "GPS disagrees"),
+    "loop_closure": ("loop does not close", "loop does not close"),
+    "standing_still": ("worse than standing still", "worse than standing still"),
+}
+
+
+def flags(verdict: WalkVerdict) -> list[str]:
+    """Why a row is flagged, in a few words each, one per reason that is not ok (module docstring)."""
     words = []
-    verdict = run.verdict
-    if run.truth is not None and verdict.still is not None and verdict.still.worse_than_standing_still:
-        words.append("worse than standing still")
-    ratio = verdict.path_length_ratio
-    if ratio is not None and ratio < MIN_PATH_RATIO:
-        words.append("path too short")
-    elif ratio is not None and ratio > MAX_PATH_RATIO:
-        words.append("path too long")
-    if run.truth is None and run.plausibility.warnings:
-        p = run.plausibility
-        steps, cadence, length = p.value("step_count") or 0, p.value("cadence"), p.value("step_length")
-        low, high = step_length_range(cadence) if cadence else (0.0, float("inf"))
-        if steps >= MIN_STEPS_TO_JUDGE and length is not None and length < low:
-            words.append("steps too short")
-        elif steps >= MIN_STEPS_TO_JUDGE and length is not None and length > high:
-            words.append("steps too long")
+    for r in verdict.reasons:
+        if r.level is Level.OK:
+            continue
+        if r.says.startswith(NOT_WALKING):
+            words.append("not a walk")
+        elif r.code in _FLAGS:
+            value, low = r.figures.get("ratio"), 1.0
+            if r.code == "step_distance":  # the path's step against the range judged right
+                value, low = r.figures.get("from_path_m"), r.figures.get("low_m") or 0.0
+            words.append(_FLAGS[r.code][0 if value is not None and value < low else 1])
         else:
-            words.append("see warnings")
-    return words
+            words.append("see the verdict")
+    return list(dict.fromkeys(words))
 
 
 def _summary(runs: list[Run], rows: list[Row], baseline: dict | None) -> str:
@@ -165,6 +173,8 @@ def _summary(runs: list[Run], rows: list[Row], baseline: dict | None) -> str:
     steps, cadence = p.value("step_count"), p.value("cadence")
     said = f"{steps or 0:.0f} steps in the accelerometer"
     said += "" if cadence is None else f" ({cadence:.0f} a minute)"
+    suggested = p.step_length.from_cadence_m
+    said += "" if suggested is None else f", {suggested:.2f} m a step by the cadence"
     said += ", the same for every model."
     gps = {f.name: f.value for f in p.gps_figures}
     if gps.get("gps_path_length") is not None:
@@ -198,11 +208,12 @@ def compare_table(runs: list[Run]) -> CompareTable:
                 run.run_id,
                 run.model_name,
                 {c.key: values.get(c.key) for c in columns},
-                flags(run),
+                flags(verdict),
                 list(run.verdict.warnings),
                 None if still is None else still.worse_than_standing_still,
                 verdict.level.value,
                 verdict.says,
+                {r.code: r.level.value for r in verdict.reasons},
             )
         )
     baseline = next((r.verdict.stand_still for r in runs if r.verdict.stand_still), None) if scored else None

@@ -30,6 +30,7 @@ import numpy as np
 
 from app.schemas import MetricsPayload, PlausibilityPayload  # the fields POST /predict answers
 from app.schemas_heading import heading_error_json
+from app.schemas_uncertainty import UncertaintyPayload
 from app.schemas_verdict import VerdictPayload
 from app.services.errors import InvalidInputError
 from app.services.runs import Run
@@ -125,6 +126,7 @@ def ground_truth_tum(run: Run, clock: Clock | str = Clock.START) -> str | None:
 def metrics_json(run: Run) -> dict[str, Any]:
     """What ``POST /predict`` says about the run's scores, without the trajectories."""
     metrics = MetricsPayload.from_run(run)
+    circle = UncertaintyPayload.from_run(run)
     return {
         "run_id": run.run_id,
         "model": run.model_name,
@@ -141,7 +143,7 @@ def metrics_json(run: Run) -> dict[str, Any]:
         "warnings": run.verdict.warnings,
         "notes": [*run.verdict.notes, *run.plausibility.notes],  # as POST /predict: GPS fixes left out
         "verdict": VerdictPayload.from_run(run).model_dump(),  # ok / check / implausible, as POST /predict
-        "uncertainty": None if run.uncertainty is None else run.uncertainty.summary(),  # as POST /predict
+        "uncertainty": None if circle is None else circle.model_dump(),  # as POST /predict
         "z_note": z_note(run),
         "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
         # the walker profile that scaled it, as POST /predict says (absent without one)

@@ -67,5 +67,6 @@ def choose_model(
 
 
 def _why(models: ModelStore) -> str:
-    """Why the default is the default (``default.json``), as a clause; empty when no file says."""
-    return f", chosen as {models.default_why}" if models.default_why else ""
+    """Why the default is the default, as a short clause (the long story, ``default.json``'s, is in
+    ``GET /health`` and docs/models.md); empty when no file says."""
+    return ", chosen as the best on validation walks of held-out walkers" if models.default_why else ""

@@ -12,7 +12,7 @@ Decisions:
 
 from __future__ import annotations
 
-from app.services.kinds import KIND_LABELS, SIMULATED
+from app.services.kinds import KIND_LABELS, SIMULATED, labels
 from ftin.models import list_models, model_label
 
 # Words of a stem that name a kind of data differently from its label.
@@ -30,3 +30,17 @@ def display_name(stem: str, architecture: str) -> str:
         return label
     data = _DATA_WORDS.get(rest.lower(), rest.replace("_", " "))
     return f"{label} · {data}"
+
+
+SUMMARY_MAX_WORDS = 25  # the page shows it under the model's name; the campaign's story is in docs/models.md
+DEFAULT_WORDS = "The default: the best on validation walks of held-out walkers."
+
+
+def summary(architecture: str, kinds: tuple[str, ...], recordings: int | None, default: bool) -> str:
+    """A model in at most ``SUMMARY_MAX_WORDS`` plain words: its architecture, what it was trained on,
+    and, for the default, why (``GET /models``' ``summary``)."""
+    arch = architecture.lower()
+    network = model_label(arch) if arch in list_models() else architecture
+    text = f"{network} network, trained on {labels(kinds) or 'data its checkpoint does not name'}"
+    text += f" ({recordings} recordings)." if recordings else "."
+    return f"{text} {DEFAULT_WORDS}" if default else text

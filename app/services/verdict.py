@@ -19,7 +19,8 @@ Decisions:
 - Every run gets a verdict (``walk_verdict``: ok, check or implausible, one line, the reasons;
   ``ftin.metrics.walk_verdict``) from its plausibility (steps, GPS) and, with ground truth, the
   reasons ``judge`` adds (``Verdict.reasons``: path ratio, standing still, loop closure on the
-  truth). The serializers only copy it.
+  truth). The serializers only copy it. Its 95 % end circle (``end_circle_of``) follows it: no
+  radius on an implausible verdict, the reason instead.
 """
 
 from __future__ import annotations
@@ -32,7 +33,15 @@ import numpy as np
 from ftin.data import Trajectory
 from ftin.metrics import list_metrics
 from ftin.metrics.verdicts import StillVerdict, confinement_note, still_verdict
-from ftin.metrics.walk_verdict import TRUTH_PATH_CHECK, Reason, WalkVerdict, judge_walk, truth_reasons
+from ftin.metrics.walk_verdict import (
+    TRUTH_PATH_CHECK,
+    Reason,
+    WalkVerdict,
+    judge_walk,
+    radius_withheld,
+    truth_reasons,
+)
+from ftin.uncertainty.end_circle import EndCircle, end_circle
 
 MIN_PATH_RATIO, MAX_PATH_RATIO = TRUTH_PATH_CHECK  # the verdict's path_ratio check uses the same
 STILL_RADIUS_M = 1.0
@@ -140,6 +149,28 @@ def walk_verdict(run: Any) -> WalkVerdict:
     found = None if run.sequence.gt is not None else run.uncertainty
     radius = None if found is None else found.end_radius_95_m
     return judge_walk(run.plausibility, run.prediction.trajectory, run.verdict.reasons, radius)
+
+
+def loop_closure_of(run: Any) -> dict[str, float] | None:
+    """Where ``run``'s walk returns near its start, the predicted end-to-start gap, the path it closes
+    (the ground truth's, the GPS's, else the prediction's) and their share: the figures of the
+    verdict's ``loop_closure`` reason (its rule: ``ftin.metrics.walk_verdict``); None where it has none."""
+    found = next((r for r in walk_verdict(run).reasons if r.code == "loop_closure"), None)
+    if found is None or any(found.figures.get(k) is None for k in ("gap_m", "path_m", "share")):
+        return None
+    return {k: float(found.figures[k]) for k in ("gap_m", "path_m", "share")}
+
+
+def end_circle_of(run: Any) -> EndCircle | None:
+    """``run``'s 95 % end circle as it may be shown (``ftin.uncertainty.end_circle``): withheld where
+    its verdict is implausible; with ground truth, whether the true end lies inside. None where the
+    run has no uncertainty."""
+    found = run.uncertainty
+    if found is None:
+        return None
+    truth = run.prediction.truth if getattr(run.prediction, "truth", None) is not None else run.truth
+    withheld = radius_withheld(walk_verdict(run))
+    return end_circle(found, run.model_name, run.prediction.trajectory, truth, withheld)
 
 
 def _finite(value: float | None) -> float | None:

@@ -40,7 +40,7 @@ from ftin.metrics import list_metrics
 from ftin.metrics.plausibility import FigureValue, assess
 from ftin.metrics.reasons import WalkVerdict
 from ftin.metrics.verdicts import confinement_note, still_verdict
-from ftin.metrics.walk_verdict import judge_walk, truth_reasons
+from ftin.metrics.walk_verdict import judge_walk, radius_withheld, truth_reasons
 from ftin.precision import PrecisionSetting, choose
 from ftin.profiles import apply_scale
 from ftin.profiles.store import ProfileStore, UnknownProfileError
@@ -189,9 +189,11 @@ def predict_command(
     spread = None if applied is None else applied.found.scale_sigma
     found = path_uncertainty(prediction, loaded.name, seq.meta.get("carry"), spread)
     radius = None if found is None or seq.gt is not None else found.end_radius_95_m
-    typer.echo(f"verdict: {walk_verdict(prediction, scored, shown_gt, plausibility, radius).says}")
-    if found is not None:
-        radius_text = f"ends within {found.end_radius_95_m:.1f} m of here (95 %)"
+    judged = walk_verdict(prediction, scored, shown_gt, plausibility, radius)
+    typer.echo(f"verdict: {judged.says}")
+    if found is not None:  # no radius on an implausible walk (ftin.uncertainty.end_circle)
+        withheld = radius_withheld(judged)
+        radius_text = withheld or f"ends within {found.end_radius_95_m:.1f} m of here (95 %)"
         typer.echo(f"uncertainty: {radius_text}; {found.calibration}")
     typer.echo(f"wrote {len(trajectory)} positions to {out} ({prediction.frame.replace('_', ' ')} frame)")
     typer.echo(f"orientation: {orientation_text(prediction.orientation_choice)}")

@@ -210,7 +210,9 @@ def estimate_orientation(
 
     Ground truth, if any, must stay in the sequence's world frame: when the sequence already had an
     orientation, the gt is turned by the yaw between the new and the old world frame over the first
-    ``align_window_s`` seconds; without one there is nothing to align against and a warning says so.
+    ``align_window_s`` seconds; without one there is nothing to align against: a note says so, and
+    ``meta["gt_frame"] = "unknown"`` makes scoring align the start (``ftin.evaluate.score`` warns where
+    it is asked not to).
     """
     try:
         method = AhrsMethod(method)
@@ -247,10 +249,12 @@ def estimate_orientation(
                 f"(aligned over the first {align_window_s} s)"
             )
         )
-    elif gt is not None:
+    elif gt is not None:  # information: scoring aligns the start (``gt_frame`` "unknown"); it warns if not
         warnings.append(
-            "ground-truth heading is not aligned with the estimated world frame "
-            "(the sequence had no orientation to align against)"
+            Note(
+                "the ground truth keeps its own heading (the recording had no orientation to relate it "
+                "to): scoring aligns it at the start"
+            )
         )
     updates: dict[str, Any] = {"orientation_source": "estimated", "orientation_filter": filter_name}
     if gt is not None and seq.q_world_device_wxyz is None:

@@ -11,19 +11,23 @@ Decisions:
 - "Moving" means a horizontal speed of at least ``MOVING_M_S`` on that grid: standing at the start
   and end does not lower the mean speed.
 - Steps and cadence come from the accelerometer (``ftin.metrics.steps``), independently of the
-  model; the step length is the predicted path over the step count, so a model that walks too short
-  or too far shows as a step length outside the human range for the cadence (``step_length_range``).
-  People lengthen their steps as they quicken them, roughly in proportion: the expected step is
-  ``STEP_AT_CADENCE`` (0.65 m at 110 steps/min) scaled by the cadence, and the range is
-  ``STEP_LENGTH_SHARE`` of it: 0.39-1.04 m at 110 steps/min (an ordinary walk), 0.59-1.56 m at 165
-  (a run). Slower, people shorten their steps more than their cadence: eyes on the screen, in a
-  small room, true steps of 0.2-0.4 m are normal at 65-95 steps/min (the Inria texting and phoning
-  walks, 0.26-0.55 m by motion capture over the detected steps). So below the ordinary cadence the
-  shortest step judged human falls to ``SLOW_STEP_M`` (0.2 m) at ``SLOW_CADENCE`` (90 steps/min) and
-  slower: 0.20-0.66 m at 70, 0.30-0.95 m at 100. A count inflated by half (a pocket counted +44 %)
-  raises the cadence as much as it shortens the step, and still warns where the length is out of
-  range. The Inria AR walks (0.10-0.23 m a step, nearly standing) still warn, and the warning says
-  that steps can truly be that short.
+  model. One step length per run, in two readings (``StepLength``): what the path gives per step
+  (the predicted path over the step count, ``from_path_m``) and what the cadence suggests
+  (``from_cadence_m``): people lengthen their steps as they quicken them, roughly in proportion,
+  so the expected step is ``STEP_AT_CADENCE`` (0.65 m at 110 steps/min) scaled by the cadence.
+  The path's step is judged right within ``STEP_AGREEMENT`` (35 %) of the cadence's and no shorter
+  than ``SHORT_STEP_M`` (0.4 m: a walk's step; shorter is a shuffle or a short read):
+  ``step_length_range``, 0.42-0.88 m at 110 steps/min, 0.40-0.55 m at 69, 0.63-1.32 m at 165 (a
+  run). The warning, the verdict's ``step_distance`` and the page's figures use this one range.
+  Truly short steps exist (eyes on the screen in a small room, 0.26-0.55 m by motion capture on the
+  Inria texting walks at 73-92 steps/min): they are told to check, not called impossible. A count
+  inflated by half (a pocket counted +44 %) raises the cadence as much as it shortens the step, and
+  falls outside the range. The longest step judged human (``longest_step_m``,
+  ``STEP_LENGTH_SHARE``: 1.6 times the expected) bounds the GPS checks of a walk
+  (``ftin.metrics.walk_gps``): a speed or a GPS step beyond it is not walking.
+- Loop closure (``LoopClosure``): a prediction that ends within ``LOOP_CLOSED_SHARE`` (10 %) of its
+  path from its start after ``LOOP_MIN_PATH_M`` (20 m) or more has closed a loop: its gap, path and
+  their share. (With ground truth or good GPS the verdict judges the loop on them instead.)
 - Speed and cadence must agree: the mean speed while moving should lie within
   ``cadence x step_length_range`` widened by ``SPEED_SLACK``; checked only when the step length
   itself raised no warning (one problem, one warning). A prediction that moves briskly while the
@@ -49,6 +53,7 @@ import numpy as np
 from ftin.data.location import GpsClip, GpsTrack, clip_to_recording
 from ftin.data.types import ImuSequence, Trajectory
 from ftin.metrics.gps import GpsComparison, compare_gps
+from ftin.metrics.reasons import NOT_WALKING
 from ftin.metrics.steps import Steps, detect_steps
 from ftin.metrics.trajectory import horizontal_path_length
 
@@ -59,9 +64,11 @@ MOVING_M_S = 0.2
 # for children and adults", Ergonomics 9:379-399). Anchored on the shared walks with ground truth:
 # 0.65-0.7 m at 105-130 steps/min (RIDI), 0.28-0.52 m at 73-92 (Inria texting), ~1.1 m at 165 (runs).
 STEP_AT_CADENCE = (0.65, 110.0)  # (m, steps/min)
-STEP_LENGTH_SHARE = (0.6, 1.6)  # of the expected step: the range judged human
-SLOW_STEP_M = 0.2  # the shortest step judged human at SLOW_CADENCE and slower (module docstring)
-SLOW_CADENCE = 90.0  # steps/min
+STEP_AGREEMENT = 0.35  # the path's step within this share of the cadence's: judged right
+SHORT_STEP_M = 0.4  # and at least this long (module docstring)
+STEP_LENGTH_SHARE = (0.6, 1.6)  # of the expected step: the shortest and longest judged human
+LOOP_CLOSED_SHARE = 0.10  # a prediction ending within this share of its path from its start ...
+LOOP_MIN_PATH_M = 20.0  # ... after this much path has closed a loop
 MIN_STEPS_TO_JUDGE = 10
 SPEED_SLACK = 0.3
 STILL_SPEED_M_S = 0.1
@@ -203,7 +210,8 @@ FIGURES: tuple[Figure, ...] = (
     Figure(
         "step_length",
         "m",
-        "Predicted path length / detected steps (people walk 0.4-1.0 m a step, shorter when slow).",
+        "The step the path gives: predicted path length / detected steps (judged against the step "
+        f"the cadence suggests: within {STEP_AGREEMENT:.0%} of it and at least {SHORT_STEP_M:g} m).",
         _step_length,
     ),
     Figure("start_to_end", "m", "Straight-line distance from the predicted start to the end.", _start_to_end),
@@ -264,6 +272,34 @@ class FigureValue:
 
 
 @dataclass(frozen=True)
+class StepLength:
+    """The run's one step length, in its two readings (module docstring), and the range judged right."""
+
+    from_path_m: float | None  # predicted path / detected steps (the ``step_length`` figure)
+    from_cadence_m: float | None  # the step the cadence suggests (None: too few steps to judge)
+    low_m: float | None = None  # ``step_length_range`` at the cadence
+    high_m: float | None = None
+
+    def as_dict(self) -> dict[str, float | None]:
+        return {k: None if v is None else round(v, 3) for k, v in vars(self).items()}
+
+
+@dataclass(frozen=True)
+class LoopClosure:
+    """How far a walk that returns near its start ends from it: ``gap_m`` after ``path_m``."""
+
+    gap_m: float
+    path_m: float
+
+    @property
+    def share(self) -> float:
+        return self.gap_m / self.path_m if self.path_m > 0 else float("inf")
+
+    def as_dict(self) -> dict[str, float]:
+        return {"gap_m": round(self.gap_m, 2), "path_m": round(self.path_m, 1), "share": round(self.share, 4)}
+
+
+@dataclass(frozen=True)
 class Plausibility:
     """Every figure's value and the warnings (empty: nothing looks implausible)."""
 
@@ -282,6 +318,23 @@ class Plausibility:
 
     def value(self, name: str) -> float | None:
         return next((f.value for f in self.figures if f.name == name), None)
+
+    @property
+    def step_length(self) -> StepLength:
+        """The path's step and the cadence's (the latter from ``MIN_STEPS_TO_JUDGE`` steps on)."""
+        cadence, count = self.value("cadence"), self.value("step_count") or 0.0
+        if cadence is None or count < MIN_STEPS_TO_JUDGE:
+            return StepLength(self.value("step_length"), None)
+        return StepLength(self.value("step_length"), expected_step_m(cadence), *step_length_range(cadence))
+
+    @property
+    def loop_closure(self) -> LoopClosure | None:
+        """The prediction's own loop: its end within ``LOOP_CLOSED_SHARE`` of its path from its start,
+        after ``LOOP_MIN_PATH_M`` or more (module docstring); None otherwise."""
+        path, gap = self.value("path_length") or 0.0, self.value("start_to_end")
+        if gap is None or path < LOOP_MIN_PATH_M or gap > LOOP_CLOSED_SHARE * path:
+            return None
+        return LoopClosure(gap, path)
 
 
 def _finite(value: float | None) -> float | None:
@@ -309,15 +362,16 @@ def expected_step_m(cadence_per_min: float) -> float:
 
 
 def step_length_range(cadence_per_min: float) -> tuple[float, float]:
-    """The step lengths (m) judged human at this cadence (module docstring)."""
+    """The path's step lengths (m) judged right at this cadence: within ``STEP_AGREEMENT`` of the
+    expected step and at least ``SHORT_STEP_M`` (module docstring)."""
     expected = expected_step_m(cadence_per_min)
-    low, high = expected * STEP_LENGTH_SHARE[0], expected * STEP_LENGTH_SHARE[1]
-    ordinary_step, ordinary = STEP_AT_CADENCE
-    if cadence_per_min < ordinary:  # slower, the shortest human step falls to SLOW_STEP_M (module docstring)
-        ordinary_low = STEP_LENGTH_SHARE[0] * ordinary_step
-        floor = np.interp(cadence_per_min, [SLOW_CADENCE, ordinary], [SLOW_STEP_M, ordinary_low])
-        low = min(low, float(floor))
-    return low, high
+    high = expected * (1.0 + STEP_AGREEMENT)
+    return min(max(SHORT_STEP_M, expected * (1.0 - STEP_AGREEMENT)), high), high
+
+
+def longest_step_m(cadence_per_min: float) -> float:
+    """The longest step (m) judged human at this cadence: ``STEP_LENGTH_SHARE`` of the expected."""
+    return expected_step_m(cadence_per_min) * STEP_LENGTH_SHARE[1]
 
 
 def plausibility_warnings(p: Plausibility) -> list[str]:
@@ -332,7 +386,7 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
             "barely moves: the model misses the walk."
         ]
     if walking and length is not None and not low <= length <= high:
-        side = "below" if length < low else "above"
+        side = "shorter than" if length < low else "longer than"
         cause = (
             "the model likely underestimates the distance walked (unless the walk went in tight turns "
             "or shuffled, eyes on the screen, where steps are short)"
@@ -340,8 +394,9 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
             else "the model likely overestimates the distance walked"
         )
         return [
-            f"Predicted step length {length:.2f} m ({path:.1f} m over {steps:.0f} steps) is {side} the "
-            f"human walking range at {cadence:.0f} steps a minute, {low:.2f}-{high:.2f} m: {cause}."
+            f"The path gives {length:.2f} m a step ({path:.1f} m over {steps:.0f} steps), {side} the "
+            f"{low:.2f}-{high:.2f} m the cadence suggests ({expected_step_m(cadence):.2f} m at "
+            f"{cadence:.0f} steps a minute): {cause}."
         ]
     if walking and cadence is not None and speed is not None:
         rate = cadence / 60.0
@@ -354,6 +409,6 @@ def plausibility_warnings(p: Plausibility) -> list[str]:
     if steps < 2 and speed is not None and speed >= NO_STEPS_SPEED_M_S and path >= 5.0:
         return [
             f"The prediction moves at {speed:.2f} m/s over {path:.1f} m but the accelerometer shows no "
-            "steps: not a walk (a trolley or a vehicle?), or a model moving a phone that stays still."
+            f"steps: {NOT_WALKING} (a trolley or a vehicle?), or a model moving a phone that stays still."
         ]
     return []

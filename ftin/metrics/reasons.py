@@ -39,6 +39,7 @@ ORDER = (
     "gps_short",
     "gps_outside_recording",
 )
+NOT_WALKING = "does not look like walking"  # every reason that finds no walk says it so, first
 LEADS = {Level.OK: "Looks like a walk", Level.CHECK: "Check", Level.IMPLAUSIBLE: "Implausible"}
 NOTHING = "Nothing to judge it by: too short for a stride rhythm, no GPS, no ground truth."
 

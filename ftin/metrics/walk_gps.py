@@ -12,10 +12,13 @@ Decisions:
   path length is. Its speed is the displacement over ``SPEED_WINDOW_S`` (jitter does not add up).
 - ``gps_speed``: faster than ``VEHICLE_M_S`` (a brisk run's pace) for ``SUSTAINED_S`` seconds, or
   half of a shorter track, is a vehicle, a bike or a ski slope: implausible as a walk, unless the
-  cadence is a run's that explains the speed (cadence x the longest step it allows, + slack).
+  steps detected in those fast seconds are a run's that explains the speed (their rate x the longest
+  step it allows, ``plausibility.longest_step_m``, + slack): a rhythm elsewhere in the recording
+  (a ski export counts steps on the flat) explains nothing.
 - ``gps_step_length``: GPS path / the steps detected over the same time, beyond ``GPS_STEP_FACTOR``
   times the longest human step at the cadence: cadence and GPS speed do not fit a walk (a rhythm
   that is not steps: skis, pedals). Only the long side: a short GPS path is smoothing and jitter.
+  Both say "does not look like walking" (``reasons.NOT_WALKING``), as the stride rhythm does.
 - ``gps_path``: the prediction's path over the fixes' time against the GPS path: outside
   ``PATH_CHECK`` a check, outside ``PATH_GROSS`` implausible (GPS sixteen-fold longer is).
 - ``gps_distance``: the RMS distance between prediction and fixes, each fix weighted by
@@ -35,8 +38,8 @@ from scipy.ndimage import uniform_filter1d
 
 from ftin.data.types import Trajectory
 from ftin.metrics.gps import SMOOTH_S, GpsComparison
-from ftin.metrics.plausibility import MIN_STEPS_TO_JUDGE, SPEED_SLACK, Plausibility, step_length_range
-from ftin.metrics.reasons import Level, Reason, level_of, rounded
+from ftin.metrics.plausibility import MIN_STEPS_TO_JUDGE, SPEED_SLACK, Plausibility, longest_step_m
+from ftin.metrics.reasons import NOT_WALKING, Level, Reason, level_of, rounded
 from ftin.metrics.trajectory import horizontal_path_length
 
 POOR_GPS_M = 20.0
@@ -143,16 +146,29 @@ def _speed(p: Plausibility, track: _Track) -> list[Reason]:
     if span < SPEED_WINDOW_S or np.count_nonzero(fast) < min(SUSTAINED_S, 0.5 * span):
         return []
     speed = float(np.median(speeds[fast]))
-    cadence = p.value("cadence")
-    if cadence is not None and speed <= cadence / 60.0 * step_length_range(cadence)[1] * (1 + SPEED_SLACK):
-        return []  # a run's cadence explains it
+    rate = _step_rate_while(p, track, fast)
+    if rate is not None and speed <= rate / 60.0 * longest_step_m(rate) * (1 + SPEED_SLACK):
+        return []  # a run's steps explain it
     seconds = int(np.count_nonzero(fast))
     figures = {"speed_m_s": rounded(speed), "fast_s": float(seconds), "limit_m_s": VEHICLE_M_S}
     says = (
-        f"does not look like walking: the GPS moves at {speed:.1f} m/s for {seconds} s (a vehicle's, "
+        f"{NOT_WALKING}: the GPS moves at {speed:.1f} m/s for {seconds} s (a vehicle's, "
         "a bike's or a ski slope's speed)"
     )
     return [Reason("gps_speed", Level.IMPLAUSIBLE, says, figures)]
+
+
+def _step_rate_while(p: Plausibility, track: _Track, fast: np.ndarray) -> float | None:
+    """Steps a minute detected during the fast seconds (each speed spans ``SPEED_WINDOW_S``), None
+    with fewer than ``MIN_STEPS_TO_JUDGE`` of them."""
+    if p.steps is None or p.steps.count == 0:
+        return None
+    k = int(SPEED_WINDOW_S)
+    mid = 0.5 * (track.t_s[:-k] + track.t_s[k:])  # the time each speed stands for
+    near = np.clip(np.searchsorted(mid, p.steps.t_s), 0, len(mid) - 1)
+    inside = (p.steps.t_s >= mid[0] - 0.5) & (p.steps.t_s <= mid[-1] + 0.5) & fast[near]
+    count = int(np.count_nonzero(inside))
+    return 60.0 * count / float(np.count_nonzero(fast)) if count >= MIN_STEPS_TO_JUDGE else None
 
 
 def _step_length(p: Plausibility, track: _Track, t0: float, t1: float) -> list[Reason]:
@@ -162,13 +178,13 @@ def _step_length(p: Plausibility, track: _Track, t0: float, t1: float) -> list[R
     count = int(np.count_nonzero((steps.t_s >= t0) & (steps.t_s <= t1)))
     if count < MIN_STEPS_TO_JUDGE:
         return []
-    length, high = track.path_m / count, step_length_range(cadence)[1]
+    length, high = track.path_m / count, longest_step_m(cadence)
     if length <= GPS_STEP_FACTOR * high:
         return []
     figures = {"gps_step_m": rounded(length), "high_m": rounded(high), "steps": float(count)}
     says = (
-        f"cadence and GPS speed do not fit a walk: {track.path_m:.0f} m of GPS over {count} steps is "
-        f"{length:.1f} m a step (at most {high:.2f} m at {cadence:.0f} a minute)"
+        f"{NOT_WALKING}: {track.path_m:.0f} m of GPS over {count} steps is {length:.1f} m a step "
+        f"(at most {high:.2f} m at {cadence:.0f} a minute: cadence and GPS speed do not fit a walk)"
     )
     return [Reason("gps_step_length", Level.IMPLAUSIBLE, says, figures)]
 

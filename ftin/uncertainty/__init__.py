@@ -6,6 +6,8 @@ times a fitted scale). ``docs/metrics.md`` ("How sure is it") explains the terms
   ``experiments/probe_uncertainty.py``).
 - ``propagate``: per-window sigma, then the 2x2 position covariance along the path (O(N) numpy).
 - ``radius``: the 95 % radius of a 2-D Gaussian, Mahalanobis distances.
+- ``end_circle``: what may be said of the 95 % circle (withheld on an implausible walk, the true end
+  inside it or not, what the band's coverage was measured on).
 """
 
 from __future__ import annotations
@@ -29,10 +31,6 @@ class PathUncertainty:
     def sigma_m(self) -> np.ndarray:
         """``(N, 2)`` standard deviations of x and y (m): the CSV's columns."""
         return np.sqrt(np.maximum(self.cov_m2[:, [0, 2]], 0.0))
-
-    def summary(self) -> dict[str, Any]:
-        """What the API, metrics.json and the verdict quote."""
-        return {"end_radius_95_m": round(self.end_radius_95_m, 2), "calibration": self.calibration}
 
 
 def uncertainty_of(

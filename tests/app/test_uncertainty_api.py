@@ -46,24 +46,22 @@ def test_predict_answers_a_covariance_per_sample_and_the_end_radius(
     assert trace[-1] > trace[len(trace) // 2] > 0  # it grows along the walk
     found = answer["uncertainty"]
     end = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
-    assert found["end_radius_95_m"] == pytest.approx(radius_holding(end), abs=0.01)
-    assert found["end_radius_95_m"] > 0
-    # The fixture's tiny model has no constants of its own: said, not hidden.
+    assert radius_holding(end) > 0
+    # The fixture's tiny model barely moves: its verdict is implausible, so no radius, the reason
+    # instead (test_end_circle_api: the radius of a walk judged plausible, the shipped default's).
+    assert found["end_radius_95_m"] is None and "implausible" in found["withheld_reason"]
+    # It has no constants of its own either: said, not hidden.
     assert found["calibration"].startswith(f"not calibrated for {answer['model']}")
     assert "ronin_resnet-walking" in found["calibration"]
 
 
-def test_the_verdict_of_a_walk_without_ground_truth_quotes_the_radius(
-    client: TestClient, csv_without_gt: bytes, csv_with_gt: bytes
+def test_the_verdict_of_a_walk_with_ground_truth_quotes_no_radius(
+    client: TestClient, csv_with_gt: bytes
 ) -> None:
-    phone = upload(client, csv_without_gt, "phone.csv").json()
-    radius = phone["uncertainty"]["end_radius_95_m"]
-    [reason] = [r for r in phone["verdict"]["reasons"] if r["code"] == "end_radius"]
-    assert reason["level"] == "ok" and reason["figures"]["end_radius_95_m"] == pytest.approx(radius, abs=0.01)
-    assert reason["says"] in phone["verdict"]["says"] and "m of here (95 %)" in phone["verdict"]["says"]
+    # Without ground truth the verdict quotes the radius (test_end_circle_api, the shipped default).
     scored = upload(client, csv_with_gt).json()  # ground truth says where it ends: no radius quoted
     assert "end_radius" not in {r["code"] for r in scored["verdict"]["reasons"]}
-    assert scored["uncertainty"]["end_radius_95_m"] > 0  # the API still answers it
+    assert scored["uncertainty"]["true_end_error_m"] > 0  # the true end, compared start-aligned
 
 
 def test_metrics_json_and_the_csv_carry_it_too(client: TestClient, csv_without_gt: bytes) -> None:

@@ -47,23 +47,54 @@ def test_figures_of_a_plausible_walk() -> None:
 
 
 def test_a_walk_predicted_too_short_is_flagged() -> None:
-    seq = walk_sequence(110.0, 30.0)  # 55 steps at an ordinary pace: 0.39-1.04 m a step is human
+    seq = walk_sequence(110.0, 30.0)  # 55 steps at an ordinary pace: the cadence suggests 0.65 m a step
     result = assess(straight(seq, 0.3 * 55 / 30.0), seq)  # 0.3 m a step
     assert abs(result.value("step_count") - 55) <= 2
     [warning] = result.warnings
-    assert "below the human walking range at 110 steps a minute, 0.39-1.04 m" in warning
+    assert "shorter than the 0.42-0.88 m the cadence suggests (0.65 m at 110 steps a minute)" in warning
     assert "16.5 m" in warning
     too_far = assess(straight(seq, 1.2 * 55 / 30.0), seq)
-    assert len(too_far.warnings) == 1 and "above the human walking range" in too_far.warnings[0]
+    assert len(too_far.warnings) == 1 and "longer than the 0.42-0.88 m" in too_far.warnings[0]
 
 
-def test_short_steps_are_human_when_slow_but_not_when_running() -> None:
-    # The shared slow texting walks step 0.28-0.52 m at 73-92 steps a minute (Inria, motion capture).
-    slow = walk_sequence(70.0, 30.0)  # 35 steps
-    assert assess(straight(slow, 0.3 * 35 / 30.0), slow).warnings == []
+def test_one_step_length_in_two_readings_and_one_range() -> None:
+    seq = walk_sequence(110.0, 30.0)
+    result = assess(straight(seq, 0.5 * 55 / 30.0), seq)  # 0.5 m a step: within 35 % of 0.65 m
+    step = result.step_length
+    assert step.from_path_m == pytest.approx(result.value("step_length"))  # the figure, the table's
+    assert step.from_path_m == pytest.approx(0.5, abs=0.03)
+    assert step.from_cadence_m == pytest.approx(0.65, rel=0.05)
+    expected = step.from_cadence_m
+    assert (step.low_m, step.high_m) == pytest.approx((0.65 * expected, 1.35 * expected))
+    assert result.warnings == []
+    assert "0.4-1.0" not in next(f.description for f in result.figures if f.name == "step_length")
+
+
+def test_short_steps_warn_at_any_cadence_and_the_range_follows_it() -> None:
+    # Slow walks step short (0.28-0.52 m at 73-92 steps a minute on the Inria texting walks): a 0.45 m
+    # step at 70 is judged right, 0.3 m is under a walk's 0.4 m and told (a check, not "impossible").
+    slow = walk_sequence(70.0, 30.0)  # 35 steps, the cadence suggests 0.41 m
+    assert assess(straight(slow, 0.45 * 35 / 30.0), slow).warnings == []
+    [short] = assess(straight(slow, 0.3 * 35 / 30.0), slow).warnings
+    assert "shorter than the 0.40-0.56 m the cadence suggests" in short
     run = walk_sequence(165.0, 30.0)  # 82 steps
     [warning] = assess(straight(run, 0.43 * 82 / 30.0), run).warnings
-    assert "below the human walking range at 16" in warning
+    assert "shorter than the 0.63-1.3" in warning and "at 16" in warning
+
+
+def test_a_prediction_that_returns_to_its_start_closes_a_loop() -> None:
+    seq = walk_sequence(110.0, 30.0)
+    t = seq.t_s
+    angle = 2 * np.pi * np.clip(t - 2.0, 0.0, 30.0) / 30.0 * 0.95  # stops 5 % short of the full turn
+    loop = Trajectory(t, np.column_stack([6 * np.sin(angle), 6 - 6 * np.cos(angle), np.zeros_like(t)]))
+    closure = assess(loop, seq).loop_closure
+    assert closure is not None
+    assert closure.path_m == pytest.approx(2 * np.pi * 6 * 0.95, rel=0.01)
+    assert closure.gap_m == pytest.approx(2 * 6 * np.sin(np.pi * 0.05), rel=0.02)  # the chord left open
+    assert closure.share == pytest.approx(closure.gap_m / closure.path_m)
+    assert assess(straight(seq, 1.3), seq).loop_closure is None  # 39 m straight: no loop
+    small = Trajectory(t, loop.p_world_m * 0.5)  # 18 m: under the 20 m a loop needs
+    assert assess(small, seq).loop_closure is None
 
 
 def test_steps_while_the_prediction_stands_and_motion_without_steps_are_named() -> None:

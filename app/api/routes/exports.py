@@ -61,9 +61,11 @@ RUN_GONE = {404: {"model": ErrorResponse}, 410: {"model": ErrorResponse}}  # 410
 UNUSABLE = {**RUN_GONE, 422: {"model": ErrorResponse}}
 
 
-def file_route(on: APIRouter, path: str, media_type: str) -> Callable[[Callable], Callable]:
-    """``GET path`` answering a file of ``media_type`` from a finished run (404 unknown, 410 expired)."""
-    return on.get(path, response_class=Response, responses={200: {"content": {media_type: {}}}, **RUN_GONE})
+def file_route(on: APIRouter, path: str, media_type: str, summary: str) -> Callable[[Callable], Callable]:
+    """``GET path`` answering a file of ``media_type`` from a finished run (404 unknown, 410 expired);
+    ``summary``: its name in ``/docs``."""
+    responses = {200: {"content": {media_type: {}}}, **RUN_GONE}
+    return on.get(path, response_class=Response, responses=responses, summary=summary)
 
 
 def attachment(text: str | bytes, media_type: str, name: str) -> Response:
@@ -73,7 +75,7 @@ def attachment(text: str | bytes, media_type: str, name: str) -> Response:
     )
 
 
-@file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain")
+@file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain", "Download the trajectory (TUM)")
 def trajectory_tum_route(
     run_id: RunIdPath,
     services: ServicesDep,
@@ -89,7 +91,7 @@ def trajectory_tum_route(
     )
 
 
-@file_route(router, "/runs/{run_id}/ground_truth.tum", "text/plain")
+@file_route(router, "/runs/{run_id}/ground_truth.tum", "text/plain", "Download the ground truth (TUM)")
 def ground_truth_tum_route(
     run_id: RunIdPath, services: ServicesDep, clock: ClockQuery = Clock.START
 ) -> Response:
@@ -101,7 +103,7 @@ def ground_truth_tum_route(
     return attachment(text, "text/plain", f"{run.sequence.name}_ground_truth.tum")
 
 
-@router.get("/runs/{run_id}/metrics.json", responses=RUN_GONE)
+@router.get("/runs/{run_id}/metrics.json", responses=RUN_GONE, summary="Download the metrics (JSON)")
 def metrics_json_route(run_id: RunIdPath, services: ServicesDep) -> JSONResponse:
     """The run's metrics (null without ground truth), convention and alignment, as JSON."""
     run = services.runs.get(run_id)
@@ -110,6 +112,7 @@ def metrics_json_route(run_id: RunIdPath, services: ServicesDep) -> JSONResponse
 
 @router.get(
     "/runs/{run_id}/trajectory.gpx",
+    summary="Download the trajectory (GPX)",
     response_class=Response,
     responses={200: {"content": {"application/gpx+xml": {}}}, **UNUSABLE},
 )
@@ -125,6 +128,7 @@ def trajectory_gpx_route(
 
 @router.get(
     "/runs/{run_id}/trajectory.geojson",
+    summary="Download the trajectory (GeoJSON)",
     response_class=Response,
     responses={200: {"content": {"application/geo+json": {}}}, **UNUSABLE},
 )
@@ -149,7 +153,9 @@ def compared_runs(ids: str, services: ServicesDep) -> list[Run]:
     return [services.runs.get(i) for i in dict.fromkeys(names)]
 
 
-@router.get("/compare", response_model=CompareResponse, responses=UNUSABLE)
+@router.get(
+    "/compare", response_model=CompareResponse, responses=UNUSABLE, summary="Compare models on a recording"
+)
 def compare_route(ids: IdsQuery, services: ServicesDep) -> CompareResponse:
     """The "compare all models" table of one recording: metrics where it has ground truth, and for every
     walk the plausibility figures (path, steps, step length, end-to-start gap, distance to GPS)."""
@@ -157,14 +163,14 @@ def compare_route(ids: IdsQuery, services: ServicesDep) -> CompareResponse:
     return CompareResponse.from_table(compare_table(runs), ",".join(r.run_id for r in runs))
 
 
-@file_route(router, "/compare.csv", "text/csv")
+@file_route(router, "/compare.csv", "text/csv", "Download the comparison (CSV)")
 def compare_csv_route(ids: IdsQuery, services: ServicesDep) -> Response:
     """The compare table as CSV: the page's columns and numbers, one row per run, standing still last."""
     runs = compared_runs(ids, services)
     return attachment(compare_csv(compare_table(runs)), "text/csv", f"{runs[0].sequence.name}_compare.csv")
 
 
-@file_route(router, "/compare.zip", "application/zip")
+@file_route(router, "/compare.zip", "application/zip", "Download every model's trajectory (ZIP)")
 def compare_zip_route(ids: IdsQuery, services: ServicesDep, clock: ClockQuery = Clock.START) -> Response:
     """Every compared model's trajectory in TUM format (``<model>.tum``), the ground truth where there is
     one, and ``compare.csv``, in one ZIP."""

@@ -17,7 +17,7 @@ from ftin.precision import choose
 router = APIRouter(tags=["health"])
 
 
-@router.get("/health", response_model=HealthResponse)
+@router.get("/health", response_model=HealthResponse, summary="Health: models, data and the scene")
 async def health(services: ServicesDep) -> HealthResponse:
     return HealthResponse(
         version=ftin.__version__,

@@ -183,12 +183,13 @@ for _format in FORMATS.values():
         _push_endpoint(_format),
         methods=["POST"],
         name="push",
+        summary=f"Push live sensor data ({_format.app})",
         response_model=LivePushResponse,
         responses={code: {"model": ErrorResponse} for code in (401, 403, 404, 409, 413, 422, 429)},
     )
 
 
-@router.get("/live/sessions", response_model=list[LiveSessionInfo])
+@router.get("/live/sessions", response_model=list[LiveSessionInfo], summary="List live sessions")
 async def sessions(services: ServicesDep) -> list[LiveSessionInfo]:
     """Running live sessions first, then the latest ended ones."""
     return [LiveSessionInfo(**s) for s in services.live.sessions()]
@@ -225,7 +226,7 @@ def _note(lan: str | None, port: int) -> str:
     )
 
 
-@router.get("/live/info", response_model=LiveInfoResponse)
+@router.get("/live/info", response_model=LiveInfoResponse, summary="The live push URL")
 def info(request: Request, services: ServicesDep) -> LiveInfoResponse:
     """The push URL to type into Sensor Logger (HTTP Push, behind the gear icon on its Logger page):
     the machine's LAN address when the app listens on it, else a note saying how to make it listen."""

@@ -10,6 +10,6 @@ from app.schemas import MetricInfo, metric_infos
 router = APIRouter(tags=["metrics"])
 
 
-@router.get("/metrics", response_model=list[MetricInfo])
+@router.get("/metrics", response_model=list[MetricInfo], summary="List the metrics")
 async def list_metric_definitions() -> list[MetricInfo]:
     return metric_infos()

@@ -10,7 +10,7 @@ from app.schemas import ModelInfo
 router = APIRouter(tags=["models"])
 
 
-@router.get("/models", response_model=list[ModelInfo])
+@router.get("/models", response_model=list[ModelInfo], summary="List the models")
 def list_models(services: ServicesDep) -> list[ModelInfo]:
     store = services.models
     return [ModelInfo.from_entry(entry, store.default_name) for entry in store.entries.values()]

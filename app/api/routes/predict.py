@@ -179,6 +179,7 @@ def _predict_json(predictor: PredictionService, raw: bytes, options: RunOptions)
 
 @router.post(
     "/predict",
+    summary="Predict the walk of an upload",
     response_model=PredictionResponse,
     openapi_extra=_OPENAPI_BODY,
     responses={

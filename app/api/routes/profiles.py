@@ -21,13 +21,15 @@ ProfileName = Annotated[
 _ERRORS = {404: {"model": ErrorResponse}, 422: {"model": ErrorResponse}}
 
 
-@router.get("/profiles", response_model=list[ProfileResponse])
+@router.get("/profiles", response_model=list[ProfileResponse], summary="List the walker profiles")
 def list_profiles(services: ServicesDep) -> list[ProfileResponse]:
     """Every walker profile, by name."""
     return [ProfileResponse.from_profile(p) for p in services.profiles.list()]
 
 
-@router.get("/profiles/{name}", response_model=ProfileResponse, responses=_ERRORS)
+@router.get(
+    "/profiles/{name}", response_model=ProfileResponse, responses=_ERRORS, summary="Read a walker profile"
+)
 def get_profile(name: ProfileName, services: ServicesDep) -> ProfileResponse:
     return ProfileResponse.from_profile(services.profiles.get(name))
 
@@ -35,6 +37,7 @@ def get_profile(name: ProfileName, services: ServicesDep) -> ProfileResponse:
 @router.post(
     "/profiles/{name}/walks",
     response_model=ProfileResponse,
+    summary="Add a walk of known length to a walker profile",
     responses={**_ERRORS, 400: {"model": ErrorResponse}, 410: {"model": ErrorResponse}},  # 400: bad JSON
 )
 def add_walk(name: ProfileName, body: AddWalkRequest, services: ServicesDep) -> ProfileResponse:
@@ -43,7 +46,7 @@ def add_walk(name: ProfileName, body: AddWalkRequest, services: ServicesDep) -> 
     return ProfileResponse.from_profile(services.profiles.add_walk(name, body.run_id, body.distance_m))
 
 
-@router.delete("/profiles/{name}", status_code=204, responses=_ERRORS)
+@router.delete("/profiles/{name}", status_code=204, responses=_ERRORS, summary="Delete a walker profile")
 def delete_profile(name: ProfileName, services: ServicesDep) -> Response:
     services.profiles.delete(name)
     return Response(status_code=204)

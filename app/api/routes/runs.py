@@ -32,7 +32,7 @@ LimitQuery = Annotated[int, Query(ge=1, le=1000, description="At most this many 
 OffsetQuery = Annotated[int, Query(ge=0, description="Skip this many of the newest runs first.")]
 
 
-@router.get("/runs", response_model=list[RunSummary])
+@router.get("/runs", response_model=list[RunSummary], summary="List runs")
 def list_runs(
     services: ServicesDep, response: Response, limit: LimitQuery = 100, offset: OffsetQuery = 0
 ) -> list[RunSummary]:
@@ -43,7 +43,9 @@ def list_runs(
     return [RunSummary.from_record(record) for record in services.runs.records(limit, offset)]
 
 
-@router.get("/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE)
+@router.get(
+    "/runs/{run_id}/result", response_model=PredictionResponse, responses=RUN_GONE, summary="A run's result"
+)
 def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
     """A kept run's POST /predict answer again (the page shows a kept run with it)."""
     return render(services.runs.get(run_id), services.scene_url)  # serialised here, off the event loop
@@ -51,6 +53,7 @@ def run_result(run_id: RunIdPath, services: ServicesDep) -> Response:
 
 @router.get(
     "/runs/{run_id}",
+    summary="A run's progress (or its page)",
     response_model=RunStatusResponse,
     responses={**RUN_GONE, 200: {"content": {"text/html": {}}, "description": "JSON status, or the page"}},
 )
@@ -65,7 +68,7 @@ def run_status(
     return RunStatusResponse.from_status(services.runs.status(run_id))
 
 
-@file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv")
+@file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv", "Download the trajectory (CSV)")
 def trajectory_csv(
     run_id: RunIdPath,
     services: ServicesDep,
@@ -83,6 +86,7 @@ def trajectory_csv(
 @router.delete(
     "/runs/{run_id}",
     status_code=204,
+    summary="Delete a run",
     responses={404: {"model": ErrorResponse}, 409: {"model": ErrorResponse}},
 )
 def delete_run(run_id: RunIdPath, services: ServicesDep) -> Response:
@@ -95,6 +99,7 @@ def delete_run(run_id: RunIdPath, services: ServicesDep) -> Response:
 @router.post(
     "/runs/{kept_id}/predict",
     response_model=PredictionResponse,
+    summary="Run another model on a kept run's recording",
     responses={**RUN_GONE, **{status: {"model": ErrorResponse} for status in (404, 413, 422, 429, 504)}},
 )
 async def predict_kept_run(kept_id: RunIdPath, services: ServicesDep, options: PredictOptionsDep) -> Response:
@@ -109,7 +114,12 @@ async def predict_kept_run(kept_id: RunIdPath, services: ServicesDep, options: P
         return await answer(await run_in_threadpool(again), services.scene_url)
 
 
-@router.post("/runs/{run_id}/show", response_model=RunStatusResponse, responses=RUN_GONE)
+@router.post(
+    "/runs/{run_id}/show",
+    response_model=RunStatusResponse,
+    responses=RUN_GONE,
+    summary="Show a run in the 3D scene",
+)
 def show_run(run_id: RunIdPath, services: ServicesDep) -> RunStatusResponse:
     """Bring a finished run to the front of the 3D scene (for every connected browser)."""
     services.runs.focus(run_id)

@@ -16,7 +16,7 @@ router = APIRouter(tags=["sequences"])
 SequenceIdPath = Annotated[str, Path(description="An id from GET /sequences.", max_length=300)]
 
 
-@router.get("/sequences", response_model=list[SequenceInfo])
+@router.get("/sequences", response_model=list[SequenceInfo], summary="List the recordings")
 def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
     # A sync route runs in the threadpool: reading files for the summaries never blocks the loop.
     catalog, models = services.catalog, services.models
@@ -28,6 +28,7 @@ def list_sequences(services: ServicesDep) -> list[SequenceInfo]:
 
 @router.post(
     "/sequences/{sequence_id}/predict",
+    summary="Predict the walk of a listed recording",
     response_model=PredictionResponse,
     responses={status: {"model": ErrorResponse} for status in (404, 409, 413, 422, 429, 504)},
 )
