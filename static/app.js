@@ -105,7 +105,7 @@ function runPrediction() {
   form.append("file", file, file.name);
   if (filterPicked()) form.append("filter", "ekf"); // only when asked: the answer is otherwise as before
   const xhr = new XMLHttpRequest();
-  xhr.open("POST", `/predict?run_id=${runId}${modelParam()}${alignParam()}${orientationParam()}`);
+  xhr.open("POST", `/predict?run_id=${runId}${modelParam()}${alignParam()}${orientationParam()}${profileParam()}`);
   xhr.upload.onprogress = (e) => {
     if (e.lengthComputable) setProgress(e.loaded / e.total, `Uploading ${Math.round((100 * e.loaded) / e.total)} %`);
   };
@@ -180,7 +180,7 @@ async function predictSample({ auto = false } = {}) {
   setProgress(0, `Running ${model ? displayName(model) : "the default model"} on ${option.dataset.name} ...`);
   try {
     // No model named: the server runs the sequence's suggested model and says so (model_choice).
-    const query = `?${orientationParam().slice(1)}${filterPicked() ? "&filter=ekf" : ""}`;
+    const query = `?${orientationParam().slice(1)}${filterPicked() ? "&filter=ekf" : ""}${profileParam()}`;
     const r = await fetch(`/sequences/${encodeURIComponent(option.value)}/predict${query}`, { method: "POST" });
     const text = await r.text();
     if (auto && state.userActed) return; // the user picked something else meanwhile

@@ -142,13 +142,13 @@ async function compareModels() {
       if (source && source.file) {
         const form = new FormData();
         form.append("file", source.file, source.file.name);
-        r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST", body: form });
+        r = await fetch(`/predict?model=${model}${alignParam()}${orientationParam()}${profileParam()}`, { method: "POST", body: form });
       } else if (source && source.sampleId) {
-        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
+        r = await fetch(`/sequences/${encodeURIComponent(source.sampleId)}/predict?model=${model}${alignParam()}${orientationParam()}${profileParam()}`, { method: "POST" });
       } else {
         // A run opened from its address (/runs/...): its file is not on the page, but the server keeps
         // the recording with the run; it answers why where it cannot (expired: 410).
-        r = await fetch(`/runs/${encodeURIComponent(base.run_id)}/predict?model=${model}${alignParam()}${orientationParam()}`, { method: "POST" });
+        r = await fetch(`/runs/${encodeURIComponent(base.run_id)}/predict?model=${model}${alignParam()}${orientationParam()}${profileParam()}`, { method: "POST" });
       }
       if (state.result !== base) return; // a new prediction replaced this one meanwhile
       if (!r.ok) {

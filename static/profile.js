@@ -2,52 +2,17 @@
 // scales every prediction the page asks for, and under the result a "this walk was __ m" box that adds
 // the shown run to a profile (POST /profiles/{name}/walks; an empty distance uses the walk's GPS).
 //
-// Self-contained: one <script> line in index.html. It builds its own elements beside the page's
-// (after the filter select; inside the result card, before the compare block), adds ?profile= to the
-// page's POST /predict and /sequences/{id}/predict requests while a profile is chosen, and learns the
-// shown run from the answers of those requests and of GET /runs/{id}/result. Its own requests go
-// through window.fetch as it is when they are made, so that a wrapper another script adds later (an
-// access token) applies to them too.
+// Two globals for the page's other scripts: `profileParam()` ("&profile=NAME" while a profile is
+// chosen, else ""), which every prediction request adds to its query beside orientationParam(), and
+// `showProfileBox(result)`, which showResult calls with every answer it shows.
 
 (function () {
-  const PREDICT = /^\/(predict|sequences\/[^/?]+\/predict|runs\/[^/?]+\/predict)(\?|$)/; // runs/{id}/predict: compare-all on a kept run
-  const RESULT = /^\/runs\/[^/?]+\/result(\?|$)/;
   let shownRun = null; // the run_id of the last answer the page showed
 
   function chosen() {
     const select = document.getElementById("profile-select");
     return select ? select.value : "";
   }
-
-  // "/predict?x=1" -> "/predict?x=1&profile=NAME" while a profile is chosen
-  function withProfile(url) {
-    const name = chosen();
-    if (!name || typeof url !== "string" || !PREDICT.test(url)) return url;
-    return `${url}${url.includes("?") ? "&" : "?"}profile=${encodeURIComponent(name)}`;
-  }
-
-  function seen(url, text) {
-    if (typeof url !== "string" || !(PREDICT.test(url) || RESULT.test(url))) return;
-    try {
-      const body = JSON.parse(text);
-      if (body && body.run_id) showBox(body);
-    } catch (_) { /* not an answer: nothing to learn */ }
-  }
-
-  const open = XMLHttpRequest.prototype.open;
-  XMLHttpRequest.prototype.open = function (method, url, ...rest) {
-    const sent = withProfile(url);
-    this.addEventListener("load", () => { if (this.status === 200) seen(url, this.responseText); });
-    return open.call(this, method, sent, ...rest);
-  };
-  const plainFetch = window.fetch.bind(window);
-  window.fetch = async (url, options) => {
-    const response = await plainFetch(withProfile(url), options);
-    if (response.ok && typeof url === "string" && (PREDICT.test(url) || RESULT.test(url))) {
-      response.clone().text().then((text) => seen(url, text), () => {});
-    }
-    return response;
-  };
 
   function element(tag, props = {}, children = []) {
     const node = Object.assign(document.createElement(tag), props);
@@ -60,7 +25,7 @@
     const list = document.getElementById("profile-names");
     let profiles = [];
     try {
-      profiles = await window.fetch("/profiles").then((r) => (r.ok ? r.json() : []));
+      profiles = await fetch("/profiles").then((r) => (r.ok ? r.json() : []));
     } catch (_) { /* the page works without profiles */ }
     const current = keep !== undefined ? keep : select.value;
     select.replaceChildren(element("option", { value: "", textContent: "none — the model's own distance" }));
@@ -73,7 +38,12 @@
     select.value = profiles.some((p) => p.name === current) ? current : "";
   }
 
-  function showBox(result) {
+  window.profileParam = () => {
+    const name = chosen();
+    return name ? `&profile=${encodeURIComponent(name)}` : "";
+  };
+
+  window.showProfileBox = function showBox(result) {
     shownRun = result.run_id;
     const box = document.getElementById("profile-box");
     if (!box) return;
@@ -84,7 +54,7 @@
         `distance within ±${(100 * applied.scale_sigma).toFixed(0)} %.`
       : "";
     document.getElementById("profile-status").textContent = "";
-  }
+  };
 
   async function addWalk() {
     const status = document.getElementById("profile-status");
@@ -98,7 +68,7 @@
     const body = { run_id: shownRun };
     if (distance) body.distance_m = Number(distance);
     try {
-      const r = await window.fetch(`/profiles/${encodeURIComponent(name)}/walks`, {
+      const r = await fetch(`/profiles/${encodeURIComponent(name)}/walks`, {
         method: "POST",
         headers: { "Content-Type": "application/json" },
         body: JSON.stringify(body),

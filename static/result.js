@@ -172,7 +172,8 @@ function convention(m, duration) {
 function endRadiusText(uncertainty) {
   const r = uncertainty.end_radius_95_m;
   if (r === null || r === undefined) {
-    return uncertainty.withheld_reason ? `No 95 % end circle: ${uncertainty.withheld_reason}` : "";
+    const why = uncertainty.withheld_reason || "";
+    return why && why[0].toUpperCase() + why.slice(1);
   }
   let text = `Ends within ${r >= 10 ? r.toFixed(0) : r.toFixed(1)} m of here (95 %)`;
   if (uncertainty.true_end_inside === true) text += "; the true end lies inside this circle.";
@@ -254,6 +255,7 @@ function showResult(result, label) {
   renderPlot();
   showTimeCharts(result);
   FtinMap.show(result, anchoredOnGps(result));
+  showProfileBox(result);
   $("delete-run").dataset.runId = result.run_id;
   const t = result.trajectory.t;
   const duration = t[t.length - 1] - t[0];

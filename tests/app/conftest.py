@@ -17,6 +17,7 @@ from app.serve import ThreadedServer, serve_in_thread
 from app.settings import BUNDLED_SAMPLES_DIR, Settings
 from ftin.models.ftin_net import TINY_FTIN_KWARGS
 from tests.utils import checkpoints
+from tests.utils.paths import CHECKPOINTS
 
 RATE_HZ = 100.0
 WINDOW = 50
@@ -167,3 +168,18 @@ def _wait_for(predicate: Callable[[], bool], timeout_s: float = 10.0, what: str 
 def wait_for() -> Callable[..., None]:
     """``wait_for(predicate, timeout_s=10, what=...)``: poll until true or fail the test."""
     return _wait_for
+
+
+@pytest.fixture(scope="module")
+def shipped_server(
+    make_settings: Callable[..., Settings], server_control: ServerControl
+) -> Iterator[LiveServer]:
+    """A live server on the shipped checkpoints, the default model first: for what needs a walk read
+    metres long (a 95 % end circle, a profile's walk), which the tiny fixture models never give."""
+    live = server_control.start(
+        make_settings(checkpoint_dir=CHECKPOINTS, default_model="ronin_resnet-walking")
+    )
+    try:
+        yield live
+    finally:
+        server_control.stop(live)

@@ -25,7 +25,7 @@ from tests.app.test_browser import page as page  # noqa: F401  (a fixture)
 from tests.app.test_plausibility_api import sensorlogger_zip
 from tests.utils.gps import northward_fixes, twenty_steps_export
 
-PHONE_HEADERS = ["Path m", "Steps steps", "Step length m", "End-to-start gap m", "GPS distance RMS m"]
+PHONE_HEADERS = ["Path m", "Steps steps", "Step (path / steps) m", "End-to-start gap m", "GPS distance RMS m"]
 
 
 def column_values(page, index: int) -> list[str]:
@@ -112,7 +112,7 @@ def test_compare_all_on_a_phone_walk(live_server, page, shared_data: Path, tmp_p
     assert rows[0][2 : 2 + len(PHONE_HEADERS)] == [
         "Path (m)",
         "Steps (steps)",
-        "Step length (m)",
+        "Step (path / steps) (m)",
         "End-to-start gap (m)",
         "GPS distance RMS (m)",
     ]

@@ -26,24 +26,12 @@ def path_of(answer: dict) -> float:
     return float(np.hypot(np.diff(t["x"]), np.diff(t["y"])).sum())
 
 
-@pytest.fixture(scope="module")
-def real_server(make_settings, server_control) -> Iterator[object]:
-    """The shipped checkpoints (a profile's walk must be metres long: tiny test models barely move)."""
-    live = server_control.start(
-        make_settings(checkpoint_dir=CHECKPOINTS, default_model="ronin_resnet-walking")
-    )
-    try:
-        yield live
-    finally:
-        server_control.stop(live)
-
-
 def test_a_walk_of_known_length_on_the_page_scales_the_next(
-    real_server,
+    shipped_server,
     page,  # noqa: F811
     sample_csv_path: Path,
 ) -> None:
-    live_server = real_server
+    live_server = shipped_server
     open_upload_page(page, live_server)
     assert page.input_value("#profile-select") == ""  # none chosen: nothing sent
     run_file(page, str(sample_csv_path))

@@ -22,8 +22,11 @@ BAND = "#plot g.uncertainty-band"
 
 
 def test_the_plot_draws_the_band_and_the_end_circle_after_an_upload(
-    live_server, page, sample_csv_path: Path
+    shipped_server, page, sample_csv_path: Path
 ) -> None:
+    live_server = (
+        shipped_server  # a walk read metres long: the tiny models' runs are implausible, circle withheld
+    )
     open_upload_page(page, live_server)
     run_file(page, str(sample_csv_path))
     wait_for_result(page, "walk.csv")

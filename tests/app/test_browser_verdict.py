@@ -53,5 +53,5 @@ def test_the_verdict_is_first_in_the_card_and_coloured_by_its_level(
     red, green, blue = (int(v) for v in colour[colour.index("(") + 1 : -1].split(",")[:3])
     assert red > green and red > blue  # red for implausible
     reasons = page.get_attribute("#walk-verdict", "title")
-    assert "implausible: cadence and GPS speed do not fit a walk" in reasons
+    assert "implausible: does not look like walking: the GPS moves at 8.0 m/s" in reasons
     screenshot(page, "verdict_implausible.png")

@@ -95,7 +95,19 @@ def test_ftin_predict_says_where_the_walk_ends(tmp_path) -> None:
     assert "ends within" in verdict
 
 
-def test_the_result_card_says_where_the_walk_ends(live_server, page) -> None:  # noqa: F811  (a fixture)
+def test_the_result_card_says_why_an_implausible_walk_has_no_circle(live_server, page) -> None:  # noqa: F811
+    open_upload_page(page, live_server)  # the tiny fixture model barely moves: implausible
+    shown = page.request.get(f"{live_server.base_url}/runs").json()[0]
+    found = page.request.get(f"{live_server.base_url}{shown['result_url']}").json()["uncertainty"]
+    assert found["end_radius_95_m"] is None and found["withheld_reason"]
+    line = page.locator("#end-radius")
+    assert line.is_visible() and "Ends within" not in line.inner_text()
+    assert line.inner_text().lower() == found["withheld_reason"].lower()
+    assert page.locator("#plot circle.end-radius").count() == 0
+
+
+def test_the_result_card_says_where_the_walk_ends(shipped_server, page) -> None:  # noqa: F811  (a fixture)
+    live_server = shipped_server  # the default reads the bundled walk metres long: a circle is drawn
     open_upload_page(page, live_server)
     shown = page.request.get(f"{live_server.base_url}/runs").json()[0]
     result = page.request.get(f"{live_server.base_url}{shown['result_url']}").json()
@@ -105,5 +117,6 @@ def test_the_result_card_says_where_the_walk_ends(live_server, page) -> None:  #
     number = float(line.inner_text().split("within ")[1].split(" m")[0])
     assert number == pytest.approx(radius, abs=0.051 if radius < 10 else 0.51)
     assert line.get_attribute("title") == result["uncertainty"]["calibration"]
-    # under the verdict, which stays first in the card
-    assert page.evaluate("document.getElementById('walk-verdict').nextElementSibling.id") == "end-radius"
+    # under the verdict and its reasons, which stay first in the card
+    before = page.evaluate("document.getElementById('end-radius').previousElementSibling.id")
+    assert before in ("walk-verdict", "walk-reasons")
