@@ -20,9 +20,13 @@ validation walk beside (``handheld/data1/syn/imu3.csv``, which reads right):
    mean angle of each turned-back look from their mean direction);
 3. whether the direction follows the phone: Spearman of the change of predicted direction between
    consecutive windows (0.2 s) against the change of the device yaw and against the world gyro z
-   integrated over the same stride.
+   integrated over the same stride; at the waypoint corners turning more than 45 deg, whether the
+   attitude's yaw and the predicted path (one look) turn the same way as the marks' polyline; and the
+   phone's heading at the four looks' mean speed (``ftin.body_heading``'s lock, forced on);
+4. the bounce: the looks' spread with the vertical specific force's swing about gravity halved.
 
-    nice -n 10 python -m experiments.probe_ilc_direction --every 10 --out docs/results/probes/ilc_direction.md
+    nice -n 10 python -m experiments.probe_ilc_direction --every 10          # F1-F3, beside OxIOD, RIDI
+    nice -n 10 python -m experiments.probe_ilc_direction --every 10 --floors B1 F4 --ridi 0  # held out
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ from ftin.yaw_average import turn_velocities
 DIAGNOSE_FLOORS = ("F1", "F2", "F3")
 OXIOD_WALKS = ("handheld/data1/syn/imu3.csv", "handheld/data1/syn/imu2.csv", "handheld/data1/syn/imu4.csv")
 TURNS = (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi)
+HALF_BOUNCE = 0.5  # the gain on the vertical specific force's swing in the bounce test
 COHERENCE_WINDOWS = 5  # 1 s of windows at the default's 0.2 s stride
 
 
@@ -70,6 +75,14 @@ def looks(model: LoadedModel, imu: np.ndarray, starts: np.ndarray) -> np.ndarray
         v, _ = run_windows(model, turned_imu(imu, angle), starts, model.window, 1, 512, None, False)
         out.append(turn_velocities(v[:, 0, :2], np.full(len(starts), -angle)))
     return np.stack(out)
+
+
+def look_spread(per_turn: np.ndarray) -> float:
+    """Median over windows of the mean angle (deg) of each look from the looks' mean direction."""
+    mean = per_turn.mean(0)
+    direction = np.arctan2(mean[:, 1], mean[:, 0])
+    off = [np.abs(np.angle(np.exp(1j * (np.arctan2(v[:, 1], v[:, 0]) - direction)))) for v in per_turn]
+    return float(np.degrees(np.median(np.mean(off, axis=0))))
 
 
 def speed_kept_mean(per_turn: np.ndarray) -> np.ndarray:
@@ -211,15 +224,16 @@ def walk_row(name: str, seq: ImuSequence, model: LoadedModel) -> dict:
             "ratio": ratio,
             "ate": ate,
         }
-    direction = np.arctan2(mean4[:, 1], mean4[:, 0])
-    spread = [
-        np.degrees(np.abs(np.angle(np.exp(1j * (np.arctan2(v[:, 1], v[:, 0]) - direction)))))
-        for v in per_turn
-    ]
     t_mid = 0.5 * (t_s[starts] + t_s[starts + model.window])
     phone = span_heading(phone_heading(q), starts, starts + model.window)
     row["steadiness"] = float(np.median(steadiness(cyclic, phone, t_mid)))
-    row["look_spread_deg"] = float(np.median(np.mean(spread, axis=0)))
+    row["look_spread_deg"] = look_spread(per_turn)
+    half = imu.copy()  # the vertical specific force's swing about gravity halved
+    half[:, 5] = half[:, 5].mean() + HALF_BOUNCE * (half[:, 5] - half[:, 5].mean())
+    half_looks = looks(model, half, starts)
+    row["half_bounce_spread_deg"] = look_spread(half_looks)
+    row["half_bounce_speed"] = float(np.median(np.linalg.norm(half_looks, axis=2).mean(0)))
+    row["v_rms"] = float(np.std(imu[:, 5]))
     # Does the direction follow the phone? Window-to-window changes, one look (turn 0).
     v0 = per_turn[0]
     d_pred = np.angle(np.exp(1j * np.diff(np.arctan2(v0[:, 1], v0[:, 0]))))
@@ -272,8 +286,8 @@ MODES = (
 
 
 def med(rows: list[dict], key) -> float:
-    values = [key(r) for r in rows]
-    return float(np.nanmedian(values)) if values else float("nan")
+    values = [v for v in (key(r) for r in rows) if np.isfinite(v)]
+    return float(np.median(values)) if values else float("nan")
 
 
 def mode_table(groups: dict[str, list[dict]]) -> list[str]:
@@ -300,8 +314,8 @@ def phone_table(groups: dict[str, list[dict]]) -> list[str]:
         "| group | walks | steadiness (default) | look spread (deg) | rho(d direction, d yaw) "
         "| rho(d direction, gyro z) "
         "| median |d direction| per 0.2 s (deg) | corners > 45 deg | yaw turns the same way "
-        "| path turns the same way |",
-        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
+        "| path turns the same way | look spread at half bounce (deg) | 4-look speed at half bounce |",
+        "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for group, rows in groups.items():
         lines.append(
@@ -309,7 +323,9 @@ def phone_table(groups: dict[str, list[dict]]) -> list[str]:
             f"| {med(rows, lambda r: r['look_spread_deg']):.0f} "
             f"| {med(rows, lambda r: r['rho_yaw']):.2f} | {med(rows, lambda r: r['rho_gyro']):.2f} "
             f"| {med(rows, lambda r: r['median_dpred_deg']):.0f} | {sum(r['corners'] for r in rows)} "
-            f"| {sum(r['yaw_same_sign'] for r in rows)} | {sum(r['path_same_sign'] for r in rows)} |"
+            f"| {sum(r['yaw_same_sign'] for r in rows)} | {sum(r['path_same_sign'] for r in rows)} "
+            f"| {med(rows, lambda r: r['half_bounce_spread_deg']):.0f} "
+            f"| {med(rows, lambda r: r['half_bounce_speed']):.2f} |"
         )
     return lines
 
@@ -340,6 +356,19 @@ def data_table(groups: dict[str, list[dict]]) -> list[str]:
     return lines
 
 
+def bounce_lines(groups: dict[str, list[dict]]) -> list[str]:
+    ilc = [r for group, rows in groups.items() if group.startswith("ILC") for r in rows]
+    if len(ilc) < 3:
+        return []
+    rho = spearmanr([r["v_rms"] for r in ilc], [r["look_spread_deg"] for r in ilc])
+    rho_ratio = spearmanr([r["v_rms"] for r in ilc], [r["cyclic (default)"]["ratio"] for r in ilc])
+    return [
+        f"Over the {len(ilc)} ILC walks: Spearman(vertical acc rms, look spread) {rho.statistic:.2f} "
+        f"(p {rho.pvalue:.3f}); Spearman(vertical acc rms, default path ratio) {rho_ratio.statistic:.2f} "
+        f"(p {rho_ratio.pvalue:.3f})."
+    ]
+
+
 def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--checkpoint", type=Path, default=Path("checkpoints/ronin_resnet-walking"))
@@ -356,7 +385,8 @@ def main() -> None:
         for floor in args.floors
     }
     walks["OxIOD hand-held"] = [args.data_root / "oxiod" / w for w in OXIOD_WALKS]
-    walks["RIDI validation"] = hidden_walk_paths(args.data_root, "ridi")[: args.ridi]
+    if args.ridi > 0:
+        walks["RIDI validation"] = hidden_walk_paths(args.data_root, "ridi")[: args.ridi]
     data_rows: dict[str, list[dict]] = {}
     walk_rows: dict[str, list[dict]] = {}
     for group, paths in walks.items():
@@ -385,6 +415,8 @@ def main() -> None:
         "## Does the direction follow the phone (one look, turn 0)?",
         "",
         *phone_table(walk_rows),
+        "",
+        *bounce_lines(walk_rows),
     ]
     write_report(args.out, lines)
 
