@@ -319,7 +319,7 @@ def phone_table(groups: dict[str, list[dict]]) -> list[str]:
     lines = [
         "| group | walks | steadiness (default) | look spread (deg) | rho(d direction, d yaw) "
         "| rho(d direction, gyro z) "
-        "| median |d direction| per 0.2 s (deg) | corners > 45 deg | yaw turns the same way "
+        "| median abs. change of direction per 0.2 s (deg) | corners > 45 deg | yaw turns the same way "
         "| path turns the same way | look spread at half bounce (deg) | 4-look speed at half bounce |",
         "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
