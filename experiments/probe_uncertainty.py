@@ -44,7 +44,7 @@ from ftin import protocol
 from ftin.checkpoint import load_model
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.uncertainty.calibration import Calibration, save_calibration
-from ftin.uncertainty.propagate import heading_kind, path_covariance, window_sigma
+from ftin.uncertainty.propagate import direction_coherence, heading_kind, path_covariance, window_sigma
 from ftin.uncertainty.radius import mahalanobis_sq, radius_holding
 
 CHECKPOINT = Path("checkpoints/ronin_resnet-walking")
@@ -169,7 +169,7 @@ def covariance(w: dict, calibration: Calibration) -> np.ndarray:
     return path_covariance(
         t, w["p_pred"], start, end, sigma, calibration,
         heading=heading_kind(str(w["orientation_filter"])), carry=str(w["carry"]),
-        window_s=float(w["window_s"]),
+        window_s=float(w["window_s"]), coherence=direction_coherence(t, start, end, w["v_pred"]),
     )  # fmt: skip
 
 

@@ -17,7 +17,8 @@ Decisions:
   never below ``SCALE_SIGMA_FLOOR`` (``ProfileScale.scale_sigma``): the calibration's other terms and
   its one factor were fitted with the population's scale term inside, and with a one-walk profile's
   own 7 % alone the 95 % end radius held the true end on only 81 % of the probe's pairs of walks (the
-  heading error that term also covered stays). The floor is the smallest that holds 85 % there; a
+  heading error that term also covered stays). The floor is the smallest that holds 85 % there (0 with
+  today's calibration, fitted on unseen walkers and places with a larger factor); a
   walker whose walks disagree more widens the term beyond it. Refit it with the probe whenever
   ``ftin/uncertainty/calibration.json`` is refitted.
 - A walk shorter than ``MIN_WALK_M`` teaches nothing: its length is mostly its error.
@@ -41,7 +42,10 @@ from ftin.data.types import Trajectory
 # OxIOD and RIDI groups recorded in one session each (docs/results/probes/profile_scale.md); walks on
 # other days, at other paces, vary more: the prior is set above it.
 ONE_WALK_LOG_SPREAD = 0.05
-SCALE_SIGMA_FLOOR = 0.28  # the least speed-scale spread the uncertainty takes (module docstring; the probe)
+# The least speed-scale spread the uncertainty takes (module docstring; the probe): 0.28 with the
+# validation-fitted calibration; 0 since its refit on unseen walkers and places (covariance x2.0,
+# experiments/probe_uncertainty_heldout.py), whose other terms hold every pair of the probe without it.
+SCALE_SIGMA_FLOOR = 0.0
 MIN_WALK_M = 10.0  # the shortest walk of known length a profile takes
 PRIOR_WALKS = 1.0  # how many walks the prior spread weighs
 SAMPLE_RANGE = (0.25, 4.0)  # a scale sample outside it is a wrong distance or run

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ftin.uncertainty.calibration import Calibration, calibration_for
-from ftin.uncertainty.propagate import heading_kind, path_covariance, window_sigma
+from ftin.uncertainty.propagate import direction_coherence, heading_kind, path_covariance, window_sigma
 from ftin.uncertainty.radius import radius_holding
 
 
@@ -39,10 +39,13 @@ def uncertainty_of(
     """The uncertainty of ``prediction`` (``ftin.infer.Prediction``) from ``checkpoint``'s constants
     (``calibration_for``); ``carry`` picks the distance ratio's spread where it was measured;
     ``scale_sigma`` (a walker profile's, ``ftin.profiles.ProfileScale.scale_sigma``) replaces that
-    spread: a prediction scaled by the walker's own walks is off by their spread, not the population's."""
+    spread: a prediction scaled by the walker's own walks is off by their spread, not the population's
+    (nor by what the direction coherence says of the population: the walker's scale corrects that)."""
     calibration = calibration_for(checkpoint)
     if scale_sigma is not None:
-        calibration = replace(calibration, scale_sigma=float(scale_sigma), scale_sigma_by_carry={})
+        calibration = replace(
+            calibration, scale_sigma=float(scale_sigma), scale_sigma_by_carry={}, coherence_gain=0.0
+        )
     trajectory = prediction.trajectory
     t = trajectory.t_s
     spans = prediction.span_t_s
@@ -62,6 +65,7 @@ def uncertainty_of(
         heading=heading_kind(prediction.orientation_filter),
         carry=carry,
         window_s=prediction.window_s or 1.0,
+        coherence=direction_coherence(t, start, end, prediction.velocity_m_s),
     )
     end_cov = np.array([[cov[-1, 0], cov[-1, 1]], [cov[-1, 1], cov[-1, 2]]])
     described = calibration.describe(checkpoint)

@@ -1,6 +1,8 @@
 """The few constants of the uncertainty model per checkpoint, read from ``calibration.json`` beside this
 module (keyed by checkpoint name) and written only by ``experiments/probe_uncertainty.py``, which
-fits them on walker-held-out validation and so can always remake them.
+fits them on walker-held-out validation, and, for the default model's speed-scale term and factor,
+``experiments/probe_uncertainty_heldout.py`` (walks and places the network never trained on): both
+can always remake them.
 
 A checkpoint with no entry of its own borrows the default model's constants, and says so in
 ``describe``: its uncertainty is then an estimate, not a calibrated one.
@@ -35,6 +37,9 @@ class Calibration:
     # a + b|v|, for a prediction of that model that lacks the head's sigma (a live walk, a restored run).
     position_scale_without_head: float | None = None
     scale_sigma_by_carry: dict[str, float] = field(default_factory=dict)  # where a carry had enough walks
+    # The speed scale's spread grows by this times (1 - the walk's direction coherence), in quadrature
+    # (``propagate.direction_coherence``): windows that cancel within a second read the distance short.
+    coherence_gain: float = 0.0
     fitted_on: str = ""  # what the constants were fitted on, in words
 
     def scale_sigma_for(self, carry: str | None) -> float:
@@ -68,9 +73,10 @@ class Calibration:
             if self.log_std_scale is not None
             else f"{self.sigma_a:.2f} + {self.sigma_b:.2f}|v| m/s"
         )
+        lost = f" (+ {self.coherence_gain:.1f} x (1 - direction coherence))" if self.coherence_gain else ""
         return (
             f"{head}; window sigma {window}, speed scale "
-            f"+-{self.scale_sigma:.0%}, heading drift {drift:.1f} deg/min (6-D) or "
+            f"+-{self.scale_sigma:.0%}{lost}, heading drift {drift:.1f} deg/min (6-D) or "
             f"+-{math.degrees(self.heading_sigma_rad):.0f} deg (9-D), covariance x{self.position_scale:.2f} "
             "(experiments/probe_uncertainty.py)"
         )

@@ -28,6 +28,8 @@ import numpy as np
 
 from ftin.uncertainty.calibration import Calibration
 
+COHERENCE_BLOCK_S = 1.0  # the windows of one second are compared with each other
+
 # Which heading term an orientation takes: the attitude filter's name as ``ftin.infer`` reports it.
 SIX_D, NINE_D = "6d", "9d"
 
@@ -63,6 +65,28 @@ def interval_variance(
     return out
 
 
+def direction_coherence(
+    t_s: np.ndarray, span_start: np.ndarray, span_end: np.ndarray, velocity_m_s: np.ndarray
+) -> float:
+    """How much of the windows' speed survives their mean within each second: the median over
+    ``COHERENCE_BLOCK_S`` blocks (by window centre) of ``|sum v| / sum |v|`` of the horizontal window
+    velocities, in [0, 1]; 1 where they agree (or there are none), low where they cancel."""
+    v = np.asarray(velocity_m_s, dtype=np.float64)[:, :2]
+    if len(v) == 0:
+        return 1.0
+    t = np.asarray(t_s, dtype=np.float64)
+    centre = 0.5 * (t[np.asarray(span_start)] + t[np.asarray(span_end)])
+    block = np.floor((centre - centre.min()) / COHERENCE_BLOCK_S).astype(int)
+    total = np.zeros((block.max() + 1, 2))
+    speed = np.zeros(block.max() + 1)
+    np.add.at(total, block, v)
+    np.add.at(speed, block, np.linalg.norm(v, axis=1))
+    moving = speed > 0
+    if not moving.any():
+        return 1.0
+    return float(np.median(np.linalg.norm(total[moving], axis=1) / speed[moving]))
+
+
 def heading_kind(orientation_filter: str | None) -> str:
     """``"9d"`` where a magnetometer held the heading, else ``"6d"`` (gyroscope alone, or not said:
     the cautious reading)."""
@@ -80,10 +104,12 @@ def path_covariance(
     heading: str = SIX_D,
     carry: str | None = None,
     window_s: float = 1.0,
+    coherence: float = 1.0,
 ) -> np.ndarray:
     """``(N, 3)`` covariance ``[xx, xy, yy]`` (m^2) of each sample's horizontal position, zero at the
     start (module docstring). ``span_start`` / ``span_end`` index ``t_s``; ``sigma_m_s`` is one
-    window's sigma per span; ``p_m`` the predicted positions (``(N, >=2)``)."""
+    window's sigma per span; ``p_m`` the predicted positions (``(N, >=2)``); ``coherence`` the walk's
+    ``direction_coherence``."""
     t = np.asarray(t_s, dtype=np.float64)
     n = len(t)
     cov = np.zeros((n, 3))
@@ -96,7 +122,8 @@ def path_covariance(
     cov[:, 0] += noise
     cov[:, 2] += noise
     d = p - p[0]
-    _add_outer(cov, d, calibration.scale_sigma_for(carry) ** 2)
+    lost = calibration.coherence_gain * max(1.0 - coherence, 0.0)
+    _add_outer(cov, d, calibration.scale_sigma_for(carry) ** 2 + lost**2)
     across = d[:, ::-1] * np.array([-1.0, 1.0])  # J d: a quarter turn
     if heading == NINE_D:
         _add_outer(cov, across, calibration.heading_sigma_rad**2)

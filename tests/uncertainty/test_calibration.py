@@ -64,14 +64,22 @@ def test_saving_adds_an_entry_and_keeps_the_others(tmp_path: Path) -> None:
 
 
 def test_the_probe_reproduces_the_stored_constants() -> None:
-    if not PROBE_CACHE.is_dir() or len(list(PROBE_CACHE.glob("*.npz"))) < 64:
+    """The stored entry is the held-out probe's refit (issue 54): its speed-scale term and factor fitted
+    on walks the network never trained on, the window and heading terms from the validation probe."""
+    ilc_cache = REPO_ROOT / "runs" / "uncertainty_ilc" / _DEFAULT_SHA[:12]
+    if not PROBE_CACHE.is_dir() or len(list(PROBE_CACHE.glob("*.npz"))) < 64 or not ilc_cache.is_dir():
         pytest.skip(
-            "the probe's 64 predicted walks are not cached here (python -m experiments.probe_uncertainty)"
+            "the probes' predicted walks are not cached here "
+            "(python -m experiments.probe_uncertainty_heldout)"
         )
-    from experiments.probe_uncertainty import FIT_SETS, fit  # noqa: PLC0415 (a probe, only here)
+    from experiments import probe_uncertainty_heldout as probe  # noqa: PLC0415 (a probe, only here)
 
     walks = [dict(np.load(f)) for f in sorted(PROBE_CACHE.glob("*.npz"))]
-    fitted = fit([w for w in walks if str(w["dataset"]) in FIT_SETS])
+    walks += [dict(np.load(f)) for f in sorted(ilc_cache.glob("*/*.npz"))]
+    groups: dict[str, list[dict]] = {}
+    for w in walks:
+        groups.setdefault(probe.group_of(w), []).append(w)
+    fitted = probe.fit_heldout(groups, probe.validation_fit(walks))
     stored = calibration_for(FALLBACK)
     for name, value in fitted.to_json().items():
         assert value == (

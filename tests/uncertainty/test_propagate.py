@@ -8,7 +8,14 @@ import pytest
 
 from ftin.infer import integrate_spans
 from ftin.uncertainty.calibration import Calibration
-from ftin.uncertainty.propagate import NINE_D, SIX_D, heading_kind, interval_variance, path_covariance
+from ftin.uncertainty.propagate import (
+    NINE_D,
+    SIX_D,
+    direction_coherence,
+    heading_kind,
+    interval_variance,
+    path_covariance,
+)
 from ftin.uncertainty.radius import coverage_of_radius, mahalanobis_sq, radius_holding
 
 RATE = 50.0
@@ -83,6 +90,26 @@ def test_speed_scale_spreads_along_the_displacement() -> None:
     errors = s[:, None] * (p[-1] - p[0])[None, :]  # every velocity read off by 1 + s
     cov = path_covariance(T_S, p, np.array([0]), np.array([1]), np.zeros(1), calibration(scale_sigma=0.2))
     assert cov[-1] == pytest.approx(sample_cov(errors), rel=0.1)
+
+
+def test_windows_that_cancel_within_a_second_widen_the_speed_scale() -> None:
+    """Direction coherence: 1 where the windows of a second agree, 0 where they cancel (a phone whose
+    windows read the speed but flip direction); the speed-scale spread grows by gain x (1 - c)."""
+    starts = np.arange(0, len(T_S) - WINDOW, 25)  # two windows a second
+    ends = starts + WINDOW
+    steady = np.tile([1.2, 0.0], (len(starts), 1))
+    flipping = steady * np.where(np.arange(len(starts)) % 2 == 0, 1.0, -1.0)[:, None]
+    assert direction_coherence(T_S, starts, ends, steady) == pytest.approx(1.0)
+    assert direction_coherence(T_S, starts, ends, flipping) == pytest.approx(0.0, abs=1e-9)
+    assert direction_coherence(T_S, starts[:0], ends[:0], steady[:0]) == 1.0  # no windows: nothing lost
+    p = curved_walk()
+    cal = calibration(scale_sigma=0.1)
+    gained = Calibration(**cal.to_json() | {"coherence_gain": 2.0})
+    span = (np.array([0]), np.array([1]), np.zeros(1))
+    plain = path_covariance(T_S, p, *span, cal, coherence=0.8)
+    assert path_covariance(T_S, p, *span, gained, coherence=1.0) == pytest.approx(plain)
+    widened = path_covariance(T_S, p, *span, gained, coherence=0.8)  # 0.1 and 2 x 0.2 in quadrature
+    assert widened[-1] == pytest.approx(plain[-1] * (0.1**2 + 0.4**2) / 0.1**2)
 
 
 def test_heading_terms_turn_the_path() -> None:
