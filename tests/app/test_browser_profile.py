@@ -4,7 +4,6 @@ profile, and the *Walker profile* select scales the next prediction (static/prof
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
@@ -18,7 +17,6 @@ from tests.app.test_browser import (  # noqa: F401 (fixtures)
     run_file,
     wait_for_result,
 )
-from tests.utils.paths import CHECKPOINTS
 
 
 def path_of(answer: dict) -> float:
