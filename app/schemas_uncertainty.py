@@ -32,7 +32,7 @@ class UncertaintyPayload(BaseModel):
     calibration: str = Field(description="How the uncertainty was calibrated, and on what.")
     coverage_text: str = Field(
         "",
-        description="What the 2-sigma band's coverage (86 %) was measured on: validation walks.",
+        description="What the 2-sigma band and the 95 % circle rest on: the walks fitted on, not this run.",
     )
 
     @classmethod

@@ -175,7 +175,7 @@ const FtinPlot = (() => {
     const shown = series.filter((s) => !hidden.has(s.label));
     for (const s of shown.filter((b) => b.band)) {
       item(`<svg width="26" height="12"><rect x="0" y="1" width="26" height="10" rx="5" fill="${s.color}" fill-opacity="${BAND_OPACITY}"/><line x1="0" y1="6" x2="26" y2="6" stroke="${s.color}" stroke-width="2"/></svg>`,
-        "2σ band (on validation walks it held 86 % of true positions)");
+        "2σ band (its size fitted on other walks: not this run's error)");
     }
     for (const s of shown.filter((b) => b.endRadius)) {
       item(`<svg width="14" height="14"><circle cx="7" cy="7" r="5.5" fill="none" stroke="${s.color}" stroke-width="1.5" stroke-dasharray="3 2"/></svg>`,

@@ -21,9 +21,9 @@ from typing import Any
 from ftin.data.types import Trajectory
 from ftin.uncertainty import PathUncertainty
 from ftin.uncertainty.calibration import calibration_for
-from ftin.uncertainty.coverage import TWO_SIGMA, coverage_of
+from ftin.uncertainty.coverage import coverage_of
 
-NOT_THIS_RUN = "A validation figure, not measured on this run."
+NOT_THIS_RUN = "Figures of those walks, not measured on this run."
 
 
 @dataclass(frozen=True)
@@ -48,16 +48,17 @@ class EndCircle:
 
 
 def coverage_text(checkpoint: str) -> str:
-    """The band's coverage in words, as measured: on the validation walks the constants were fitted on."""
+    """What the band and the circle rest on, in words: the walks their constants were fitted on (a 2σ
+    band is a Gaussian's 86 %; how much of those walks it held depends on the fit's target, so no share
+    of this run is claimed)."""
     found = calibration_for(checkpoint)
-    share = f"{TWO_SIGMA * 100:.0f} %"
     walks = found.fitted_on or "validation walks"
     if found.model != checkpoint:
         return (
-            f"The 2σ band was sized to hold {share} of true positions on {found.model}'s validation walks "
-            f"({walks}); {checkpoint} has no calibration of its own. {NOT_THIS_RUN}"
+            f"The 2σ band and the 95 % circle come from {found.model}'s constants, fitted on {walks}; "
+            f"{checkpoint} has no calibration of its own. {NOT_THIS_RUN}"
         )
-    return f"The 2σ band was sized to hold {share} of true positions on {walks}. {NOT_THIS_RUN}"
+    return f"The 2σ band and the 95 % circle come from constants fitted on {walks}. {NOT_THIS_RUN}"
 
 
 def end_circle(

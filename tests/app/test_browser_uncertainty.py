@@ -60,6 +60,26 @@ def test_the_plot_draws_the_band_and_the_end_circle_after_an_upload(
     assert float(radius) == pytest.approx(result["uncertainty"]["end_radius_95_m"] * px_per_m, rel=0.02)
     legend = page.inner_text("#plot-legend")
     # the band's coverage is a validation figure, said so; the circle is named, not claimed for this run
-    assert "2σ band (on validation walks it held 86 % of true positions)" in legend
+    assert "2σ band (its size fitted on other walks: not this run's error)" in legend
     assert "95 % end circle: " in legend
     screenshot(page, "uncertainty_band.png")
+
+
+def test_the_page_says_when_the_true_end_lies_outside_the_circle(
+    shipped_server, page, tmp_path: Path
+) -> None:
+    """The bundled walk with its ground truth stretched three-fold from its start: the true end lies far
+    outside the circle, and the card says so (``uncertainty.true_end_inside`` false)."""
+    from tests.app.test_end_circle_api import sample
+
+    stretched = tmp_path / "stretched.csv"
+    stretched.write_bytes(sample(truth_scale=3.0))
+    open_upload_page(page, shipped_server)
+    run_file(page, str(stretched))
+    wait_for_result(page, "stretched.csv")
+    run_id = page.get_attribute("#scene-link", "data-run-id")
+    found = page.request.get(f"{shipped_server.base_url}/runs/{run_id}/result").json()["uncertainty"]
+    assert found["true_end_inside"] is False and found["true_end_error_m"] > found["end_radius_95_m"]
+    line = page.locator("#end-radius")
+    assert line.get_attribute("data-inside") == "false"
+    assert "the true end lies outside it" in line.inner_text()
