@@ -1,4 +1,4 @@
-"""What a finished run exports: its trajectory as CSV, TUM trajectories for evo, the metrics as JSON,
+"""What a finished run exports: its trajectory as CSV, TUM trajectories for evo
 and the trajectory at the input's own timestamps (``GET /runs/{run_id}/...``).
 
 Decisions:
@@ -15,30 +15,23 @@ Decisions:
   first column is then ``t_unix_s``, so a file never leaves its clock unsaid.
 - A model that predicts horizontal velocity only holds z at its start: the ground truth's start
   height, else 0. Both files say so in a ``#`` comment first (``z_note``), as the page does.
-- ``metrics.json`` carries what ``POST /predict`` answers about the scores (its ``metrics`` object,
-  field for field, ``plausibility``, ``warnings``, ``notes``, ``verdict`` and ``uncertainty``), plus the
-  metric definitions.
+- ``metrics.json`` is built in its route (``app.api.routes.exports``) from the API's own body types,
+  so that this service knows no API schema.
 """
 
 from __future__ import annotations
 
 import io
 from enum import Enum
-from typing import Any
 
 import numpy as np
 
-from app.schemas import MetricsPayload, PlausibilityPayload  # the fields POST /predict answers
-from app.schemas_heading import heading_error_json
-from app.schemas_uncertainty import UncertaintyPayload
-from app.schemas_verdict import VerdictPayload
 from app.services.errors import InvalidInputError
 from app.services.runs import Run
 from app.services.verdict import z_note
 from ftin.data.epoch import start_epoch_s
 from ftin.data.trajectory_io import at_times, tum_text
 from ftin.data.types import Trajectory
-from ftin.metrics import list_metrics
 
 
 class Timestamps(str, Enum):
@@ -121,31 +114,3 @@ def ground_truth_tum(run: Run, clock: Clock | str = Clock.START) -> str | None:
         gt = Trajectory(gt.t_s + recording_start(run), gt.p_world_m, gt.q_world_body_wxyz)
         how += ", Unix time (s since 1970, UTC)"
     return tum_text(gt, f"FTIN Studio: ground truth of {run.sequence.name} in the prediction's frame{how}")
-
-
-def metrics_json(run: Run) -> dict[str, Any]:
-    """What ``POST /predict`` says about the run's scores, without the trajectories."""
-    metrics = MetricsPayload.from_run(run)
-    circle = UncertaintyPayload.from_run(run)
-    return {
-        "run_id": run.run_id,
-        "model": run.model_name,
-        "sequence": run.sequence.name,
-        "orientation_source": run.prediction.orientation_source,
-        "orientation_filter": run.prediction.orientation_filter,
-        "orientation_choice": run.prediction.orientation_choice,
-        "model_choice": None if run.model_choice is None else run.model_choice.to_json(),
-        "frame": run.prediction.frame,
-        "metrics": None if metrics is None else metrics.model_dump(),
-        "heading_error": heading_error_json(run),  # as POST /predict: 10-s windows against the truth
-        "metric_definitions": [metric.as_dict() for metric in list_metrics()],
-        "plausibility": PlausibilityPayload.from_run(run).model_dump(),
-        "warnings": run.verdict.warnings,
-        "notes": [*run.verdict.notes, *run.plausibility.notes],  # as POST /predict: GPS fixes left out
-        "verdict": VerdictPayload.from_run(run).model_dump(),  # ok / check / implausible, as POST /predict
-        "uncertainty": None if circle is None else circle.model_dump(),  # as POST /predict
-        "z_note": z_note(run),
-        "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
-        # the walker profile that scaled it, as POST /predict says (absent without one)
-        **({} if run.profile is None else {"profile": run.profile.to_json()}),
-    }

@@ -20,8 +20,8 @@ import numpy as np
 
 from app.services.features import CHANNEL_SPECTRUM, TEMPORAL_SPECTRUM, ModelInput, window_taps
 from app.services.runs import Run
-from app.viz.ellipses import PathSpread
 from app.viz.palette import RGB
+from app.viz.path_spread import PathSpread
 from app.viz.spectra import (
     amplitude_spectrum,
     heading_error_per_window,

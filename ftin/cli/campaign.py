@@ -24,6 +24,7 @@ from ftin import protocol
 from ftin.campaign import CampaignError, engine
 from ftin.campaign.collect import collect, ship
 from ftin.campaign.folder import Campaign
+from ftin.campaign.heads import HeadShipError, ship_heads
 from ftin.campaign.status import STATES, campaign_status
 from ftin.checkpoint import DEFAULT_MODEL, CheckpointError, load_model, read_default_choice
 from ftin.cli.campaign_burst import burst_app
@@ -288,8 +289,6 @@ def ship_heads_command(
     """Put the variance heads a campaign trained on frozen shipped checkpoints (stage three) onto them:
     the weights with the head, a variance_head section in the card; velocities, cards and the default
     otherwise unchanged (refused if any frozen tensor differs)."""
-    from ftin.campaign.heads import HeadShipError, ship_heads
-
     with user_errors(*CAMPAIGN_ERRORS, HeadShipError):
         written = ship_heads(Campaign(runs), checkpoints, on_event=lambda line: typer.echo(line))
     echo_written(written)

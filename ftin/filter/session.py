@@ -30,9 +30,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
+from ftin.data.growing import Growing
 from ftin.filter.ekf import ErrorStateEkf
 from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
-from ftin.live.incremental import Growing
 
 # measure(rows, start, end, R_start) -> (world velocity (3,), horizontal covariance (2, 2))
 Measure = Callable[[np.ndarray, int, int, np.ndarray], tuple[np.ndarray, np.ndarray]]

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 GRAVITY_M_S2 = 9.80665  # the simulator's and the readers' standard gravity (ftin.sim.imu)
 
@@ -206,8 +207,6 @@ def quat_of(R: np.ndarray) -> np.ndarray:
             [w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)]
         )
     else:  # near a half turn: go through scipy's robust branch
-        from scipy.spatial.transform import Rotation
-
         x, y, z, w = Rotation.from_matrix(R).as_quat()
         q = np.array([w, x, y, z])
     q /= np.linalg.norm(q)

@@ -15,7 +15,7 @@ the one it computes on the same samples):
   spans that cover it, and no later span starts before the latest span's start, so every interval
   before it is final and integrated once; the intervals after it (at most a window) are recomputed on
   each update, those past the last span's end with the last velocity, as offline.
-- Arrays grow by doubling (amortised O(1) per sample, ``Growing``); the difference arrays of the
+- Arrays grow by doubling (amortised O(1) per sample, ``ftin.data.growing``); the difference arrays of the
   integration are kept only from the final point on.
 """
 
@@ -25,38 +25,11 @@ import numpy as np
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
+from ftin.data.growing import Growing
 from ftin.infer import run_windows, select_parts, stream_step
 from ftin.yaw_average import default_copies, uses_cyclic_turns
 
 BATCH_WINDOWS = 64
-
-
-class Growing:
-    """Rows appended at the end in amortised O(1); ``view()`` is the filled part (no copy)."""
-
-    def __init__(self, width: int | None, dtype: type = np.float64, capacity: int = 1024) -> None:
-        shape = (capacity,) if width is None else (capacity, width)
-        self._data = np.zeros(shape, dtype=dtype)
-        self._n = 0
-
-    def __len__(self) -> int:
-        return self._n
-
-    @property
-    def nbytes(self) -> int:
-        return int(self._data.nbytes)
-
-    def extend(self, rows: np.ndarray) -> None:
-        need = self._n + len(rows)
-        if need > len(self._data):
-            grown = np.zeros((max(need, 2 * len(self._data)), *self._data.shape[1:]), dtype=self._data.dtype)
-            grown[: self._n] = self._data[: self._n]
-            self._data = grown
-        self._data[self._n : need] = rows
-        self._n = need
-
-    def view(self) -> np.ndarray:
-        return self._data[: self._n]
 
 
 class IncrementalPredictor:

@@ -6,11 +6,13 @@ report (``ftin table --campaign``) and the model cards, as ``from ftin import pr
 
 - ``datasets``: the datasets, their folders and rates, the fixed splits and the walker-wise folds;
 - ``jobs``: the training settings, the ``Job`` of a campaign and each campaign's jobs;
+- ``campaigns``: every campaign's job list by its ``plan --jobs`` name (``CAMPAIGNS``);
 - ``policy``: which FTIN variant, which run may ship, which checkpoint is the app's default;
 - ``stages``: the generalisation campaign's stage two (stage one's choices, the retraining jobs);
 - ``stage_three``: the fold of the walkers the shared data gained, and stage three's jobs.
 """
 
+from ftin.protocol.campaigns import CAMPAIGNS
 from ftin.protocol.datasets import (
     COMBINED,
     DATA_FOLDERS,
@@ -35,7 +37,6 @@ from ftin.protocol.datasets import (
 )
 from ftin.protocol.jobs import (
     ABLATIONS,
-    CAMPAIGNS,
     COMMON,
     COMPARED,
     FTIN_VARIANTS,

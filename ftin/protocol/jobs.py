@@ -12,9 +12,10 @@ RNIN trains with its reference loss (MSE on sub-window displacements plus 8x the
 the reference never switches to the NLL within its epochs). What differs per model is the model's
 own: its registry entry's ``train_options`` (``ftin.models.model_train_options``).
 
-Campaigns (``CAMPAIGNS``, by ``plan --jobs`` name): Table 1 (``campaign_jobs``), the generalisation
-campaign's first stage (``generalisation_jobs``), the tilt question (``tilt_question_jobs``); the
-simulator's job is ``sim_job``. Stage two's jobs are in ``ftin.protocol.stages``.
+Campaigns: Table 1 (``campaign_jobs``), the generalisation campaign's first stage
+(``generalisation_jobs``), the tilt question (``tilt_question_jobs``); the simulator's job is
+``sim_job``. Stage two's jobs are in ``ftin.protocol.stages``, stage three's in
+``ftin.protocol.stage_three``; ``ftin.protocol.campaigns`` names them all for ``plan --jobs``.
 """
 
 from __future__ import annotations
@@ -267,40 +268,6 @@ def tilt_question_jobs(_variant: str | None = None) -> list[Job]:
         for seed in TILT_QUESTION_SEEDS
         for fold in FOLDS
     ]
-
-
-def _stage_three(_variant: str | None = None) -> list[Job]:
-    """Stage three's jobs (``ftin.protocol.stage_three``) on the default data and checkpoints."""
-    from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
-    from ftin.protocol.stage_three import stage_three_jobs
-
-    return stage_three_jobs(DEFAULT_DATA_ROOT, DEFAULT_CHECKPOINT_DIR)
-
-
-def _stage_three_retrain(_variant: str | None = None) -> list[Job]:
-    """Stage three's retrain of the default's network on the pooled walkers (``stage_three``)."""
-    from ftin.files import DEFAULT_DATA_ROOT
-    from ftin.protocol.stage_three import stage_three_retrain_jobs
-
-    return stage_three_retrain_jobs(DEFAULT_DATA_ROOT)
-
-
-def _stride_retrain(_variant: str | None = None) -> list[Job]:
-    """The stride issue's retrain with the ILC floors as sparse truth (``stride_retrain``)."""
-    from ftin.files import DEFAULT_DATA_ROOT
-    from ftin.protocol.stride_retrain import stride_retrain_jobs
-
-    return stride_retrain_jobs(DEFAULT_DATA_ROOT)
-
-
-CAMPAIGNS = {  # by name (``plan --jobs``)
-    "table1": campaign_jobs,
-    "generalisation": generalisation_jobs,
-    "tilt": tilt_question_jobs,
-    "stage-three": _stage_three,
-    "stage-three-retrain": _stage_three_retrain,
-    "stride-retrain": _stride_retrain,
-}
 
 
 def sim_job(variant: str) -> Job:

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from app.services.prediction import RunOptions
-from app.viz.ellipses import ELLIPSE_POINTS, END95, LIVE_EVERY_S, ROOT, SIGMA2, PathSpread, largest_eigenvalue
+from app.viz.ellipses import ELLIPSE_POINTS, END95, ROOT, SIGMA2
+from app.viz.path_spread import LIVE_EVERY_S, PathSpread, largest_eigenvalue
 from app.viz.scene import DashboardScene
 from ftin.data import Trajectory
 from ftin.uncertainty.radius import mahalanobis_sq

@@ -10,19 +10,25 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Query
 from fastapi.responses import JSONResponse, Response
 
 from app.api.deps import ServicesDep
-from app.schemas import ErrorResponse
+from app.schemas import ErrorResponse, MetricsPayload, PlausibilityPayload
 from app.schemas_exports import CompareResponse
+from app.schemas_heading import heading_error_json
+from app.schemas_uncertainty import UncertaintyPayload
+from app.schemas_verdict import VerdictPayload
 from app.services.compare_table import MAX_RUNS, compare_csv, compare_table, compare_zip
 from app.services.errors import InvalidInputError, NotFoundError
-from app.services.exports import Clock, Timestamps, ground_truth_tum, metrics_json, trajectory_tum
+from app.services.exports import Clock, Timestamps, ground_truth_tum, trajectory_tum
 from app.services.geo_exports import geojson, gpx_text
 from app.services.runs import RUN_ID_PATTERN, Run
+from app.services.verdict import z_note
+from ftin.data.epoch import start_epoch_s
+from ftin.metrics import list_metrics
 from ftin.metrics.gps_anchor import AnchorFit
 
 router = APIRouter(tags=["runs"])
@@ -101,6 +107,36 @@ def ground_truth_tum_route(
     if text is None:
         raise NotFoundError(f"run {run_id!r} ({run.sequence.name}) has no ground truth")
     return attachment(text, "text/plain", f"{run.sequence.name}_ground_truth.tum")
+
+
+def metrics_json(run: Run) -> dict[str, Any]:
+    """What ``POST /predict`` says about the run's scores, without the trajectories: its ``metrics``
+    object field for field, ``plausibility``, ``warnings``, ``notes``, ``verdict`` and ``uncertainty``,
+    plus the metric definitions."""
+    metrics = MetricsPayload.from_run(run)
+    circle = UncertaintyPayload.from_run(run)
+    return {
+        "run_id": run.run_id,
+        "model": run.model_name,
+        "sequence": run.sequence.name,
+        "orientation_source": run.prediction.orientation_source,
+        "orientation_filter": run.prediction.orientation_filter,
+        "orientation_choice": run.prediction.orientation_choice,
+        "model_choice": None if run.model_choice is None else run.model_choice.to_json(),
+        "frame": run.prediction.frame,
+        "metrics": None if metrics is None else metrics.model_dump(),
+        "heading_error": heading_error_json(run),  # as POST /predict: 10-s windows against the truth
+        "metric_definitions": [metric.as_dict() for metric in list_metrics()],
+        "plausibility": PlausibilityPayload.from_run(run).model_dump(),
+        "warnings": run.verdict.warnings,
+        "notes": [*run.verdict.notes, *run.plausibility.notes],  # as POST /predict: GPS fixes left out
+        "verdict": VerdictPayload.from_run(run).model_dump(),  # ok / check / implausible, as POST /predict
+        "uncertainty": None if circle is None else circle.model_dump(),  # as POST /predict
+        "z_note": z_note(run),
+        "start_epoch_s": start_epoch_s(run.sequence.meta),  # t = 0 on the phone's clock (None: unknown)
+        # the walker profile that scaled it, as POST /predict says (absent without one)
+        **({} if run.profile is None else {"profile": run.profile.to_json()}),
+    }
 
 
 @router.get("/runs/{run_id}/metrics.json", responses=RUN_GONE, summary="Download the metrics (JSON)")
