@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from ftin import protocol
-from ftin.data.readers import oxiod, ridi
+from ftin.data.io import oxiod_layout
+from ftin.data.readers import ridi
 from ftin.report.crossval_records import (
     DATASETS,
     GROUND_TRUTH,
@@ -120,7 +121,7 @@ def carry_of(dataset: str, recording: str) -> str:
     if dataset == protocol.INRIA:
         return recording.rsplit("_", 1)[-1]
     if dataset == protocol.OXIOD:
-        return oxiod.carry_mode(Path(recording))
+        return oxiod_layout.carry_mode(Path(recording))
     if dataset == protocol.RIDI:
         return ridi.carry_mode(Path(recording))
     return "unknown"

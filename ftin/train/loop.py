@@ -31,7 +31,6 @@ Decisions:
 
 from __future__ import annotations
 
-import json
 import sys
 import threading
 import time
@@ -44,7 +43,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from ftin.checkpoint import CheckpointError, load_model, save_checkpoint
+from ftin.checkpoint import save_checkpoint
 from ftin.data.loading import data_rate_hz, load_sequences
 from ftin.data.types import ImuSequence
 from ftin.interrupts import stop_on_signals
@@ -55,6 +54,7 @@ from ftin.train.data import TrainData, training_data
 from ftin.train.distributed import Distributed, distributed, parts_module
 from ftin.train.losses import LossFn, make_loss, uses_nll
 from ftin.train.sparse_truth import segment_loss, split_output
+from ftin.train.start_weights import freeze_except, initialise_from, keep_frozen_in_eval
 from ftin.train.state import (
     CONFIG_FILE,
     RESUME_FILE,
@@ -137,7 +137,7 @@ def _setup(
         raise ConfigError(f"model {config.model!r}: {exc}") from None
     config = config.with_(window=window, out_dim=model.out_dim)
     if config.init_from is not None and not resume:  # a resumed run starts from its resume state
-        _initialise_from(model, config)
+        initialise_from(model, config)
     try:
         parts = model.check_parts(window)
     except ValueError as exc:
@@ -197,63 +197,6 @@ def _setup(
         show_progress=show_progress and ddp.main,
         loss_switch=config.nll_warmup_epochs if use_nll and config.nll_warmup_epochs > 0 else None,
     )
-
-
-def _initialise_from(model: VelocityModel, config: TrainConfig) -> None:
-    """Copy the weights of the checkpoint ``config.init_from`` into ``model``, which must be the same
-    model with the same kwargs (JSON-compared: a checkpoint stores tuples as lists) at the same rate.
-    With ``train_only``, the checkpoint may lack exactly the parameters that train (a new head) and
-    the kwarg that adds them (``uncertainty_head``)."""
-    try:
-        loaded = load_model(config.init_from)
-    except CheckpointError as exc:
-        raise ConfigError(f"init_from: {exc}") from None
-    ours_kwargs = json.loads(json.dumps(model.config))
-    theirs_kwargs = json.loads(json.dumps(loaded.model.config))
-    if config.train_only:
-        ours_kwargs.pop(NEW_HEAD_KWARG, None)
-        theirs_kwargs.pop(NEW_HEAD_KWARG, None)
-    ours = (config.model, ours_kwargs, config.imu_rate_hz)
-    theirs = (loaded.model_name, theirs_kwargs, loaded.imu_rate_hz)
-    if ours != theirs:
-        raise ConfigError(
-            f"init_from {config.init_from}: its {theirs[0]} {theirs[1]} at {theirs[2]:g} Hz cannot start "
-            f"this run's {ours[0]} {ours[1]} at {ours[2]:g} Hz (give the checkpoint's model, kwargs and rate)"
-        )
-    missing, unexpected = model.load_state_dict(loaded.model.state_dict(), strict=not config.train_only)
-    untrained = [k for k in missing if not k.startswith(config.train_only)]
-    if untrained or unexpected:
-        raise ConfigError(
-            f"init_from {config.init_from}: weights missing {untrained[:3]}, unexpected {unexpected[:3]}"
-        )
-
-
-NEW_HEAD_KWARG = "uncertainty_head"  # the kwarg that adds a head a checkpoint may lack (train_only)
-
-
-def freeze_except(model: VelocityModel, prefixes: tuple[str, ...]) -> list[torch.nn.Parameter]:
-    """The parameters that train: all, or (``prefixes``) those whose names start with one of them,
-    every other one frozen (``requires_grad`` off). ``keep_frozen_in_eval`` keeps their batch norms."""
-    if not prefixes:
-        return list(model.parameters())
-    trained = []
-    for name, parameter in model.named_parameters():
-        parameter.requires_grad_(name.startswith(prefixes))
-        if parameter.requires_grad:
-            trained.append(parameter)
-    if not trained:
-        raise ConfigError(f"train_only {list(prefixes)}: no parameter of this model has such a name")
-    return trained
-
-
-def keep_frozen_in_eval(model: torch.nn.Module) -> None:
-    """Put every part of ``model`` whose parameters are all frozen into evaluation mode (after
-    ``train()``): frozen batch norms keep their running statistics and the dropout inside frozen parts
-    is off, so the frozen part computes exactly what the checkpoint shipped."""
-    for module in model.modules():
-        parameters = list(module.parameters())
-        if parameters and not any(p.requires_grad for p in parameters):
-            module.eval()  # its children too
 
 
 @dataclass

@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
+from ftin.data.io import oxiod_layout
 from ftin.data.readers import oxiod
 from ftin.data.windows import world_imu
 
@@ -259,8 +260,8 @@ def test_written_folder_discovery_and_carry(tmp_path: Path):
         "multi users/user2/syn/imu4.csv",
         "pocket/data1/syn/imu2.csv",
     ]
-    assert [oxiod.carry_mode(p) for p in found] == ["handheld", "pocket"]
-    assert oxiod.carry_mode(tmp_path / "somewhere" / "imu1.csv") == "unknown"
+    assert [oxiod_layout.carry_mode(p) for p in found] == ["handheld", "pocket"]
+    assert oxiod_layout.carry_mode(tmp_path / "somewhere" / "imu1.csv") == "unknown"
     assert oxiod.discover(found[0]) == [found[0]]
 
 

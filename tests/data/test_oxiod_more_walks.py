@@ -12,7 +12,7 @@ import pytest
 
 from ftin.data import frames
 from ftin.data.errors import DataFormatError
-from ftin.data.io import tango
+from ftin.data.io import oxiod_layout, tango
 from ftin.data.io.oxiod_csv import read_phone
 from ftin.data.readers import oxiod
 
@@ -32,7 +32,7 @@ def test_discover_lists_all_42_walks(oxiod_root: Path):
     found = oxiod.discover(oxiod_root)
     assert len(found) == 42
     assert sum(p.name.endswith(".csv.xz") for p in found) == 30
-    assert sum(oxiod.ground_truth_path(p).name.startswith("tango") for p in found) == 10
+    assert sum(oxiod_layout.ground_truth_path(p).name.startswith("tango") for p in found) == 10
     folders = {p.relative_to(oxiod_root).parts[0] for p in found}
     first_twelve = {"handheld", "multi users", "trolley"}
     assert folders == first_twelve | {"large scale", "multi devices", "pocket", "running"}
@@ -54,9 +54,9 @@ def test_discover_lists_all_42_walks(oxiod_root: Path):
 )
 def test_carry_walker_and_phone_from_the_release(relative: str, carry: str, walker: str, phone: str):
     path = Path(relative)  # no file needed: names only
-    assert oxiod.carry_mode(path) == carry
-    assert oxiod.walker_and_phone(path) == (walker, phone)
-    source = oxiod.carry_and_source(path)[1]
+    assert oxiod_layout.carry_mode(path) == carry
+    assert oxiod_layout.walker_and_phone(path) == (walker, phone)
+    source = oxiod_layout.carry_and_source(path)[1]
     assert source == {"user3": "user3 Readme.txt"}.get(path.parts[1], source)
     if carry == "unknown":
         assert source == "not documented in the release"

@@ -56,7 +56,6 @@ Decisions (all options of :func:`read`):
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -69,6 +68,13 @@ from ftin.data import frames
 from ftin.data.errors import DataFormatError
 from ftin.data.io import tango
 from ftin.data.io.oxiod_csv import STANDARD_GRAVITY_M_S2, PhoneRows, read_numeric_csv, read_phone
+from ftin.data.io.oxiod_layout import (
+    IMU_NAME,
+    carry_and_source,
+    ground_truth_path,
+    sequence_name,
+    walker_and_phone,
+)
 from ftin.data.io.row_lag import overlap
 from ftin.data.io.vicon_sync import vicon_lag
 from ftin.data.readers._registry import register_reader
@@ -79,26 +85,6 @@ FORMAT = "oxiod"
 LABEL = "OxIOD"
 
 VICON_COLUMNS = 9
-_IMU_NAME = re.compile(r"imu(\d+)(\.csv(?:\.xz)?)")
-
-# Folder names of the OxIOD release -> carry mode. "multi users", "running" and "slow walking"
-# were recorded with the phone in the hand (the OxIOD paper's motion-mode sets).
-CARRY_BY_FOLDER = {
-    "handheld": "handheld",
-    "multi users": "handheld",
-    "running": "handheld",
-    "slow walking": "handheld",
-    "pocket": "pocket",
-    "handbag": "bag",
-    "trolley": "trolley",
-    "multi devices": "handheld",  # the shared README: the other phones were hand-held
-}
-# Walks whose carry mode the release documents per sequence: user3's Readme.txt ("1-2: handheld,
-# 3-5: pocket, 6-7: handbag"). user4's walks and the large-scale floor walks are not documented.
-CARRY_BY_WALK = {
-    "user3": {1: "handheld", 2: "handheld", 3: "pocket", 4: "pocket", 5: "pocket", 6: "bag", 7: "bag"}
-}
-UNDOCUMENTED_CARRY = ("user4", "large scale")
 
 
 class OrientationSource(str, Enum):
@@ -115,52 +101,6 @@ def discover(root: Path) -> list[Path]:
     if not root.is_dir():
         raise DataFormatError(f"{root}: no such directory")
     return sorted(p for p in root.rglob("imu*.csv*") if ground_truth_path(p) is not None)
-
-
-def ground_truth_path(imu_path: Path) -> Path | None:
-    """The ``viN`` (Vicon) or else ``tangoN`` (Tango) file beside ``imuN``, plain or xz; None if none."""
-    match = _IMU_NAME.fullmatch(imu_path.name)
-    if match is None:
-        return None
-    for stem in ("vi", "tango"):
-        for suffix in dict.fromkeys((match.group(2), ".csv", ".csv.xz")):
-            path = imu_path.with_name(f"{stem}{match.group(1)}{suffix}")
-            if path.is_file():
-                return path
-    return None
-
-
-def carry_and_source(path: Path) -> tuple[str, str]:
-    """Carry mode as the release documents it (module docstring), else ``"unknown"``, and where it
-    was found: ``"user3 Readme.txt"``, ``"folder name"``, ``"not documented in the release"``, ``"none"``."""
-    match = _IMU_NAME.fullmatch(Path(path).name)
-    number = None if match is None else int(match.group(1))
-    for part in reversed([part.lower() for part in Path(path).parent.parts]):
-        if number in CARRY_BY_WALK.get(part, {}):
-            return CARRY_BY_WALK[part][number], f"{part} Readme.txt"
-        if part in UNDOCUMENTED_CARRY:
-            return "unknown", "not documented in the release"
-        if part in CARRY_BY_FOLDER:
-            return CARRY_BY_FOLDER[part], "folder name"
-    return "unknown", "none"
-
-
-def carry_mode(path: Path) -> str:
-    """Carry mode as the release documents it (:func:`carry_and_source`), else ``"unknown"``."""
-    return carry_and_source(path)[0]
-
-
-def walker_and_phone(path: Path) -> tuple[str, str]:
-    """``("user3", "iPhone")``-style: the walker named by a ``multi users`` folder, the phone by a
-    ``multi devices`` folder; "unknown" and "iPhone" where the release names neither."""
-    parents = [part for part in Path(path).parent.parts if part.lower() != "syn"]
-    walker, phone = "unknown", "iPhone"
-    for above, folder in zip(parents, parents[1:], strict=False):
-        if above.lower() == "multi users":
-            walker = folder
-        elif above.lower() == "multi devices":
-            phone = {"nexus 5": "Nexus 5"}.get(folder.lower(), folder)
-    return walker, phone
 
 
 @dataclass(frozen=True)
@@ -245,7 +185,7 @@ def read(
     imu_path = Path(path)
     truth_path = ground_truth_path(imu_path)
     if truth_path is None:
-        match = _IMU_NAME.fullmatch(imu_path.name)
+        match = IMU_NAME.fullmatch(imu_path.name)
         if match is None:
             raise DataFormatError(f"{imu_path}: an OxIOD sequence is named imuN.csv (N a number)")
         raise DataFormatError(
@@ -359,7 +299,7 @@ def read(
     }
     if q_world_device is None:
         del meta["orientation_source"]  # as for a phone export without orientation
-    name = _sequence_name(imu_path)
+    name = sequence_name(imu_path)
     mag = None if phone.mag_uT is None else phone.mag_uT[keep]
     seq = ImuSequence(name, t_s[keep], gyro[keep], acc[keep], q_world_device, gt, meta, mag)
     return validate_read(seq)  # the checks every reader shares
@@ -442,11 +382,3 @@ def _repair_warnings(repair: frames.PoseRepair, truth_path: Path, first_row: int
         k += first_row
         warnings.append(f"{system} jump between rows {k + 1} and {k + 2} of {truth_path.name} left as is")
     return warnings
-
-
-def _sequence_name(imu_path: Path) -> str:
-    """``handheld/data1/imu2``-style name: the folders that tell sequences apart, without ``syn``."""
-    parents = [p for p in imu_path.parent.parts[-3:] if p.lower() != "syn"]
-    match = _IMU_NAME.fullmatch(imu_path.name)
-    stem = imu_path.stem if match is None else f"imu{match.group(1)}"  # without .csv / .csv.xz
-    return "/".join([*parents[-2:], stem])
