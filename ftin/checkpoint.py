@@ -6,6 +6,8 @@ wants to know (training data, split, metrics, wall time, epochs, package version
 - No pickle anywhere: weights are safetensors, the rest JSON (strict: non-finite floats become null).
 - The JSON stores the SHA-256 of the weights file, so a pair written by different saves, or a
   corrupted weights file, is reported instead of silently loaded.
+- A checkpoint says which model it belongs to in its JSON: ``model_name`` (the architecture) and
+  ``tag`` (which of its weights: ``oxiod``), never by its file name (``checkpoint_tag``).
 - Weights may be stored as float16 (half the size); ``load_model`` upcasts them to the model's dtype.
 - Files are written atomically (``ftin.files``); the weights go first, the JSON (which names
   their hash) last.
@@ -16,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import importlib.metadata
 import json
+import re
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +36,7 @@ from ftin.models.base import VelocityModel
 FORMAT_VERSION = 1
 WEIGHTS_SUFFIX = ".safetensors"
 META_SUFFIX = ".json"
+TAG = re.compile(r"[a-z0-9][a-z0-9_-]*")  # a checkpoint's ``tag``: ``oxiod``, ``pedestrian``
 
 
 class CheckpointError(ValueError):
@@ -73,6 +77,7 @@ class LoadedModel:
     out_dim: int
     normalization: InputNormalization
     meta: dict[str, Any]
+    tag: str | None = None  # which weights of ``model_name`` these are ("oxiod"): ``checkpoint_tag``
 
 
 def checkpoint_paths(path: str | Path) -> tuple[Path, Path]:
@@ -169,7 +174,25 @@ def load_model(path: str | Path, device: str | torch.device = "cpu") -> LoadedMo
         out_dim=int(meta.get("out_dim", model.out_dim)),
         normalization=normalization,
         meta=meta,
+        tag=checkpoint_tag(meta, weights_path.name.removesuffix(WEIGHTS_SUFFIX)),
     )
+
+
+def checkpoint_tag(meta: dict[str, Any], stem: str) -> str | None:
+    """Which weights of its model a checkpoint holds, as timm ties ``arch.tag``: ``"oxiod"`` for the
+    ``ftin`` trained on OxIOD, ``""`` for a model's only weights. Its JSON's ``tag`` says so; a
+    checkpoint saved before the field existed falls back on its file stem (``ftin-oxiod``: what
+    follows the model's name), and one whose stem does not start with its model's name has none (None:
+    it is shown by its file name)."""
+    if "tag" in meta:
+        return str(meta["tag"])
+    model, lowered = str(meta.get("model_name", "")).lower(), stem.lower()
+    if not model or not lowered.startswith(model):
+        return None
+    rest = stem[len(model) :]
+    if rest and rest[0] not in "-_ .":
+        return None  # "rnin" is not the start of "ronin_resnet-ridi": no tag rather than a wrong one
+    return rest.strip("-_ .")
 
 
 def package_version() -> str:
@@ -203,6 +226,11 @@ def _read_meta(json_path: Path) -> dict[str, Any]:
         raise CheckpointError(f"{json_path}: missing key(s) {', '.join(missing)}")
     if not isinstance(meta["model_kwargs"], dict):
         raise CheckpointError(f"{json_path}: model_kwargs must be a JSON object")
+    if "tag" in meta and not (isinstance(meta["tag"], str) and TAG.fullmatch(meta["tag"])):
+        raise CheckpointError(
+            f"{json_path}: tag must say which weights of {meta['model_name']!r} these are in lower-case "
+            f"letters, digits, '_' or '-' (e.g. \"oxiod\"), got {meta['tag']!r}"
+        )
     return meta
 
 

@@ -7,7 +7,7 @@ import json
 import pytest
 import torch
 
-from ftin.checkpoint import CheckpointError, checkpoint_paths, load_model, save_checkpoint
+from ftin.checkpoint import CheckpointError, checkpoint_paths, checkpoint_tag, load_model, save_checkpoint
 from ftin.data.windows import InputNormalization, Normalization
 from ftin.models import create_model
 
@@ -148,3 +148,39 @@ def test_save_requires_core_meta(tmp_path):
     model = create_model("ronin_tcn", **TINY)
     with pytest.raises(ValueError, match="imu_rate_hz"):
         save_checkpoint(tmp_path / "x", model, {"model_name": "ronin_tcn", "window": 25})
+
+
+def test_a_checkpoint_says_which_weights_it_holds_not_its_file_name(tmp_path):
+    """``tag`` in the JSON decides (a renamed file keeps it); a checkpoint from before the field falls
+    back on its stem; a stem that does not start with the model's name gives no tag (shown as a file)."""
+    _model, path, _norm = _save(tmp_path, name="renamed_by_hand")
+    json_path = tmp_path / "renamed_by_hand.json"
+    meta = json.loads(json_path.read_text())
+    assert load_model(path).tag is None  # no field and a stem that names no model
+    json_path.write_text(json.dumps({**meta, "tag": "oxiod"}))
+    assert load_model(path).tag == "oxiod"
+    _save(tmp_path, name="ronin_tcn-ridi")  # an old checkpoint: no field, the stem's words
+    assert load_model(tmp_path / "ronin_tcn-ridi").tag == "ridi"
+    for bad in ("", "OxIOD", 3, "a b"):
+        json_path.write_text(json.dumps({**meta, "tag": bad}))
+        with pytest.raises(CheckpointError, match="tag must say which weights of 'ronin_tcn'"):
+            load_model(path)
+
+
+def test_checkpoint_tag_fallback_does_not_split_a_longer_model_name():
+    assert checkpoint_tag({"model_name": "rnin"}, "rnin-oxiod") == "oxiod"
+    assert checkpoint_tag({"model_name": "ronin"}, "ronin_resnet-ridi") == "resnet-ridi"
+    assert checkpoint_tag({"model_name": "rnin"}, "rninx-oxiod") is None
+    assert checkpoint_tag({"model_name": "ftin"}, "ftin") == ""
+    assert checkpoint_tag({"model_name": "ftin", "tag": "walking"}, "anything") == "walking"
+
+
+def test_every_shipped_checkpoint_names_its_tag():
+    """The shipped cards say which weights they hold; their file names agree (``<model>-<tag>``)."""
+    from ftin.files import DEFAULT_CHECKPOINT_DIR
+
+    cards = [p for p in sorted(DEFAULT_CHECKPOINT_DIR.glob("*.json")) if p.name != "default.json"]
+    assert cards
+    for card in cards:
+        meta = json.loads(card.read_text())
+        assert card.stem == f"{meta['model_name']}-{meta['tag']}", card.name

@@ -50,7 +50,7 @@ class ModelEntry:
     @property
     def display_name(self) -> str:
         """The name people know ("RNIN · OxIOD"); ``name`` stays the API's."""
-        return display_name(self.name, self.architecture)
+        return display_name(self.name, self.architecture, self.loaded.tag)
 
     @property
     def meta(self) -> dict[str, Any]:

@@ -6,10 +6,10 @@ Decisions:
   a dataset's words are its reader's ``LABEL``, kept with the reader (``ftin.data.readers``).
 - A checkpoint's kinds are the datasets its card names (``ftin train`` records them,
   ``ftin.train.provenance``); older cards are read by the words of their paths. A sequence's kind
-  comes from its
-  reader format, its folder and its name: ``oxiod``, ``ronin``, ``ridi``, ``tlio``, ``rnin``,
-  ``imunet``, ``euroc``, ``inria`` (the ``inria_attitude`` reader and folder), and ``simulated``
-  (the ``sim`` folder or ``sim_*`` names of ``ftin sim``, and the bundled samples). Anything else has no kind.
+  comes from its reader format, its folder and its name: a dataset a reader registers
+  (``@register_reader(dataset=...)``: ``oxiod``, ``ronin``, ``ridi``, ..., ``inria`` for the
+  ``inria_attitude`` reader and folder), and ``simulated`` (the ``sim`` folder or ``sim_*`` names of
+  ``ftin sim``, and the bundled samples). Anything else has no kind.
 - A checkpoint may be trained on several kinds (``ftin-pedestrian``: OxIOD and RIDI). The scene ticks,
   for a sequence, a checkpoint trained on its kind (an FTIN one first, the default model before the
   other FTIN ones); without one, the default model.
@@ -20,17 +20,17 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-from ftin.data.readers import reader_label
+from ftin.data.readers import dataset_formats, dataset_label
 
 SIMULATED = "simulated"
-# The reader formats that are datasets, in the order ``kind_of`` tries them (a phone export or a generic
-# CSV is no kind of data). A kind is its format's first word, the one folders and cards name it by
-# (``inria_attitude`` -> ``inria``); its label is the reader's (``ftin.data.readers.reader_label``).
-DATASET_FORMATS = ("oxiod", "ronin", "ridi", "tlio", "rnin", "imunet", "euroc", "inria_attitude")
+# The datasets the readers read (``@register_reader(dataset=...)``), in their priority order, which
+# ``kind_of`` tries; a phone export or a generic CSV is no kind of data. A kind is its dataset's name,
+# the one folders and cards name it by; its label is the reader's (``ftin.data.readers``).
+DATASET_FORMATS = dataset_formats()  # kind -> reader format
 
 KIND_LABELS = {
     SIMULATED: "simulated walks",  # no reader of its own: ``ftin sim`` writes generic CSV files
-    **{fmt.split("_")[0]: reader_label(fmt) for fmt in DATASET_FORMATS},
+    **{kind: dataset_label(kind) for kind in DATASET_FORMATS},
 }
 
 _WORD = re.compile(r"[a-z0-9]+")

@@ -4,10 +4,11 @@ the page and the scene show it.
 
 Decisions:
 - The name is the architecture's published spelling (its registry ``label``, ``ftin.models``), then
-  what the stem says after it: a data kind in its own spelling (``app.services.kinds``), any other
-  word as written (``pedestrian``).
-- A stem that does not start with its architecture's name (a renamed file) is shown as is: a
-  made-up name would hide which file it is.
+  the checkpoint's ``tag`` (its JSON says which weights of the model these are,
+  ``ftin.checkpoint.checkpoint_tag``): a data kind in its own spelling (``app.services.kinds``), any
+  other word as written (``pedestrian``). The file's name plays no part, so a renamed file keeps it.
+- A checkpoint without a tag (saved before the field, under a stem that does not start with its
+  model's name) is shown by its stem: a made-up name would hide which file it is.
 """
 
 from __future__ import annotations
@@ -19,13 +20,14 @@ from ftin.models import list_models, model_label
 _DATA_WORDS = {"sim": KIND_LABELS[SIMULATED], **KIND_LABELS}
 
 
-def display_name(stem: str, architecture: str) -> str:
-    """``display_name("rnin-oxiod", "rnin")`` -> "RNIN · OxIOD"; the stem when it names no architecture."""
+def display_name(stem: str, architecture: str, tag: str | None) -> str:
+    """``display_name("rnin-oxiod", "rnin", "oxiod")`` -> "RNIN · OxIOD"; the stem without a tag or
+    for an architecture the registry does not know."""
     arch = architecture.lower()
-    if arch not in list_models() or not stem.lower().startswith(arch):
+    if tag is None or arch not in list_models():
         return stem
     label = model_label(arch)
-    rest = stem[len(arch) :].strip("-_ ")
+    rest = tag.strip("-_ ")
     if not rest:
         return label
     data = _DATA_WORDS.get(rest.lower(), rest.replace("_", " "))

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ftin.data.readers import dataset_folder, dataset_label
+
 OXIOD = "oxiod"
 RIDI = "ridi"
 INRIA = "inria"  # the Inria smartphone attitude benchmark (walks with Qualisys ground truth)
@@ -28,10 +30,11 @@ PEDESTRIAN = "pedestrian"  # OxIOD and RIDI together, at 100 Hz (the first campa
 WALKING = "walking"  # every walking dataset together (OxIOD, RIDI, Inria), at 100 Hz
 SIM = "sim"
 COMBINED = {PEDESTRIAN: (OXIOD, RIDI), WALKING: (OXIOD, RIDI, INRIA)}
-# How reports name the datasets.
-DATASET_LABELS = {OXIOD: "OxIOD", RIDI: "RIDI", INRIA: "Inria"}
-# Where each dataset lives under the data root (the Inria reader reads ``<platform>/<walk>`` folders).
-DATA_FOLDERS = {OXIOD: "oxiod", RIDI: "ridi", INRIA: "inria_attitude/datasets"}
+_PROTOCOL_DATASETS = (OXIOD, RIDI, INRIA)
+# How reports name the datasets, and where each lives under the data root: their readers say
+# (``@register_reader(dataset=..., folder=...)``; the Inria reader reads ``<platform>/<walk>`` folders).
+DATASET_LABELS = {d: dataset_label(d) for d in _PROTOCOL_DATASETS}
+DATA_FOLDERS = {d: dataset_folder(d) for d in _PROTOCOL_DATASETS}
 # Orientation sources a dataset's test and validation parts are scored with: the reference (the network
 # alone), the phone's own attitude, and ``PHONE_ONLY``: the recording as a phone alone gives it (its
 # attitude removed; ``auto`` chooses from gyroscope, accelerometer and magnetometer), what a user has.

@@ -34,7 +34,7 @@ from safetensors import safe_open
 from safetensors.torch import save as save_safetensors
 from torch import nn
 
-from ftin.checkpoint import CheckpointError
+from ftin.checkpoint import CheckpointError, checkpoint_tag
 from ftin.files import atomic_write_bytes, to_json_safe, write_json
 from ftin.train.config import BUDGET_FIELDS, ConfigError, TrainConfig
 
@@ -129,8 +129,12 @@ def checkpoint_meta(
     """The run's part of its best checkpoint's JSON (``ftin.checkpoint.save_checkpoint`` adds the
     model's); ``metrics`` are those of the last finished epoch, ``partial`` before any ended."""
     last = progress.history[-1] if progress.history else {}
+    # Which weights of the model these are, said in the card from here on (never read off a file name
+    # again): what the run's name says after the model's ("ftin-oxiod" -> "oxiod").
+    tag = checkpoint_tag({"model_name": config.model}, config.checkpoint_name)
     return {
         "model_name": config.model,
+        **({} if tag is None else {"tag": tag}),
         "imu_rate_hz": config.imu_rate_hz,
         "window": config.window,
         "stride": config.stride,

@@ -93,13 +93,13 @@ def test_a_walking_model_fills_an_inria_column_and_a_row_of_its_own(folder):
     results, manifest = load_results(folder)
     md, _, summary = render(results, manifest)
     assert summary["datasets"]["inria"]["test/ground_truth"]["ftin-walking"]["ate"]["mean"] == 0.6
-    assert "### Inria, test, ground-truth orientation" in md
+    assert "### Inria attitude benchmark, test, ground-truth orientation" in md  # the reader's LABEL
     assert "| FTIN-walking (every walking dataset) | 1 | 0.600 |" in md
     layout = md.split("## Test recordings, in the layout of the paper's Table 1")[1].split("\n## ")[0]
     ate_rows = [
         [c.strip() for c in line.strip("|").split("|")] for line in layout.splitlines() if "| ATE |" in line
     ]
-    assert ate_rows[-1][0] == "Inria"
+    assert ate_rows[-1][0] == "Inria attitude benchmark"
     header = next(line for line in layout.splitlines() if line.startswith("| Dataset"))
     column = [name.strip() for name in header.strip("|").split("|")].index("FTIN-walking")
     assert ate_rows[-1][column] == "**0.600**"  # the only pedestrian column: best of its group

@@ -7,7 +7,8 @@ Each public module ``ftin.data.readers.<format>`` is a reader and follows one co
 * ``discover(root) -> list[Path]``: every sequence of the format under ``root`` (recursive, sorted);
   a path identifies one sequence, a file or a folder, whatever ``read`` takes;
 * ``read(path, **options) -> ImuSequence``, raising ``DataFormatError`` on bad input, decorated with
-  ``@register_reader(priority=...)`` (``_registry``: the priority orders detection);
+  ``@register_reader(priority=...)`` (``_registry``: the priority orders detection), and with
+  ``dataset="name"`` (and ``folder=`` where it is not the name) when it reads a dataset;
 * optionally ``claims(path) -> bool``: a cheap "is this one of my sequences?" used for
   auto-detection; without it detection asks ``discover`` about the path's folder;
 * optionally, for a phone app's export, ``claims_export(files) -> bool`` and
@@ -27,9 +28,27 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-from ftin.data.readers._registry import PRIORITY, READERS, export_readers, reader_label, register_reader
+from ftin.data.readers._registry import (
+    PRIORITY,
+    READERS,
+    dataset_folder,
+    dataset_formats,
+    dataset_label,
+    export_readers,
+    reader_label,
+    register_reader,
+)
 
-__all__ = ["PRIORITY", "READERS", "export_readers", "reader_label", "register_reader"]
+__all__ = [
+    "PRIORITY",
+    "READERS",
+    "dataset_folder",
+    "dataset_formats",
+    "dataset_label",
+    "export_readers",
+    "reader_label",
+    "register_reader",
+]
 
 for _module in pkgutil.iter_modules(__path__):
     if not _module.name.startswith("_"):

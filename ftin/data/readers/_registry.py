@@ -23,6 +23,11 @@ Decisions:
   CSV 0 (last: it accepts any CSV whose header names the required columns, RIDI's and RNIN's included).
 * ``LABEL`` is how people name the format ("OxIOD", "Sensor Logger export"): the app's kinds of data
   (``app.services.kinds``) read it here (``reader_label``), so a new reader brings its own words.
+* A reader of a dataset says so on its registration: ``dataset=`` is the dataset's one name (the one
+  the protocol, the folders under the data root and checkpoint cards use: ``"oxiod"``, ``"inria"``)
+  and ``folder=`` where it lives under the data root when that is not its name. Phone exports and the
+  generic CSV read no dataset. The app's kinds of data and the protocol's datasets list them here
+  (``dataset_formats``, ``dataset_label``, ``dataset_folder``), so no other list names them.
 * Registering a second module under a format already taken is an error, not a silent replacement.
 * A format whose sequences are folders marked by their own files (RoNIN, TLIO, RNIN) passes its
   ``layout`` (``ftin.data.io.sequence_folders.MarkedFolderLayout``): the module's ``discover`` and
@@ -38,13 +43,20 @@ from typing import Any, TypeVar
 
 READERS: dict[str, ModuleType] = {}  # format -> reader module, highest priority first
 PRIORITY: dict[str, int] = {}  # format -> its priority
+DATASETS: dict[str, str] = {}  # dataset name -> the format of its reader
+FOLDERS: dict[str, str] = {}  # dataset name -> its folder under the data root
 
 ReadFunction = TypeVar("ReadFunction", bound=Callable[..., object])
 
 
-def register_reader(priority: int, layout: Any = None) -> Callable[[ReadFunction], ReadFunction]:
+def register_reader(
+    priority: int, layout: Any = None, *, dataset: str | None = None, folder: str | None = None
+) -> Callable[[ReadFunction], ReadFunction]:
     """Decorator on a reader module's ``read``: adds the module to ``READERS`` under its ``FORMAT``
-    (with ``layout``, the module's ``discover`` and ``claims`` are the layout's)."""
+    (with ``layout``, the module's ``discover`` and ``claims`` are the layout's); ``dataset``: the
+    dataset it reads, found under ``folder`` of the data root (default: the dataset's name)."""
+    if folder is not None and dataset is None:
+        raise TypeError("register_reader: folder= goes with dataset=")
 
     def register(read: ReadFunction) -> ReadFunction:
         module = sys.modules[read.__module__]
@@ -59,6 +71,11 @@ def register_reader(priority: int, layout: Any = None) -> Callable[[ReadFunction
         taken = READERS.get(fmt)
         if taken is not None and taken.__name__ != module.__name__:
             raise ValueError(f"{module.__name__}: format {fmt!r} is already registered by {taken.__name__}")
+        if dataset is not None:
+            owner = DATASETS.get(dataset)
+            if owner is not None and owner != fmt:
+                raise ValueError(f"{module.__name__}: dataset {dataset!r} is already read by {owner!r}")
+            DATASETS[dataset], FOLDERS[dataset] = fmt, folder or dataset
         PRIORITY[fmt] = priority
         ordered = sorted({**READERS, fmt: module}.items(), key=lambda item: (-PRIORITY[item[0]], item[0]))
         READERS.clear()
@@ -74,6 +91,26 @@ def reader_label(fmt: str) -> str:
     if module is None:
         raise ValueError(f"no reader is registered for format {fmt!r}; formats: {', '.join(READERS)}")
     return str(module.LABEL)
+
+
+def dataset_formats() -> dict[str, str]:
+    """Every dataset a reader reads, by its name, with that reader's format, in the readers' priority
+    order: ``{"oxiod": "oxiod", ..., "inria": "inria_attitude"}``."""
+    return {name: fmt for fmt in READERS for name, owner in DATASETS.items() if owner == fmt}
+
+
+def dataset_label(dataset: str) -> str:
+    """How people name ``dataset``: its reader's ``LABEL`` (``"oxiod"`` -> ``"OxIOD"``)."""
+    if dataset not in DATASETS:
+        raise ValueError(f"no reader reads a dataset {dataset!r}; datasets: {', '.join(DATASETS)}")
+    return reader_label(DATASETS[dataset])
+
+
+def dataset_folder(dataset: str) -> str:
+    """Where ``dataset`` lives under the data root: ``"inria"`` -> ``"inria_attitude/datasets"``."""
+    if dataset not in FOLDERS:
+        raise ValueError(f"no reader reads a dataset {dataset!r}; datasets: {', '.join(FOLDERS)}")
+    return FOLDERS[dataset]
 
 
 def export_readers() -> list[ModuleType]:

@@ -115,7 +115,7 @@ def _read_asl_csv(path: Path, min_columns: int, what: str) -> tuple[np.ndarray, 
     return t_ns, values
 
 
-@register_reader(priority=90)
+@register_reader(priority=90, dataset="euroc")
 def read(path: Path, max_gt_gap_s: float = 0.05) -> ImuSequence:
     """Read one EuRoC sequence folder (the one holding ``mav0``)."""
     seq_dir = _sequence_dir(path)

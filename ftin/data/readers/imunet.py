@@ -51,7 +51,7 @@ def discover(root: Path) -> list[Path]:
     return ridi.discover_processed(root, ridi.is_arcore_recording)
 
 
-@register_reader(priority=60)
+@register_reader(priority=60, dataset="imunet")
 def read(path: Path, solve_extrinsic: bool = True, align_window_s: float = 1.0) -> ImuSequence:
     """Read one IMUNet recording; ``path`` is its folder (or ``processed/data.csv`` inside it)."""
     return ridi.read_processed_csv(

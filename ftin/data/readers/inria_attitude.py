@@ -255,7 +255,7 @@ def _on_clock_tracked(mocap: qualisys.Mocap, clock: np.ndarray) -> np.ndarray:
     return mocap.tracked[k - 1] & mocap.tracked[k]
 
 
-@register_reader(priority=35)
+@register_reader(priority=35, dataset="inria", folder="inria_attitude/datasets")
 def read(
     path: Path,
     orientation: str = "device",

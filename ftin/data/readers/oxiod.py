@@ -159,7 +159,7 @@ def solve_device_to_marker(
     return DeviceToMarker(rotation, rms(gyro_smooth, w_marker), rms(acc_smooth, f_marker))
 
 
-@register_reader(priority=100)
+@register_reader(priority=100, dataset="oxiod")
 def read(
     path: Path,
     orientation: OrientationSource | str = OrientationSource.GROUND_TRUTH,

@@ -227,7 +227,7 @@ def read_processed_csv(
     return validate_read(seq)  # the checks every reader shares
 
 
-@register_reader(priority=70)
+@register_reader(priority=70, dataset="ridi")
 def read(path: Path, align_window_s: float = 1.0, orientation: str = "device") -> ImuSequence:
     """Read one RIDI sequence; ``path`` is its folder (or ``processed/data.csv`` inside it)."""
     return read_processed_csv(path, FORMAT, align_window_s=align_window_s, orientation=orientation)

@@ -57,7 +57,7 @@ def _is_constant_pose(q_wxyz: np.ndarray) -> bool:
     return bool(identity_start or np.array_equal(q_wxyz[0], q_wxyz[-1]))
 
 
-@register_reader(priority=40, layout=LAYOUT)
+@register_reader(priority=40, layout=LAYOUT, dataset="rnin")
 def read(path: Path, subtract_vio_bias: bool = True) -> ImuSequence:
     """Read one RNIN-VIO sequence; ``path`` is its folder (or its ``SenseINS.csv``)."""
     folder = LAYOUT.sequence_dir(path)

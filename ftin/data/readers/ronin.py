@@ -116,7 +116,7 @@ def _hdf5_array(
     return array
 
 
-@register_reader(priority=80, layout=LAYOUT)
+@register_reader(priority=80, layout=LAYOUT, dataset="ronin")
 def read(
     path: Path,
     orientation: RoninOrientation | str = RoninOrientation.GAME_RV,

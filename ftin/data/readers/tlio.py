@@ -124,7 +124,7 @@ def read_calibration(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return result
 
 
-@register_reader(priority=50, layout=LAYOUT)
+@register_reader(priority=50, layout=LAYOUT, dataset="tlio")
 def read(path: Path, calibration: Calibration | str = Calibration.AUTO) -> ImuSequence:
     """Read one TLIO sequence; ``path`` is its folder (or its ``imu0_resampled.npy``)."""
     calibration = Calibration(calibration)

@@ -1,14 +1,20 @@
 """Live push formats, one module each, by name: ``FORMATS["sensorlogger"]`` is Sensor Logger's HTTP
 Push. A second app's stream (phyphox's remote access, an MQTT bridge) is one more module here that
-builds a ``PushFormat`` (its parser maps its sensors onto ``ftin.live.messages``' names) and one
-more entry below; the endpoint ``POST /live/{name}`` and the sessions come with it."""
+builds a ``PushFormat`` (its parser maps its sensors onto ``ftin.live.messages``' names) and registers
+it (``register_push_format``, ``ftin.live.formats.base``); importing this package imports every
+module in it, and the endpoint ``POST /live/{name}`` and the sessions come with it."""
 
 from __future__ import annotations
 
-from ftin.live.formats import sensorlogger
-from ftin.live.formats.base import PushFormat
+import importlib
+import pkgutil
 
-FORMATS: dict[str, PushFormat] = {f.name: f for f in (sensorlogger.FORMAT,)}
-DEFAULT_FORMAT = sensorlogger.FORMAT  # the one the upload page's push URL names
+from ftin.live.formats.base import FORMATS, PushFormat, default_format, register_push_format
 
-__all__ = ["DEFAULT_FORMAT", "FORMATS", "PushFormat"]
+for _module in pkgutil.iter_modules(__path__):
+    if not _module.name.startswith("_") and _module.name != "base":
+        importlib.import_module(f"{__name__}.{_module.name}")
+
+DEFAULT_FORMAT = default_format()  # the one the upload page's push URL names
+
+__all__ = ["DEFAULT_FORMAT", "FORMATS", "PushFormat", "register_push_format"]

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ftin.data.readers.sensorlogger import AXIS_SENSORS, GYRO_UNIT_DOCUMENTED
-from ftin.live.formats.base import PushFormat
+from ftin.live.formats.base import PushFormat, register_push_format
 from ftin.live.messages import MessageError, PushMessage, SensorBatch, checked_id
 
 APP = "Sensor Logger"
@@ -122,11 +122,14 @@ def _values(entry: dict[str, Any], columns: tuple[str, ...], where: str) -> list
     return row
 
 
-FORMAT = PushFormat(
-    name="sensorlogger",
-    app=APP,
-    parse=parse,
-    gyro_unit=GYRO_UNIT_DOCUMENTED,
-    description=f"One {APP} push message (JSON: messageId, sessionId, deviceId, payload). Set the "
-    "app's HTTP Push URL to this address (GET /live/info has it, with the token).",
+FORMAT = register_push_format(
+    PushFormat(
+        name="sensorlogger",
+        app=APP,
+        parse=parse,
+        gyro_unit=GYRO_UNIT_DOCUMENTED,
+        description=f"One {APP} push message (JSON: messageId, sessionId, deviceId, payload). Set the "
+        "app's HTTP Push URL to this address (GET /live/info has it, with the token).",
+    ),
+    default=True,
 )

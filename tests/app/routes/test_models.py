@@ -22,14 +22,16 @@ def test_models_lists_checkpoints_with_their_facts(client: TestClient) -> None:
     assert ftin["display_name"] == "FTIN · OxIOD" and models[OTHER_MODEL]["display_name"] == OTHER_MODEL
 
 
-def test_display_names_of_the_shipped_stems() -> None:
+def test_display_names_come_from_the_checkpoints_tag() -> None:
     from app.services.model_names import display_name
 
-    assert display_name("rnin-oxiod", "rnin") == "RNIN · OxIOD"  # never "min-oxiod"
-    assert display_name("ftin-pedestrian", "ftin") == "FTIN · pedestrian"
-    assert display_name("ronin_resnet-ridi", "ronin_resnet") == "RoNIN ResNet · RIDI"
-    assert display_name("ftin-sim", "ftin") == "FTIN · simulated walks"
-    assert display_name("my_model", "ftin") == "my_model"
+    assert display_name("rnin-oxiod", "rnin", "oxiod") == "RNIN · OxIOD"  # never "min-oxiod"
+    assert display_name("ftin-pedestrian", "ftin", "pedestrian") == "FTIN · pedestrian"
+    assert display_name("ronin_resnet-ridi", "ronin_resnet", "ridi") == "RoNIN ResNet · RIDI"
+    assert display_name("ftin-sim", "ftin", "sim") == "FTIN · simulated walks"
+    assert display_name("renamed", "ftin", "oxiod") == "FTIN · OxIOD"  # the file's name plays no part
+    assert display_name("ftin", "ftin", "") == "FTIN"
+    assert display_name("my_model", "ftin", None) == "my_model"  # no tag: shown by its file name
 
 
 def test_unknown_model_is_404_naming_the_valid_ones(client: TestClient, csv_with_gt: bytes) -> None:
