@@ -37,6 +37,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("evaluation, live", ("ftin.evaluate", "ftin.live", "ftin.analysis")),
     ("filter, training", ("ftin.filter", "ftin.train")),
     ("inference, uncertainty", ("ftin.infer", "ftin.uncertainty")),
+    ("walkers", ("ftin.profiles",)),
     (
         "scoring, checkpoints, protocol",
         (

@@ -121,7 +121,7 @@ def test_the_default_gets_its_column_marked_and_its_phone_only_cost_stated(folde
     md, _, summary = render(results, manifest)
     assert "| RoNIN ResNet-walking (default) |" in md.split("\n## Per dataset")[0]
     assert summary["default"]["phone_only_over_ground_truth"] == {"inria": pytest.approx(1.5)}
-    assert "The app's default, `ronin_resnet-walking`" in md and "Inria 1.50x" in md
+    assert "The app's default, `ronin_resnet-walking`" in md and "Inria attitude benchmark 1.50x" in md
 
 
 def test_each_part_folds_out_every_recordings_path_ratio(folder):
