@@ -17,6 +17,32 @@ from tests.utils.tables import write_table_checkpoints, write_table_datasets, wr
 
 SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
 
+# The fast tier, ``pytest -m "not slow"``, leaves out what is marked slow; the full run (the README's
+# command, CI) runs everything. Marked here, so that a new test of these kinds is marked without
+# remembering: every test that reads the real recordings (the ``shared_data`` fixture), every
+# browser test (``tests/app/test_browser*.py``), and the files below (a checkpoint sweep, Ray, a
+# fresh process, a long end-to-end run), each with what makes it slow. A single slow test marks
+# itself with ``@pytest.mark.slow``.
+SLOW_FILES = {
+    "tests/test_shipped_checkpoints.py": "every shipped checkpoint on real walks",
+    "tests/app/test_heading_change.py": "every shipped checkpoint on a loop",
+    "tests/app/test_bundled_defaults.py": "every bundled sample through its suggested model",
+    "tests/bench/test_product.py": "the app benchmarks: an hour of data, fresh processes",
+    "tests/bench/test_side_by_side.py": "models timed side by side in fresh processes",
+    "tests/campaign/test_burst.py": "a burst job trained and recorded end to end",
+    "tests/campaign/test_scoring_on_ray.py": "a local Ray",
+    "tests/campaign/test_tiny_campaign.py": "a local Ray campaign",
+    "tests/train/test_distributed.py": "two torchrun processes",
+}
+BROWSER_TESTS = "tests/app/test_browser"
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        path = item.path.relative_to(REPO_ROOT).as_posix()
+        if "shared_data" in item.fixturenames or path in SLOW_FILES or path.startswith(BROWSER_TESTS):
+            item.add_marker(pytest.mark.slow)
+
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:

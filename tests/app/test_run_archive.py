@@ -50,7 +50,7 @@ def files_of(client: TestClient, run_id: str, downloads: tuple[str, ...] = DOWNL
     return {name: response.content for name, response in answers.items()}
 
 
-@pytest.mark.slow  # ~20 s on a shared 2-core machine: part of the default run
+@pytest.mark.slow  # ~20 s on a shared 2-core machine: the full run only
 def test_100_uploads_and_5_compares_survive_a_restart_byte_for_byte(
     make_settings: Callable[..., Settings], short_csv: bytes, tmp_path: Path
 ) -> None:
