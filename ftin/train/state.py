@@ -134,7 +134,7 @@ def checkpoint_meta(
     tag = checkpoint_tag({"model_name": config.model}, config.checkpoint_name)
     return {
         "model_name": config.model,
-        **({} if tag is None else {"tag": tag}),
+        **({"tag": tag} if tag else {}),  # none for a run named as its model: its only weights
         "imu_rate_hz": config.imu_rate_hz,
         "window": config.window,
         "stride": config.stride,
