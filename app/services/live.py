@@ -57,14 +57,14 @@ from app.services.errors import (
     NotFoundError,
     StartupError,
 )
-from app.services.features import ModelInput
 from app.services.listeners import Listeners
+from app.services.live_records import Key, LiveEntry, QueuedMessage, run_so_far, session_name
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin.data.errors import DataFormatError
 from ftin.filter.choice import EKF, parse_filter
 from ftin.live.formats import PushFormat
-from ftin.live.messages import MessageError, PushMessage
+from ftin.live.messages import MessageError
 from ftin.live.session import LiveSession
 
 log = logging.getLogger(__name__)
@@ -79,29 +79,6 @@ EMPTY_PUSH = (
     "the message carries no sensor samples, so no session was started: tick sensors in the app "
     "(gyroscope, accelerometer; orientation if it has one) and record"
 )
-
-Key = tuple[str, str]
-
-
-@dataclass
-class _Item:
-    message: PushMessage
-    arrival_s: float
-    push_format: PushFormat
-    model: str | None
-    platform: str | None
-    filter: str = "none"
-
-
-@dataclass
-class _Live:
-    session: LiveSession
-    part: int
-    run_id: str | None = None
-    name: str = ""
-    model_name: str = ""
-    state: str = "live"  # "live", "ended", "failed"
-    ended_because: str | None = None
 
 
 @dataclass(frozen=True)
@@ -125,9 +102,9 @@ class LiveService:
             except NotFoundError as exc:
                 raise StartupError(f"FTIN_LIVE_MODEL: {exc}") from None
         self.runs = runs
-        self._queue: queue.Queue[_Item] = queue.Queue(maxsize=settings.live_queue_messages)
-        self._sessions: dict[Key, _Live] = {}
-        self._closed: deque[_Live] = deque(maxlen=CLOSED_KEPT)
+        self._queue: queue.Queue[QueuedMessage] = queue.Queue(maxsize=settings.live_queue_messages)
+        self._sessions: dict[Key, LiveEntry] = {}
+        self._closed: deque[LiveEntry] = deque(maxlen=CLOSED_KEPT)
         self._too_long: deque[Key] = deque(maxlen=1024)  # keys that may not continue
         self._lock = threading.Lock()  # sessions and their figures
         self._stop = threading.Event()
@@ -196,7 +173,7 @@ class LiveService:
             run_id = live.run_id if live is not None else None
         try:
             self._queue.put_nowait(
-                _Item(message, arrival_s, push_format, model, platform and platform.lower(), chosen)
+                QueuedMessage(message, arrival_s, push_format, model, platform and platform.lower(), chosen)
             )
         except queue.Full:
             self.refused += 1
@@ -215,7 +192,7 @@ class LiveService:
             lives = [*self._sessions.values(), *reversed(self._closed)]
             return [self._summary(live) for live in lives]
 
-    def _summary(self, live: _Live) -> dict[str, Any]:
+    def _summary(self, live: LiveEntry) -> dict[str, Any]:
         s = live.session
         latency = s.latency_summary()
         return {
@@ -255,7 +232,7 @@ class LiveService:
     def unsubscribe(self, listener: LiveListener) -> None:
         self._listeners.remove(listener)
 
-    def _tell_if_followed(self, live: _Live, run: Run, final: bool = False) -> None:
+    def _tell_if_followed(self, live: LiveEntry, run: Run, final: bool = False) -> None:
         """Hand ``run`` to the listeners when its session is the followed one (it becomes the followed
         one when none is, or the followed one has ended); after the ``final`` one, nothing."""
         with self._telling:
@@ -329,7 +306,7 @@ class LiveService:
             except Exception:
                 log.exception("live housekeeping failed")
 
-    def _use(self, item: _Item) -> Key | None:
+    def _use(self, item: QueuedMessage) -> Key | None:
         key = (item.message.session_id, item.message.device_id)
         with self._lock:
             live = self._sessions.get(key)
@@ -347,8 +324,8 @@ class LiveService:
                     now_s=item.arrival_s,
                     filter=item.filter,
                 )
-                live = _Live(session, part, model_name=entry.name)
-                live.name = _session_name(key[1], part)
+                live = LiveEntry(session, part, model_name=entry.name)
+                live.name = session_name(key[1], part)
                 self._sessions[key] = live
             try:
                 live.session.receive(item.message, item.arrival_s)
@@ -387,27 +364,11 @@ class LiveService:
                 self._too_long.append(key)
                 self._end(key, "reached FTIN_LIVE_MAX_SESSION_S / FTIN_MAX_SAMPLES")
 
-    def _run_so_far(self, live: _Live) -> Run:
-        """The session's run as far as it has grown (started in the store at its first window)."""
-        if live.run_id is None:
-            live.run_id = self.runs.new_id()
-            self.runs.start(live.run_id, live.model_name, live.name)
-        with self._lock:
-            s, p = live.session, live.session.predictor
-            model_input = (
-                ModelInput(p.imu_world(), p.window_starts(), p.window, p.turn_stride)
-                if not p.streams
-                else None
-            )
-            return Run(
-                live.run_id, live.model_name, s.sequence(live.name), s.prediction(), "live", None, model_input
-            )
-
-    def _publish(self, live: _Live) -> None:
+    def _publish(self, live: LiveEntry) -> None:
         s = live.session
         if not s.has_trajectory:
             return
-        run = self._run_so_far(live)
+        run = run_so_far(live, self.runs, self._lock)
         self.runs.update(run)
         with self._lock:
             s.mark_effect(s.predictor.covered_until_s, time.monotonic())
@@ -427,13 +388,8 @@ class LiveService:
             live.ended_because = reason
             self._closed.append(live)
         if live.session.has_trajectory:
-            run = self._run_so_far(live)
+            run = run_so_far(live, self.runs, self._lock)
             self.runs.update(run)
             self._tell_if_followed(live, run, final=True)  # drawn as the rest of it was
             self.runs.finish(run)
         log.info("live session %s ended: %s", live.name, reason)
-
-
-def _session_name(device_id: str, part: int) -> str:
-    stamp = time.strftime("%H:%M:%S")
-    return f"live {device_id[:12]} {stamp}" + (f" part {part}" if part > 1 else "")
