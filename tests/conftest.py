@@ -20,9 +20,9 @@ SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
 # The fast tier, ``pytest -m "not slow"``, leaves out what is marked slow; the full run (the README's
 # command, CI) runs everything. Marked here, so that a new test of these kinds is marked without
 # remembering: every test that reads the real recordings (the ``shared_data`` fixture), every
-# browser test (``tests/app/test_browser*.py``), and the files below (a checkpoint sweep, Ray, a
-# fresh process, a long end-to-end run), each with what makes it slow. A single slow test marks
-# itself with ``@pytest.mark.slow``.
+# browser test (``tests/app/test_browser*.py``), and the files and tests below (a checkpoint sweep,
+# Ray, a fresh process, a long end-to-end run), each with what makes it slow: the few that take most of
+# the full run's time (``pytest --durations=60``). A test may also mark itself ``@pytest.mark.slow``.
 SLOW_FILES = {
     "tests/test_shipped_checkpoints.py": "every shipped checkpoint on real walks",
     "tests/app/test_heading_change.py": "every shipped checkpoint on a loop",
@@ -33,6 +33,15 @@ SLOW_FILES = {
     "tests/campaign/test_scoring_on_ray.py": "a local Ray",
     "tests/campaign/test_tiny_campaign.py": "a local Ray campaign",
     "tests/train/test_distributed.py": "two torchrun processes",
+    "tests/campaign/test_heads.py": "variance heads trained and shipped onto checkpoints",
+}
+SLOW_TESTS = {  # file -> its slow tests (all cases of a parametrised one)
+    "tests/app/test_server.py": {"test_uvicorn_app_main_starts_without_configuration"},  # a fresh uvicorn
+    "tests/app/test_run_archive.py": {"test_a_headed_models_uncertainty_comes_back_as_it_was"},
+    "tests/app/test_filter_api.py": {  # the EKF over a whole walk
+        "test_ekf_answer_names_the_filter_and_is_the_model_read_on_its_orientation",
+    },
+    "tests/bench/test_profile.py": {"test_flops_of_conv_and_linear_match_the_closed_form"},  # every model
 }
 BROWSER_TESTS = "tests/app/test_browser"
 
@@ -40,7 +49,9 @@ BROWSER_TESTS = "tests/app/test_browser"
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         path = item.path.relative_to(REPO_ROOT).as_posix()
-        if "shared_data" in item.fixturenames or path in SLOW_FILES or path.startswith(BROWSER_TESTS):
+        slow_test = item.name.split("[")[0] in SLOW_TESTS.get(path, ())
+        real_data = "shared_data" in item.fixturenames
+        if real_data or path in SLOW_FILES or slow_test or path.startswith(BROWSER_TESTS):
             item.add_marker(pytest.mark.slow)
 
 
