@@ -76,6 +76,12 @@ DEFERRED: dict[tuple[str, str], str] = {
     "add seconds to every ``ftin`` start",
     ("ftin.cli.campaign", "ftin.cli.table"): "importing it registers ``ftin table``: at the top it would "
     "change the order of ``ftin --help``",
+    ("ftin.cli.common", "app.settings"): "only the walker-profile options need the app's default runs folder "
+    "(pydantic-settings), not every ``ftin`` start",
+    (
+        "ftin.cli.profile",
+        "app.services.stored_runs",
+    ): "only ``ftin profile add`` reads a stored run (the app's archive and codec)",
     ("app.main", "app.viz.scene"): "viser loads only when the 3D scene is enabled",
 }
 

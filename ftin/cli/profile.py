@@ -10,7 +10,6 @@ path where the walk verdict's GPS check finds the GPS good enough.
 from __future__ import annotations
 
 import json
-import sqlite3
 from typing import Annotated
 
 import typer
@@ -67,20 +66,9 @@ def add(
         check_name(name)
         folder = runs_dir_or_default(runs_dir)
         # deferred: the run archive is the app's (its codec, its Run); only `add` reads a run
-        from app.services.errors import ServiceError
-        from app.services.run_archive import RunArchive
-        from app.services.runs import Run
+        from app.services.stored_runs import read_stored_run
 
-        if not (folder / "index.sqlite").exists():
-            raise ValueError(f"no runs folder at {folder} (--runs-dir, FTIN_RUNS_DIR)")
-        try:
-            stored = RunArchive(folder, budget_bytes=0).load(run, Run)  # read only: nothing evicted
-        except ServiceError as exc:  # a run the budget removed (the app's 410) says so
-            raise ValueError(str(exc)) from None
-        except sqlite3.Error as exc:
-            raise ValueError(f"{folder} holds no readable runs index ({exc})") from None
-        if stored is None:
-            raise ValueError(f"unknown run id {run!r} in {folder}")
+        stored = read_stored_run(folder, run)
         applied = 1.0 if stored.profile is None else stored.profile.found.scale
         walk = walk_of(
             run, stored.prediction.trajectory, stored.plausibility, distance, applied, stored.model_name
