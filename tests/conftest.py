@@ -23,7 +23,7 @@ SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
 # browser test (``tests/app/test_browser*.py``), and the files and tests below (a checkpoint sweep,
 # Ray, a fresh process, a long end-to-end run), each with what makes it slow: the few that take most of
 # the full run's time (``pytest --durations=60``). A test may also mark itself ``@pytest.mark.slow``.
-SLOW_FILES = {
+SLOW_FILES = {  # a file, or a folder (ending in "/"), -> why
     "tests/test_shipped_checkpoints.py": "every shipped checkpoint on real walks",
     "tests/app/test_heading_change.py": "every shipped checkpoint on a loop",
     "tests/app/test_bundled_defaults.py": "every bundled sample through its suggested model",
@@ -34,6 +34,14 @@ SLOW_FILES = {
     "tests/campaign/test_tiny_campaign.py": "a local Ray campaign",
     "tests/train/test_distributed.py": "two torchrun processes",
     "tests/campaign/test_heads.py": "variance heads trained and shipped onto checkpoints",
+    "tests/cli/test_cli_campaign.py": "campaigns planned, run and collected through the CLI",
+    "tests/hardening/": "fuzzing: generated bodies and files by the hundred, the API schema swept",
+    "tests/models/test_all_models.py": "every check on every registered model (run it when a model changes)",
+    "tests/filter/test_levelled.py": "the EKF over whole walks",
+    "tests/filter/test_settle.py": "the EKF settling over long simulated walks",
+    "tests/live/test_incremental.py": "incremental against offline inference over whole walks",
+    "tests/app/test_live_filter.py": "streams replayed through the live EKF",
+    "tests/app/test_event_loop.py": "health timed while long answers are built",
 }
 SLOW_TESTS = {  # file -> its slow tests (all cases of a parametrised one)
     "tests/app/test_server.py": {"test_uvicorn_app_main_starts_without_configuration"},  # a fresh uvicorn
@@ -51,7 +59,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         path = item.path.relative_to(REPO_ROOT).as_posix()
         slow_test = item.name.split("[")[0] in SLOW_TESTS.get(path, ())
         real_data = "shared_data" in item.fixturenames
-        if real_data or path in SLOW_FILES or slow_test or path.startswith(BROWSER_TESTS):
+        slow_file = path in SLOW_FILES or any(path.startswith(f) for f in SLOW_FILES if f.endswith("/"))
+        if real_data or slow_file or slow_test or path.startswith(BROWSER_TESTS):
             item.add_marker(pytest.mark.slow)
 
 

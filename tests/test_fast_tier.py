@@ -11,7 +11,8 @@ from tests.utils.paths import REPO_ROOT
 
 def test_every_slow_file_and_test_exists():
     for path in SLOW_FILES:
-        assert (REPO_ROOT / path).is_file(), f"{path}: no such test file (tests/conftest.py SLOW_FILES)"
+        exists = (REPO_ROOT / path).is_dir() if path.endswith("/") else (REPO_ROOT / path).is_file()
+        assert exists, f"{path}: no such test file or folder (tests/conftest.py SLOW_FILES)"
     for path, names in SLOW_TESTS.items():
         text = (REPO_ROOT / path).read_text(encoding="utf-8")
         for name in names:
