@@ -110,3 +110,17 @@ def test_progress_in_the_format_of_existing_resume_files_round_trips_exactly(tmp
     assert TrainProgress.from_dict(loaded) == progress
     with pytest.raises(CheckpointError, match="unknown key"):
         TrainProgress.from_dict({**PROGRESS_2026_11_23, "extra": 1})
+
+
+@pytest.mark.parametrize(
+    ("name", "tag"), [("ftin-oxiod", "oxiod"), (None, None), ("ftin", None), ("my_walks", None)]
+)
+def test_the_card_says_which_weights_of_its_model_it_holds(name, tag):
+    """``tag`` is written once, from the run's name, so the card says it from then on (a renamed file
+    keeps it); a run named as its model, or not after it, writes none."""
+    from ftin.train.config import TrainConfig
+    from ftin.train.state import TrainProgress, checkpoint_meta
+
+    config = TrainConfig(model="ftin", data=("x",), out_dir="out", name=name)
+    meta = checkpoint_meta(config, TrainProgress(), None, {}, False, processes=1, wall_time_s=0.0)
+    assert meta.get("tag") == tag
