@@ -42,6 +42,7 @@ SLOW_FILES = {  # a file, or a folder (ending in "/"), -> why
     "tests/live/test_incremental.py": "incremental against offline inference over whole walks",
     "tests/app/test_live_filter.py": "streams replayed through the live EKF",
     "tests/app/test_event_loop.py": "health timed while long answers are built",
+    "tests/app/routes/test_profiles.py": "an app on every shipped checkpoint, started for each test",
 }
 SLOW_TESTS = {  # file -> its slow tests (all cases of a parametrised one)
     "tests/app/test_server.py": {"test_uvicorn_app_main_starts_without_configuration"},  # a fresh uvicorn
@@ -50,6 +51,7 @@ SLOW_TESTS = {  # file -> its slow tests (all cases of a parametrised one)
         "test_ekf_answer_names_the_filter_and_is_the_model_read_on_its_orientation",
     },
     "tests/bench/test_profile.py": {"test_flops_of_conv_and_linear_match_the_closed_form"},  # every model
+    "tests/test_infer.py": {"test_turning_the_world_turns_the_walk_for_every_kind_of_model"},  # every model
 }
 BROWSER_TESTS = "tests/app/test_browser"
 
