@@ -188,7 +188,7 @@ def _name_and_floor(path: Path) -> tuple[str, str | None]:
     return stem, path.parent.name or None
 
 
-@register_reader(priority=40)
+@register_reader(priority=40, dataset="ilc")
 def read(path: Path, **_options: Any) -> ImuSequence:
     """Read one trace file (``.txt.xz`` or ``.txt``); its folder's name is the floor."""
     path = Path(path)
