@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from ftin.files import DEFAULT_DATA_ROOT
-from ftin.protocol.jobs import CAMPAIGNS
+from ftin.protocol.campaigns import CAMPAIGNS
 from ftin.protocol.stage_three import REFERENCE_DISAGREES
 from ftin.protocol.stride_retrain import ILC_HELD_OUT, ILC_TRAIN_FLOORS, stride_retrain_jobs
 from ftin.train.config import TrainConfig
