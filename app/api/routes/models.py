@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from app.api.deps import ServicesDep
-from app.schemas import ModelInfo
+from app.schemas_catalog import ModelInfo
 
 router = APIRouter(tags=["models"])
 

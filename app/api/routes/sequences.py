@@ -9,7 +9,8 @@ from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep
 from app.api.routes.predict import PredictOptionsDep, answer
-from app.schemas import ErrorResponse, PredictionResponse, SequenceInfo
+from app.schemas import ErrorResponse, PredictionResponse
+from app.schemas_catalog import SequenceInfo
 
 router = APIRouter(tags=["sequences"])
 
