@@ -20,9 +20,10 @@ SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
 # The fast tier, ``pytest -m "not slow"``, leaves out what is marked slow; the full run (the README's
 # command, CI) runs everything. Marked here, so that a new test of these kinds is marked without
 # remembering: every test that reads the real recordings (the ``shared_data`` fixture), every
-# browser test (``tests/app/test_browser*.py``), and the files and tests below (a checkpoint sweep,
-# Ray, a fresh process, a long end-to-end run), each with what makes it slow: the few that take most of
-# the full run's time (``pytest --durations=60``). A test may also mark itself ``@pytest.mark.slow``.
+# browser test (``tests/app/test_browser*.py`` and any on Playwright's ``page``), and the files and
+# tests below (a checkpoint sweep, Ray, a fresh process, a long end-to-end run), each with what makes
+# it slow: the few that take most of the full run's time (``pytest --durations=60``). A test may
+# also mark itself ``@pytest.mark.slow``.
 SLOW_FILES = {  # a file, or a folder (ending in "/"), -> why
     "tests/test_shipped_checkpoints.py": "every shipped checkpoint on real walks",
     "tests/app/test_heading_change.py": "every shipped checkpoint on a loop",
@@ -62,7 +63,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         slow_test = item.name.split("[")[0] in SLOW_TESTS.get(path, ())
         real_data = "shared_data" in item.fixturenames
         slow_file = path in SLOW_FILES or any(path.startswith(f) for f in SLOW_FILES if f.endswith("/"))
-        if real_data or slow_file or slow_test or path.startswith(BROWSER_TESTS):
+        browser = path.startswith(BROWSER_TESTS) or "page" in item.fixturenames  # Playwright's page
+        if real_data or browser or slow_file or slow_test:
             item.add_marker(pytest.mark.slow)
 
 
