@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from app.services.verdict import end_circle_of
+
 ELLIPSE_EVERY_S = 10.0
 MAX_ELLIPSES = 60
 LIVE_EVERY_S = 10.0
@@ -28,16 +30,19 @@ class PathSpread:
     t_s: np.ndarray  # (N,)
     p_m: np.ndarray  # (N, 3)
     cov_m2: np.ndarray  # (N, 3) [xx, xy, yy]
-    end_radius_95_m: float
+    end_radius_95_m: float  # 0: none drawn (withheld on an implausible walk, as on the page)
 
     @classmethod
     def of_run(cls, run: Any) -> PathSpread | None:
-        """``run.uncertainty`` (``app.services.runs.Run``) with the path it belongs to; None without."""
+        """``run.uncertainty`` (``app.services.runs.Run``) with the path it belongs to; None without.
+        The end circle is the one the page shows (``end_circle_of``): none where the verdict withholds it."""
         found = run.uncertainty
         if found is None:
             return None
+        circle = end_circle_of(run)
+        radius = 0.0 if circle is None or circle.end_radius_95_m is None else float(circle.end_radius_95_m)
         traj = run.prediction.trajectory
-        return cls(traj.t_s, traj.p_world_m, found.cov_m2, float(found.end_radius_95_m))
+        return cls(traj.t_s, traj.p_world_m, found.cov_m2, radius)
 
     def grown(self, run: Any) -> PathSpread | None:
         """This spread for a live run that grew: recomputed once the walk is ``LIVE_EVERY_S`` longer

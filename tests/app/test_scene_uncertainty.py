@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from app.services.prediction import RunOptions
+from app.services.verdict import end_circle_of
 from app.viz.ellipses import ELLIPSE_POINTS, END95, ROOT, SIGMA2
 from app.viz.path_spread import LIVE_EVERY_S, PathSpread, largest_eigenvalue
 from app.viz.scene import DashboardScene
@@ -24,6 +25,13 @@ OTHER_MODEL = "resnet-tiny"
 
 scene = module_scene()
 _empty_scene = emptied_for_each_test()
+
+
+@pytest.fixture
+def circle_kept(monkeypatch):
+    """The end circle as ``ftin.uncertainty`` computed it, whatever the verdict: the tiny test models
+    barely move, so their verdict withholds it (``test_an_implausible_run_draws_no_end_circle``)."""
+    monkeypatch.setattr("app.viz.path_spread.end_circle_of", lambda run: run.uncertainty)
 
 
 def ellipse_nodes(scene: DashboardScene) -> set[str]:
@@ -40,7 +48,7 @@ def show(scene: DashboardScene, model: str = DEFAULT_MODEL):
     return run
 
 
-def test_a_run_with_covariance_gets_its_ellipses_and_end_circle(scene: DashboardScene) -> None:
+def test_a_run_with_covariance_gets_its_ellipses_and_end_circle(scene: DashboardScene, circle_kept) -> None:
     run = show(scene)
     found = run.uncertainty
     assert found is not None  # the test checkpoints borrow the default model's constants
@@ -63,6 +71,12 @@ def test_a_run_with_covariance_gets_its_ellipses_and_end_circle(scene: Dashboard
     assert np.allclose(np.linalg.norm(end, axis=1), found.end_radius_95_m, rtol=1e-4)
 
 
+def test_an_implausible_run_draws_no_end_circle(scene: DashboardScene) -> None:
+    run = show(scene)  # the tiny model barely moves: implausible, as the page says, no circle
+    assert run.verdict is not None and end_circle_of(run).end_radius_95_m is None
+    assert ellipse_nodes(scene) == {f"{ROOT}/{run.run_id}", f"{ROOT}/{run.run_id}/{SIGMA2}"}
+
+
 def test_a_run_without_covariance_draws_no_ellipse(scene: DashboardScene, monkeypatch) -> None:
     def no_calibration(checkpoint: str):
         raise KeyError(checkpoint)  # what calibration_for says when calibration.json holds nothing
@@ -74,7 +88,7 @@ def test_a_run_without_covariance_draws_no_ellipse(scene: DashboardScene, monkey
     assert not scene.timeline.gui_sigma.visible
 
 
-def test_the_checkbox_hides_and_shows_them(scene: DashboardScene) -> None:
+def test_the_checkbox_hides_and_shows_them(scene: DashboardScene, circle_kept) -> None:
     run = show(scene)
     names = [f"{ROOT}/{run.run_id}/{SIGMA2}", f"{ROOT}/{run.run_id}/{END95}"]
     box = scene.timeline.gui_uncertainty
@@ -115,7 +129,7 @@ def test_the_timeline_plots_sigma_of_every_shown_run(scene: DashboardScene) -> N
     assert np.nanmax(first) == pytest.approx(sigma.max(), rel=0.05) and sigma.max() > 0
 
 
-def test_a_live_runs_spread_is_recomputed_every_ten_seconds_of_walking() -> None:
+def test_a_live_runs_spread_is_recomputed_every_ten_seconds_of_walking(circle_kept) -> None:
     def live_run(duration_s: float) -> SimpleNamespace:
         t = np.arange(0.0, duration_s, 0.1)
         p = np.column_stack([t, np.zeros_like(t), np.zeros_like(t)])
