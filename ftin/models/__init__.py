@@ -7,9 +7,6 @@ its models (``@register_model``), so a new family is one new module here. Shared
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from ftin.models.base import VelocityModel, VelocityOutput
 from ftin.models.registry import (
     ModelCfg,
@@ -24,6 +21,7 @@ from ftin.models.registry import (
     model_train_options,
     register_model,
 )
+from ftin.submodules import import_submodules
 
 __all__ = [
     "ModelCfg",
@@ -41,6 +39,4 @@ __all__ = [
     "register_model",
 ]
 
-for _module in pkgutil.iter_modules(__path__):
-    if not _module.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_module.name}")
+import_submodules(__name__, __path__)

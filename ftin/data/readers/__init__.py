@@ -25,9 +25,6 @@ file names) lives in ``ftin.data.io``; listing, detecting and reading sequences 
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from ftin.data.readers._registry import (
     PRIORITY,
     READERS,
@@ -38,6 +35,7 @@ from ftin.data.readers._registry import (
     reader_label,
     register_reader,
 )
+from ftin.submodules import import_submodules
 
 __all__ = [
     "PRIORITY",
@@ -50,6 +48,4 @@ __all__ = [
     "register_reader",
 ]
 
-for _module in pkgutil.iter_modules(__path__):
-    if not _module.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_module.name}")
+import_submodules(__name__, __path__)

@@ -6,14 +6,10 @@ module in it, and the endpoint ``POST /live/{name}`` and the sessions come with 
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from ftin.live.formats.base import FORMATS, PushFormat, default_format, register_push_format
+from ftin.submodules import import_submodules
 
-for _module in pkgutil.iter_modules(__path__):
-    if not _module.name.startswith("_") and _module.name != "base":
-        importlib.import_module(f"{__name__}.{_module.name}")
+import_submodules(__name__, __path__)  # base, imported above, again: a no-op
 
 DEFAULT_FORMAT = default_format()  # the one the upload page's push URL names
 
