@@ -67,10 +67,12 @@ RUN_GONE = {404: {"model": ErrorResponse}, 410: {"model": ErrorResponse}}  # 410
 UNUSABLE = {**RUN_GONE, 422: {"model": ErrorResponse}}
 
 
-def file_route(on: APIRouter, path: str, media_type: str, summary: str) -> Callable[[Callable], Callable]:
-    """``GET path`` answering a file of ``media_type`` from a finished run (404 unknown, 410 expired);
-    ``summary``: its name in ``/docs``."""
-    responses = {200: {"content": {media_type: {}}}, **RUN_GONE}
+def file_route(
+    on: APIRouter, path: str, media_type: str, summary: str, errors: dict[int, Any] = RUN_GONE
+) -> Callable[[Callable], Callable]:
+    """``GET path`` answering a file of ``media_type`` from a finished run (404 unknown, 410 expired;
+    ``errors``: the error answers it documents); ``summary``: its name in ``/docs``."""
+    responses = {200: {"content": {media_type: {}}}, **errors}
     return on.get(path, response_class=Response, responses=responses, summary=summary)
 
 
@@ -146,11 +148,8 @@ def metrics_json_route(run_id: RunIdPath, services: ServicesDep) -> JSONResponse
     return JSONResponse(metrics_json(run))
 
 
-@router.get(
-    "/runs/{run_id}/trajectory.gpx",
-    summary="Download the trajectory (GPX)",
-    response_class=Response,
-    responses={200: {"content": {"application/gpx+xml": {}}}, **UNUSABLE},
+@file_route(
+    router, "/runs/{run_id}/trajectory.gpx", "application/gpx+xml", "Download the trajectory (GPX)", UNUSABLE
 )
 def trajectory_gpx_route(
     run_id: RunIdPath, services: ServicesDep, fit: FitQuery = AnchorFit.START
@@ -162,11 +161,12 @@ def trajectory_gpx_route(
     return attachment(gpx_text(run, fit), "application/gpx+xml", name)
 
 
-@router.get(
+@file_route(
+    router,
     "/runs/{run_id}/trajectory.geojson",
-    summary="Download the trajectory (GeoJSON)",
-    response_class=Response,
-    responses={200: {"content": {"application/geo+json": {}}}, **UNUSABLE},
+    "application/geo+json",
+    "Download the trajectory (GeoJSON)",
+    UNUSABLE,
 )
 def trajectory_geojson_route(
     run_id: RunIdPath, services: ServicesDep, fit: FitQuery = AnchorFit.START
