@@ -78,21 +78,6 @@ def step(
     return R_next, v_next, p_next, A, B
 
 
-def propagate_nominal(
-    state: NominalState,
-    gyro: np.ndarray,
-    acc: np.ndarray,
-    dt: float,
-    gravity: float,
-    gyro_next: np.ndarray | None = None,
-    acc_next: np.ndarray | None = None,
-) -> NominalState:
-    """The nominal state one IMU interval later (``step``)."""
-    out = state.copy()
-    out.R, out.v, out.p, _, _ = step(state, gyro, acc, dt, gravity, gyro_next, acc_next)
-    return out
-
-
 def boxplus(state: NominalState, dx: np.ndarray) -> NominalState:
     """``state`` corrected by the error ``dx`` (evolving block, then one block per clone)."""
     out = state.copy()

@@ -13,7 +13,7 @@ from ftin.data import frames
 from ftin.evaluate import score
 from ftin.filter import FilterConfig, NetworkVelocity, filter_prediction, run_filter
 from ftin.filter.consistency import chi2_bounds, tilt_error_deg
-from ftin.filter.ekf import boxminus, boxplus, propagate_nominal, step, velocity_measurement
+from ftin.filter.ekf import boxminus, boxplus, step, velocity_measurement
 from ftin.filter.state import BG, EVOLVING, NominalState, so3_exp, yaw_jacobian, yaw_of
 from ftin.sim import SimConfig, simulate
 from tests.filter.simulated import WINDOW, perfect_measure, sim_config, sim_walk, tilted_start
@@ -32,6 +32,13 @@ def random_state(rng: np.random.Generator, clones: int = 0, speed_scale: float |
         state.clone_R.append(rot())
         state.clone_p.append(rng.normal(0.0, 5.0, 3))
     return state
+
+
+def propagate_nominal(state: NominalState, *samples) -> NominalState:
+    """The nominal state one IMU interval later (``step``'s ``R``, ``v``, ``p``)."""
+    out = state.copy()
+    out.R, out.v, out.p, _, _ = step(state, *samples)
+    return out
 
 
 @pytest.mark.parametrize("speed_scale", [None, 0.7])
