@@ -71,9 +71,10 @@ def test_auto_on_the_calibrated_field_chooses_as_on_the_original(turning):
     assert raw["source"] == original["source"] == "vqf"
     assert raw["reason"].startswith("magnetometer calibrated from the recording's own turns (offset ")
     assert "an uncalibrated magnetometer" in raw["reason"] and "then: " in raw["reason"]
-    # The check's own words under their own key; the original, as given, has the keys it always had.
+    # The check's own words under their own key; the original, as given, has the keys it always had
+    # and the per-stretch account of the field that 9-D orientation carries (``ftin.data.mag_trust``).
     assert raw["magnetometer"].startswith("calibrated from the recording's own turns (offset ")
-    assert set(original) == {"requested", "source", "reason"}
+    assert set(original) == {"requested", "source", "reason", "stretches"}
 
 
 def test_an_offset_that_keeps_the_norm_in_range_is_found_by_its_sphere(turning):
