@@ -30,6 +30,10 @@ rate reduced on plateau, stop once it falls below 1e-6). Decisions where the pap
   is uncertain is least for a shrunken vector (the mean of vectors pointing several ways is shorter
   than each), so a model walks short where it doubts the heading; the speed term pays for the
   distance directly.
+- ``rotation_consistency_weight`` (0: off, as every shipped model): each dense window is also run
+  turned by a random quarter turn, and the squared difference between that velocity and the unturned
+  one turned the same way is added with this weight (RIO's rotation consistency,
+  ``ftin.train.rotation_consistency``); it doubles the dense windows of a forward.
 - ``init_from`` (``None``: a fresh, seeded initialisation): a checkpoint (``ftin.checkpoint``) whose
   weights start the run, for fine-tuning; its model, kwargs and rate must be the run's, else the run
   refuses to start. A resumed run starts from its resume state instead.
@@ -101,6 +105,7 @@ class TrainConfig:
     orientation: str | None = None  # ftin.data.orientation_option choice, or None: the readers' default
     log_std_range: tuple[float, float] = (-5.0, 3.0)
     speed_weight: float = 0.0  # weight of the speed error beside the velocity MSE (module docstring)
+    rotation_consistency_weight: float = 0.0  # RIO's turned-copy term (module docstring); 0: off
     val_fraction: float = 0.1
     device: str = "cpu"
     save_every_min: float = 5.0  # resume state is also written every so many minutes mid-epoch
@@ -146,6 +151,7 @@ class TrainConfig:
         _positive("nll_warmup_epochs", self.nll_warmup_epochs, integer=True, allow_zero=True)
         _positive("save_every_min", self.save_every_min)
         _positive("speed_weight", self.speed_weight, allow_zero=True)
+        _positive("rotation_consistency_weight", self.rotation_consistency_weight, allow_zero=True)
         for name in ("imu_rate_hz", "max_minutes"):
             if getattr(self, name) is not None:
                 _positive(name, getattr(self, name))

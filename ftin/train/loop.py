@@ -53,6 +53,7 @@ from ftin.train.config import ConfigError, TrainConfig
 from ftin.train.data import TrainData, training_data
 from ftin.train.distributed import Distributed, distributed, parts_module
 from ftin.train.losses import LossFn, make_loss, uses_nll
+from ftin.train.rotation_consistency import consistency_loss, quarter_turns, turned_inputs
 from ftin.train.sparse_truth import segment_loss, split_output
 from ftin.train.start_weights import freeze_except, initialise_from, keep_frozen_in_eval
 from ftin.train.state import (
@@ -294,13 +295,20 @@ class _Run:
 
     def _step(self, indices: np.ndarray, epoch: int) -> float:
         x, v = self.data.train.get_batch(indices)
+        # RIO's turned copies after the dense windows (ftin.train.rotation_consistency); none at weight 0
+        turns = quarter_turns(len(x) if self.config.rotation_consistency_weight else 0)
+        x = torch.cat([x, turned_inputs(x, turns)]) if len(turns) else x
         sparse = self.data.sparse_batch(self.config, self.progress.global_step)  # ftin.train.sparse_truth
         x = x if sparse is None else torch.cat([x, sparse.x])
         x = self.data.normalization.apply(x.to(self.device))
         with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.config.precision == "bf16"):
             output = self.net(x)  # forward_parts: velocity (B, K, D)
-        output, sparse_velocity = split_output(output, len(v))
+        output, rest = split_output(output, len(v))
+        turned_velocity, sparse_velocity = rest[: len(turns)], rest[len(turns) :]
         loss = self.loss_fn(output, v.to(self.device), epoch < self.config.nll_warmup_epochs)
+        if len(turns):
+            turned = consistency_loss(output.velocity, turned_velocity, turns.to(self.device))
+            loss = loss + self.config.rotation_consistency_weight * turned
         if sparse is not None:
             loss = loss + self.config.sparse_weight * segment_loss(sparse_velocity, sparse.layout)
         if not torch.isfinite(loss):
