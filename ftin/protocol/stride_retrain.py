@@ -17,6 +17,10 @@ network. The choice between the new network and the shipped default follows the 
 set worse by more than 5 %). The control is the shipped default: the same recipe and walkers without ILC.
 At a probe's budget (fine-tunes of 60-200 steps) the segment loss did not lengthen the held-out floors
 (``docs/results/probes/sparse_truth*.md``): this campaign is the full-budget test, not an adopted change.
+RIO's rotation-consistency term (``TrainConfig.rotation_consistency_weight``) is not in the recipe: in
+fine-tunes of 200 steps it brought the ILC quarter-turn looks together (spread 25 -> 12 deg) but read RIDI
+validation 27-36 % worse than the same fine-tune without it
+(``docs/results/probes/rotation_consistency.md``, ``experiments/probe_rotation_consistency.py``).
 """
 
 from __future__ import annotations
