@@ -154,6 +154,17 @@ class HandedBytes:
         return data
 
 
+@dataclass(frozen=True)
+class Upload:
+    """What ``PredictionService.receive`` read from an upload, ready for ``predict_upload``: the bytes are
+    gone by then."""
+
+    recording: ImuSequence
+    label: str  # the client's file name, its base name only (a label, never a path)
+    run_id: str  # taken before the bytes were read (a model the request names is known by then)
+    options: RunOptions  # with the request's deadline
+
+
 class PredictionService:
     def __init__(
         self, models: ModelStore, catalog: SequenceCatalog, runs: RunStore, settings: Settings
@@ -193,50 +204,57 @@ class PredictionService:
         options: RunOptions = RunOptions(),
         source: str = "upload",
     ) -> Run:
-        """Read an upload and run a model on it: a CSV in the generic schema, a gzip-compressed CSV, or a
-        Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content). Bytes
-        handed over (``HandedBytes``) are let go once read."""
+        """Read an upload and run a model on it in one call (the scene's upload button, scripts): ``receive``
+        then ``predict_upload``, which ``POST /predict`` calls apart."""
+        return self.predict_upload(self.receive(data, filename, options), source)
+
+    def receive(self, data: bytes | HandedBytes, filename: str, options: RunOptions = RunOptions()) -> Upload:
+        """The one place an upload's bytes are read: a CSV in the generic schema, a gzip-compressed CSV, or
+        a Sensor Logger / phyphox export as a ZIP (``ftin.data.from_bytes``, detected by content). The
+        model the request names is known and its run id taken before any byte is read; bytes handed over
+        (``HandedBytes``) are let go once read, so that they never sit beside the recording while the
+        model runs. A 413 / 422 says what is wrong with the bytes."""
         if isinstance(data, HandedBytes):
             data = data.take()
-        options = replace(options, deadline=options.deadline or self.new_deadline())  # reading counts too
+        deadline = options.deadline or self.new_deadline()  # reading counts too
+        options = replace(options, deadline=deadline)
         run_id = self._new_run_id(options)
         # A client's file name is only a label: its folder means nothing here (and may use Windows
         # separators), and nothing is ever read or written under it.
-        filename = PurePath((filename or "").replace("\\", "/")).name
-        if filename in ("", ".", ".."):
-            filename = "upload.csv"
+        label = PurePath((filename or "").replace("\\", "/")).name
+        if label in ("", ".", ".."):
+            label = "upload.csv"
         if len(data) > self.settings.max_upload_bytes:
             raise PayloadTooLargeError(
-                f"{filename} is {len(data) / 2**20:.1f} MiB; the limit is "
+                f"{label} is {len(data) / 2**20:.1f} MiB; the limit is "
                 f"{self.settings.max_upload_bytes / 2**20:.1f} MiB (FTIN_MAX_UPLOAD_MB)"
             )
-        seq = self.read_upload(data, filename, options.deadline)
-        del data  # the body (86 MB for an hour of 200 Hz CSV) is not needed while the model runs
-        return self._run_chosen(
-            seq,
-            run_id,
-            source,
-            options,
-            upload_format=str(seq.meta.get("dataset", "")),
-            upload_texts=(filename, seq.name),
-        )
-
-    def read_upload(self, data: bytes, filename: str, deadline: Deadline | None = None) -> ImuSequence:
-        """The recording in an upload's bytes, or a 413 / 422 that says what is wrong; the read stops
-        with a 504 once ``deadline`` has passed (checked between its steps)."""
-        deadline = deadline or self.new_deadline()
         try:
-            return read_bytes(
+            seq = read_bytes(
                 data,
-                filename,
+                label,
                 max_uncompressed_bytes=self.settings.max_uncompressed_bytes,
                 max_samples=self.settings.max_samples,
-                check=lambda: deadline.check(f"reading {filename}"),
+                check=lambda: deadline.check(f"reading {label}"),  # a 504 once the deadline has passed
             )
         except TooManySamplesError as exc:
-            raise self._too_many_samples(exc.samples, filename) from None
+            raise self._too_many_samples(exc.samples, label) from None
         except DataFormatError as exc:
-            raise InvalidInputError(f"{filename}: {exc}" if filename not in str(exc) else str(exc)) from None
+            raise InvalidInputError(f"{label}: {exc}" if label not in str(exc) else str(exc)) from None
+        return Upload(seq, label, run_id, options)
+
+    def predict_upload(self, upload: Upload, source: str = "upload") -> Run:
+        """Run the model ``upload.options`` names (or the one ``choose_model`` picks from what the upload
+        was: its format, its names) on the recording ``receive`` read."""
+        seq = upload.recording
+        return self._run_chosen(
+            seq,
+            upload.run_id,
+            source,
+            upload.options,
+            upload_format=str(seq.meta.get("dataset", "")),
+            upload_texts=(upload.label, seq.name),
+        )
 
     def predict_sequence(self, sequence_id: str, options: RunOptions = RunOptions()) -> Run:
         listed = self.catalog.get(sequence_id)

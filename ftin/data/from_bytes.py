@@ -110,11 +110,10 @@ def read_bytes(
     elif data[:6] == ilc.XZ_MAGIC:  # an ILC trace as shared; its reader claims the text
         data = ilc.unxz(data, label, max_uncompressed_bytes)
     bare = not phone_exports.is_zip(data)  # a CSV on its own; else the files of a ZIP export
-    files = (
-        ExportFiles(label, {name: data})
-        if bare
-        else phone_exports.read_zip(data, label, max_uncompressed_bytes)
-    )
+    if bare:
+        files = ExportFiles(label, {name: data})
+    else:
+        files = phone_exports.read_zip(data, label, max_uncompressed_bytes)
     del data  # the files hold it
     check()
     seq = _read_files(files, stem, bare, max_samples, check)

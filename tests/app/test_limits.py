@@ -248,7 +248,7 @@ def test_an_unexpected_error_is_json_500_without_internals(
         def broken(*args, **kwargs):
             raise RuntimeError("secret internal state")
 
-        monkeypatch.setattr(predictor, "predict_csv", broken)
+        monkeypatch.setattr(predictor, "predict_upload", broken)
         response = upload(client, csv_with_gt)
         assert response.status_code == 500
         message = detail(response)
@@ -326,5 +326,6 @@ def test_reading_an_upload_is_inside_the_requests_deadline(
     expired = Deadline.after(1e-9)
     time.sleep(0.01)
     with pytest.raises(InferenceTimeoutError, match="reading walk.csv made no progress"):
-        services.predictor.read_upload(csv_with_gt, "walk.csv", expired)
-    assert len(services.predictor.read_upload(csv_with_gt, "walk.csv", Deadline.after(60))) == 2000
+        services.predictor.receive(csv_with_gt, "walk.csv", RunOptions(deadline=expired))
+    received = services.predictor.receive(csv_with_gt, "walk.csv", RunOptions(deadline=Deadline.after(60)))
+    assert len(received.recording) == 2000

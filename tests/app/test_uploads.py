@@ -92,7 +92,7 @@ def test_a_run_keeps_its_sequence_as_given_and_the_scored_result_beside_it(
 ) -> None:
     data = turned_csv(sample_frame, 40.0)
     predictor = client.app.state.services.predictor
-    seq = predictor.read_upload(data, "mocap.csv")
+    seq = predictor.receive(data, "mocap.csv").recording
     gt_before = seq.gt.p_world_m.copy()
     first = predictor.predict_imu(seq, RunOptions(DEFAULT_MODEL))
     # The sequence is the one given (its orientation as the choice applied it: auto keeps the file's

@@ -5,7 +5,7 @@ The body format follows ``Content-Type``: ``multipart/form-data`` with a file in
 ``application/gzip``, ``application/octet-stream``), or ``application/json`` with the arrays of
 ``ArraysPredictRequest``. A file or raw body is a CSV in the generic schema, a gzip-compressed CSV,
 or a phone app's ZIP export (Sensor Logger, phyphox): detected from the bytes, never from the name
-(``PredictionService.read_upload``).
+(``PredictionService.receive``).
 
 Nothing heavy runs on the event loop, so that other requests (``GET /health``, progress polls, the
 page) answer while a long recording is read and run: the body arrives asynchronously; reading it,
@@ -211,7 +211,13 @@ async def predict(
 async def _read_and_run(
     request: Request, predictor: PredictionService, content_type: str, options: RunOptions, name: str | None
 ) -> Run:
-    """The body as its ``Content-Type`` says, read and run off the event loop."""
+    """The body as its ``Content-Type`` says, read and run off the event loop: a file or raw body is
+    read in one place (``PredictionService.receive``), its recording predicted in another
+    (``predict_upload``)."""
+    if content_type == "application/json":
+        data = await request.body()
+        _body_in(options)
+        return await run_in_threadpool(_predict_json, predictor, data, options)
     if content_type == "multipart/form-data":
         async with request.form(max_files=1, max_fields=8) as form:
             upload = form.get("file")
@@ -221,21 +227,18 @@ async def _read_and_run(
                     "Sensor Logger / phyphox ZIP)"
                 )
             body = HandedBytes(await upload.read())  # taken by the service: no reference stays here
-            filename = name or upload.filename or "upload.csv"
+            label = name or upload.filename or "upload.csv"
             chosen = form.get("filter")  # the page's select; the query parameter, where given, wins
             if options.filter is None and chosen is not None:
                 options = replace(options, filter=str(chosen))
-        _body_in(options)
-        return await run_in_threadpool(predictor.predict_csv, body, filename, options)
-    if content_type in _RAW_BODY_TYPES:
+    else:
         body = HandedBytes(b"".join([chunk async for chunk in request.stream()]))  # not kept by the request
-        _body_in(options)
         # A raw body has no file name: the client's ``name`` labels it, else "request body" (the
         # recording is named "upload"): never a name the user did not give.
-        return await run_in_threadpool(predictor.predict_csv, body, name or RAW_BODY_LABEL, options)
-    data = await request.body()  # application/json
+        label = name or RAW_BODY_LABEL
     _body_in(options)
-    return await run_in_threadpool(_predict_json, predictor, data, options)
+    received = await run_in_threadpool(predictor.receive, body, label, options)
+    return await run_in_threadpool(predictor.predict_upload, received)
 
 
 def _body_in(options: RunOptions) -> None:
