@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from app.api.routes import exports, health, live, metrics, models, predict, runs, sequences
+from app.api.routes import exports, health, live, metrics, models, predict, profiles, runs, sequences
 from tests.app.routes.helpers import DEFAULT_MODEL, OTHER_MODEL, upload
 from tests.app.test_plausibility_api import sensorlogger_zip
 from tests.app.test_verdict_api import fixes
@@ -104,7 +104,9 @@ def test_every_model_has_a_summary_of_at_most_25_words(client: TestClient) -> No
         assert "trained on" in model["summary"]
 
 
-@pytest.mark.parametrize("module", [exports, health, live, metrics, models, predict, runs, sequences])
+@pytest.mark.parametrize(
+    "module", [exports, health, live, metrics, models, predict, profiles, runs, sequences]
+)
 def test_every_operation_has_a_readable_name_in_docs(module) -> None:
     for route in module.router.routes:
         if not getattr(route, "include_in_schema", False):
