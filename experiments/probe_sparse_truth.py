@@ -60,6 +60,7 @@ from ftin.data.windows import WindowDataset
 from ftin.evaluate_sparse import evaluate_waypoints
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.train.augment import WindowAugmenter
+from ftin.train.sparse_truth import segment_loss  # the loss the campaign trains with
 
 START = Path("checkpoints/ronin_resnet-walking")
 RUNS = Path("runs/probes/sparse_truth")
@@ -67,7 +68,6 @@ TRAIN_FLOORS = ("F1", "F2", "F3")
 VAL_FLOORS = ("B1", "F4")
 MIN_SEGMENT_M = 2.0
 SPARSE_STEP_S = 0.5
-TURN_WEIGHT = 0.5
 WORSE_AT_MOST = 0.05
 ARMS = ("reference", "dense", "sparse+dense")
 
@@ -123,25 +123,6 @@ class SparseChunks:
         return torch.from_numpy(np.concatenate(xs)), layout
 
 
-def sparse_loss(velocity: torch.Tensor, layout: list[tuple[int, int, np.ndarray]]) -> torch.Tensor:
-    """Mean over chunks of the two segments' squared log length ratios and the turn term."""
-    losses, at = [], 0
-    for n1, n2, marks in layout:
-        v1, v2 = velocity[at : at + n1, :2], velocity[at + n1 : at + n1 + n2, :2]
-        at += n1 + n2
-        d1 = v1.mean(0) * float(marks[1, 2] - marks[0, 2])
-        d2 = v2.mean(0) * float(marks[2, 2] - marks[1, 2])
-        true = np.diff(marks[:, :2], axis=0)
-        length = sum(
-            (torch.log(torch.linalg.norm(d) + 1e-3) - math.log(float(np.linalg.norm(tr)))) ** 2
-            for d, tr in zip((d1, d2), true, strict=True)
-        )
-        turn_pred = torch.atan2(d1[0] * d2[1] - d1[1] * d2[0], (d1 * d2).sum())
-        turn_true = math.atan2(true[0, 0] * true[1, 1] - true[0, 1] * true[1, 0], float(true[0] @ true[1]))
-        losses.append(length / 2 + TURN_WEIGHT * (1 - torch.cos(turn_pred - turn_true)))
-    return torch.stack(losses).mean()
-
-
 def fine_tune(
     arm: str, dense: WindowDataset, sparse: SparseChunks | None, args: Any
 ) -> tuple[LoadedModel, dict[str, Any]]:
@@ -169,7 +150,7 @@ def fine_tune(
         loss = dense_loss
         sparse_value = None
         if layout is not None:
-            term = sparse_loss(velocity[len(x_dense) :], layout)
+            term = segment_loss(velocity[len(x_dense) :], layout)
             loss = loss + term
             sparse_value = float(term.detach())
         optimizer.zero_grad()
