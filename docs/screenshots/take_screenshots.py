@@ -1,11 +1,12 @@
 """Take the dashboard screenshots in this folder: every view of the upload page and the 3D scene.
 
-    .venv/bin/python docs/screenshots/take_screenshots.py [--csv ftin/sim/samples/sim_stops_turns.csv]
-                                                           [--out docs/screenshots]
+    PYTHONPATH=. .venv/bin/python docs/screenshots/take_screenshots.py \
+        [--csv ftin/sim/samples/sim_stops_turns.csv] [--out docs/screenshots]
 
 Starts the app as ``uvicorn app.main:app`` would (the same settings: ``FTIN_*`` variables or the
 defaults, i.e. the shipped checkpoints in ``checkpoints/`` and the bundled samples; only the viser
-port is picked free) and saves, in ``--out``:
+port is picked free, and the runs folder is a new empty one: the pages as a new user first sees
+them) and saves, in ``--out``:
 
 - ``scene_start.png``: the 3D scene as it opens, before anything was asked of it;
 - ``upload_first_screen.png``: the upload page as it opens: the bundled sample's result;
@@ -33,6 +34,7 @@ Needs Playwright and Debian's chromium (``/usr/bin/chromium``).
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
@@ -86,7 +88,7 @@ def main() -> None:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
 
-    app = create_app(Settings(viser_port=0))
+    app = create_app(Settings(viser_port=0, runs_dir=Path(tempfile.mkdtemp(prefix="ftin-screenshots-"))))
     served = serve_in_thread(app)
     base = served.base_url
     scene = app.state.scene
