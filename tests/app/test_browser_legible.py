@@ -23,6 +23,7 @@ from tests.app.test_browser import (  # noqa: F401  (browser and page are fixtur
 )
 from tests.app.test_browser import page as page  # noqa: F401  (a fixture)
 from tests.utils.phone_walk import sensorlogger_walk_zip
+from tests.utils.scenes import screen_point
 
 
 def test_the_default_is_first_with_its_reason_and_no_model_is_sent(
@@ -71,17 +72,12 @@ def test_gps_is_drawn_under_the_paths_as_a_pale_area(live_server, page, tmp_path
 
 
 def _screen_x(point: np.ndarray, eye: np.ndarray, target: np.ndarray, fov: float) -> float:
-    """CSS x of ``point`` on the default canvas, for a pinhole camera at ``eye`` looking at ``target``
-    with +z up."""
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    d = point - eye
-    width, height = DEFAULT_CANVAS_PX
-    focal = (height / 2) / np.tan(fov / 2)
-    assert float(d @ forward) > 0 and abs(float(d @ up) / float(d @ forward) * focal) < height / 2
-    return width / 2 + float(d @ right) / float(d @ forward) * focal
+    """CSS x of ``point`` on the default canvas (``screen_point``), asserting it is in front of the camera
+    and within the canvas' height."""
+    x, y, depth = screen_point(point, eye, target, fov)
+    height = DEFAULT_CANVAS_PX[1]
+    assert depth > 0 and abs(y - height / 2) < height / 2
+    return x
 
 
 @pytest.mark.parametrize("fov_deg", [50.0, 75.0])

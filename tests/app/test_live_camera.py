@@ -11,19 +11,7 @@ from app.services.live import WAITING_AFTER_S
 from app.viz.framing import CONTROL_PANEL_PX, DEFAULT_CANVAS_PX, aim, live_frame
 from app.viz.live import WAITING, status_markdown
 from app.viz.panels import PANEL_WIDTH_PX
-
-
-def _screen(point: np.ndarray, eye: np.ndarray, target: np.ndarray, fov: float) -> tuple[float, float]:
-    """CSS (x, y) of ``point`` on the default canvas, for a pinhole camera with +z up."""
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    d = point - eye
-    width, height = DEFAULT_CANVAS_PX
-    focal = (height / 2) / np.tan(fov / 2)
-    depth = float(d @ forward)
-    return width / 2 + float(d @ right) / depth * focal, height / 2 - float(d @ up) / depth * focal
+from tests.utils.scenes import screen_point
 
 
 @pytest.mark.parametrize("fov_deg", [50.0, 75.0])
@@ -39,7 +27,7 @@ def test_the_camera_keeps_the_whole_growing_walk_beside_the_panels(fov_deg: floa
         frame = framed
         eye, target = aim(frame[0], frame[1], fov)
         for point in path[:end]:
-            x, y = _screen(point, eye, target, fov)
+            x, y, _depth = screen_point(point, eye, target, fov)
             assert CONTROL_PANEL_PX <= x <= DEFAULT_CANVAS_PX[0] - PANEL_WIDTH_PX, (t[end], point)
             assert 0 <= y <= DEFAULT_CANVAS_PX[1]
     assert 1 < moves < len(t) / 10  # re-framed now and then as the walk grows, not on every update

@@ -5,10 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+import numpy as np
 import pytest
 
 from app.services import Services
 from app.settings import Settings
+from app.viz.framing import DEFAULT_CANVAS_PX
 from app.viz.scene import DashboardScene
 
 
@@ -53,3 +55,19 @@ def emptied_for_each_test() -> Callable[[DashboardScene], None]:
         empty_scene(scene)
 
     return _empty_scene
+
+
+def screen_point(
+    point: np.ndarray, eye: np.ndarray, target: np.ndarray, fov: float
+) -> tuple[float, float, float]:
+    """CSS ``(x, y)`` of ``point`` on the scene's default canvas and its depth along the view (m), for a
+    pinhole camera at ``eye`` looking at ``target`` with +z up (``fov``: vertical, radians)."""
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    d = point - eye
+    width, height = DEFAULT_CANVAS_PX
+    focal = (height / 2) / np.tan(fov / 2)
+    depth = float(d @ forward)
+    return width / 2 + float(d @ right) / depth * focal, height / 2 - float(d @ up) / depth * focal, depth
