@@ -65,6 +65,8 @@ def walk_row(model: LoadedModel, rel: str, seq: ImuSequence) -> dict:
         "still": scored.stand_still.values["ate"],
         "ratio": values.get("distance_ratio"),
         "end_per_100m": 100 * values["pde"],  # final position error over the true path length
+        "heading": values.get("heading_error_10s_deg"),  # median over 10-s windows (ftin.metrics.heading)
+        "heading_late": values.get("heading_error_10s_after_2min_deg"),
     }
 
 
