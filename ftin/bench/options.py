@@ -148,3 +148,15 @@ class HourOptions:
     def __post_init__(self) -> None:
         if self.minutes <= 0 or self.rate_hz <= 0:
             raise ValueError("--minutes and --rate-hz must be > 0")
+
+
+# The benchmarks that run the app, in `ftin bench --help`'s order: each is `ftin bench <name>`, its
+# options the fields of its type, run by ``run_<name>`` (dashes as underscores) of ``ftin.cli.bench_app``.
+PRODUCT_BENCHMARKS: dict[str, type] = {
+    "predict": PredictOptions,
+    "live": LiveOptions,
+    "scene": SceneOptions,
+    "hour": HourOptions,
+    "live-drawing": LiveDrawingOptions,
+    "load": LoadOptions,
+}

@@ -20,14 +20,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ftin.bench import memory, yaw_copies
-from ftin.bench.options import (
-    HourOptions,
-    LiveDrawingOptions,
-    LiveOptions,
-    LoadOptions,
-    PredictOptions,
-    SceneOptions,
-)
+from ftin.bench.options import PRODUCT_BENCHMARKS
 from ftin.bench.side_by_side import MEMORY_METHOD, BenchConfig, bench_json, bench_models
 from ftin.cli.common import (
     REPORT_ERRORS,
@@ -226,9 +219,5 @@ def _product_command(name: str, options_type: type, run: str) -> None:
     bench_group.command(name)(command)
 
 
-_product_command("predict", PredictOptions, "run_predict")
-_product_command("live", LiveOptions, "run_live")
-_product_command("scene", SceneOptions, "run_scene")
-_product_command("hour", HourOptions, "run_hour")
-_product_command("live-drawing", LiveDrawingOptions, "run_live_drawing")
-_product_command("load", LoadOptions, "run_load")
+for _name, _options_type in PRODUCT_BENCHMARKS.items():
+    _product_command(_name, _options_type, "run_" + _name.replace("-", "_"))
