@@ -23,7 +23,6 @@ from ftin.data.types import ImuSequence
 from ftin.filter.consistency import tilt_error_deg
 from ftin.filter.levelled import levelled_prediction
 from ftin.filter.run import FilterRun
-from ftin.filter.state import FilterConfig
 from ftin.infer import Prediction
 
 FILTERS = ("none", "ekf")
@@ -62,19 +61,19 @@ def ekf_series(run: FilterRun, q_input_wxyz: np.ndarray) -> dict[str, np.ndarray
 def ekf_prediction(
     loaded: LoadedModel,
     seq: ImuSequence,
-    config: FilterConfig | None = None,
     *,
     orientation: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     keep_prepared: bool = True,
 ) -> Prediction:
-    """``seq`` (oriented, or oriented here as inference would) through the EKF with ``loaded`` as its
-    measurement (``orientation``: the choice to apply first, as inference takes it), then re-read on the
-    filter's orientation (module docstring); a ``Prediction`` carrying the filter's series in
+    """``seq`` (oriented, or oriented here as inference would) through the EKF (``FilterConfig``'s
+    defaults) with ``loaded`` as its measurement (``orientation``: the choice to apply first, as inference
+    takes it), then re-read on the filter's orientation (module docstring); a ``Prediction`` carrying the
+    filter's series in
     ``features``. A ``DataFormatError`` beginning "filter ekf:" for what the filter cannot run (a
     streaming model: the EKF needs a window model; a recording shorter than a window), at every door."""
     try:
-        read = levelled_prediction(loaded, seq, config or FilterConfig(), orientation, progress)
+        read = levelled_prediction(loaded, seq, orientation, progress)
     except ValueError as exc:
         raise DataFormatError(f"filter ekf: {exc}") from None
     prediction = read.prediction

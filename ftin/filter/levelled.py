@@ -51,15 +51,14 @@ def network_agreed(nis: np.ndarray) -> bool:
 def levelled_prediction(
     loaded: LoadedModel,
     seq: ImuSequence,
-    config: FilterConfig | None = None,
     orientation: str | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> Levelled:
     """``loaded`` over ``seq`` (prepared with ``orientation`` as inference prepares it) read on the EKF's
-    orientation (its second pass) where the filter agreed with the network, else on the orientation it
-    started from. ``progress`` follows the filter's passes (the re-read takes a few per cent of their
-    time)."""
-    filtered, run = filter_prediction(loaded, seq, config, orientation, progress, passes=2)
+    orientation (its second pass, the filter as ``FilterConfig``'s defaults set it: the rule above was
+    fitted on them) where the filter agreed with the network, else on the orientation it started from.
+    ``progress`` follows the filter's passes (the re-read takes a few per cent of their time)."""
+    filtered, run = filter_prediction(loaded, seq, FilterConfig(), orientation, progress, passes=2)
     prepared = filtered.prepared.seq
     mean_nis = float(np.mean(run.nis))
     levelled = network_agreed(run.nis)
