@@ -10,9 +10,10 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Depends, Path, Query
 from fastapi.responses import JSONResponse, Response
 
 from app.api.deps import ServicesDep
@@ -83,20 +84,38 @@ def attachment(text: str | bytes, media_type: str, name: str) -> Response:
     )
 
 
-@file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain", "Download the trajectory (TUM)")
-def trajectory_tum_route(
+@dataclass(frozen=True)
+class TrajectoryDownload:
+    """What a trajectory download (``trajectory.tum``, ``trajectory.csv``) asks for: the finished run,
+    at which samples (``timestamps``) and on which clock."""
+
+    run: Run
+    timestamps: Timestamps
+    clock: Clock
+
+    def file(self, text: Callable[[Run, Timestamps, Clock], str], media_type: str, suffix: str) -> Response:
+        """The trajectory as ``text`` writes it, an attachment named after the recording and model."""
+        name = f"{self.run.sequence.name}_{self.run.model_name}_trajectory.{suffix}"
+        return attachment(text(self.run, self.timestamps, self.clock), media_type, name)
+
+
+def trajectory_download(
     run_id: RunIdPath,
     services: ServicesDep,
     timestamps: TimestampsQuery = Timestamps.MODEL,
     clock: ClockQuery = Clock.START,
-) -> Response:
+) -> TrajectoryDownload:
+    """The options both trajectory downloads take, and the run they name (404 unknown, 410 expired)."""
+    return TrajectoryDownload(services.runs.get(run_id), timestamps, clock)
+
+
+TrajectoryDownloadDep = Annotated[TrajectoryDownload, Depends(trajectory_download)]
+
+
+@file_route(router, "/runs/{run_id}/trajectory.tum", "text/plain", "Download the trajectory (TUM)")
+def trajectory_tum_route(download: TrajectoryDownloadDep) -> Response:
     """The predicted trajectory in TUM format (seconds, metres, world-from-device quaternion)."""
-    run = services.runs.get(run_id)
-    return attachment(
-        trajectory_tum(run, timestamps, clock),
-        "text/plain",
-        f"{run.sequence.name}_{run.model_name}_trajectory.tum",
-    )
+    return download.file(trajectory_tum, "text/plain", "tum")
 
 
 @file_route(router, "/runs/{run_id}/ground_truth.tum", "text/plain", "Download the ground truth (TUM)")

@@ -17,12 +17,11 @@ from fastapi.responses import FileResponse, Response
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import ServicesDep
-from app.api.routes.exports import RUN_GONE, ClockQuery, RunIdPath, TimestampsQuery, attachment, file_route
+from app.api.routes.exports import RUN_GONE, RunIdPath, TrajectoryDownloadDep, file_route
 from app.api.routes.pages import STATIC_DIR
 from app.api.routes.predict import PredictOptionsDep, answer, render
 from app.schemas import ErrorResponse, PredictionResponse, RunStatusResponse
 from app.schemas_runs import RunSummary
-from app.services.exports import Clock, Timestamps
 from app.services.exports import trajectory_csv as trajectory_csv_text
 from app.services.runs import Run
 
@@ -69,18 +68,11 @@ def run_status(
 
 
 @file_route(router, "/runs/{run_id}/trajectory.csv", "text/csv", "Download the trajectory (CSV)")
-def trajectory_csv(
-    run_id: RunIdPath,
-    services: ServicesDep,
-    timestamps: TimestampsQuery = Timestamps.MODEL,
-    clock: ClockQuery = Clock.START,
-) -> Response:
+def trajectory_csv(download: TrajectoryDownloadDep) -> Response:
     """The predicted trajectory: ``t_s,x_m,y_m,z_m,sigma_x_m,sigma_y_m`` in the prediction's world frame
     (sigma: the position's standard deviation, ``ftin.uncertainty``; ``timestamps=input``: at the
     recording's own timestamps; ``clock=epoch``: ``t_unix_s``, on the phone's clock)."""
-    run = services.runs.get(run_id)
-    name = f"{run.sequence.name}_{run.model_name}_trajectory.csv"
-    return attachment(trajectory_csv_text(run, timestamps, clock), "text/csv", name)
+    return download.file(trajectory_csv_text, "text/csv", "csv")
 
 
 @router.delete(
