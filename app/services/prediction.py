@@ -58,7 +58,7 @@ from app.services.checkpoint_store import ModelEntry, ModelStore
 from app.services.errors import InferenceTimeoutError, InvalidInputError, PayloadTooLargeError
 from app.services.features import ModelInput
 from app.services.limits import Deadline, InferenceSlots, UploadGate
-from app.services.model_choice import ModelChoice, choose_model
+from app.services.model_choice import choose_model
 from app.services.runs import Run, RunStore
 from app.settings import Settings
 from ftin import infer
@@ -247,7 +247,7 @@ class PredictionService:
         """Run the model ``upload.options`` names (or the one ``choose_model`` picks from what the upload
         was: its format, its names) on the recording ``receive`` read."""
         seq = upload.recording
-        return self._run_chosen(
+        return self.run(
             seq,
             upload.run_id,
             source,
@@ -261,13 +261,13 @@ class PredictionService:
         run_id = self._new_run_id(options)
         seq = self.catalog.read(sequence_id, options.orientation)
         self.check_sample_count(len(seq), f"sequence {sequence_id!r}")
-        return self._run_chosen(seq, run_id, "sequence", options, sequence_id, sequence_kind=listed.kind)
+        return self.run(seq, run_id, "sequence", options, sequence_id, sequence_kind=listed.kind)
 
     def predict_imu(self, seq: ImuSequence, options: RunOptions = RunOptions(), source: str = "json") -> Run:
         """Run a model on a sequence built by the caller (e.g. from JSON arrays)."""
         run_id = self._new_run_id(options)
         self.check_sample_count(len(seq), f"recording {seq.name!r}")
-        return self._run_chosen(seq, run_id, source, options)
+        return self.run(seq, run_id, source, options)
 
     def _new_run_id(self, options: RunOptions) -> str:
         """The run's id, once a model the request names is known (refused before any recording is read)."""
@@ -275,7 +275,7 @@ class PredictionService:
             self.models.get(options.model)
         return self.runs.new_id(options.run_id)
 
-    def _run_chosen(
+    def run(
         self,
         seq: ImuSequence,
         run_id: str,
@@ -284,62 +284,33 @@ class PredictionService:
         sequence_id: str | None = None,
         **hints: Any,
     ) -> Run:
-        """``run`` with the model ``options`` names, or the one ``choose_model`` picks from ``hints``."""
-        entry, choice = choose_model(self.models, options.model, **hints)
-        return self.run(
-            seq,
-            entry,
-            run_id,
-            source,
-            sequence_id,
-            options.deadline,
-            align=options.align,
-            orientation=options.orientation,
-            model_choice=choice,
-            group=options.group,
-            filter=options.filter,
-            profile=options.profile,
-        )
+        """Run the model ``options`` names, or the one ``choose_model`` picks from ``hints`` (the run keeps
+        why: ``app.services.model_choice``), on ``seq``; progress and the result go to the run store and
+        its listeners.
 
-    def run(
-        self,
-        seq: ImuSequence,
-        entry: ModelEntry,
-        run_id: str,
-        source: str,
-        sequence_id: str | None = None,
-        deadline: Deadline | None = None,
-        *,
-        align: str | None = None,
-        orientation: str | None = None,
-        model_choice: ModelChoice | None = None,
-        group: str | None = None,
-        filter: str | None = None,
-        profile: AppliedProfile | None = None,
-    ) -> Run:
-        """Run ``entry`` on ``seq``; progress and the result go to the run store and its listeners.
+        ``options.orientation`` (``ftin.data.orientation_option``; ``auto`` when None) is applied first;
+        the run keeps the oriented sequence. ``options.filter`` (``ftin.filter.choice``): ``ekf`` puts the
+        model inside the EKF (its trajectory, its covariance as the uncertainty); none or None runs
+        inference as always. ``options.profile`` scales the prediction by a walker's own distance scale
+        before it is scored (``ftin.profiles.apply_scale``).
 
-        ``orientation`` (``ftin.data.orientation_option``; ``auto`` when None) is applied first; the run
-        keeps the oriented sequence. ``model_choice`` says why ``entry`` runs (``app.services.model_choice``).
-        ``filter`` (``ftin.filter.choice``): ``ekf`` puts the model inside the EKF (its trajectory, its
-        covariance as the uncertainty); none or None runs inference as always. ``profile`` scales the
-        prediction by a walker's own distance scale before it is scored (``ftin.profiles.apply_scale``).
-
-        With ground truth, the metrics follow ``align`` (``ftin.metrics.Alignment``; by default ``start``
-        where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as given and
-        the scored result beside it (``Run.score``; ``Run.truth`` is the truth moved into the prediction's
-        frame by the fitted alignment: what is drawn is what was scored).
+        With ground truth, the metrics follow ``options.align`` (``ftin.metrics.Alignment``; by default
+        ``start`` where the truth may live in another world frame, else ``none``). The run keeps ``seq`` as
+        given and the scored result beside it (``Run.score``; ``Run.truth`` is the truth moved into the
+        prediction's frame by the fitted alignment: what is drawn is what was scored).
         """
-        deadline = deadline or self.new_deadline()
+        entry, model_choice = choose_model(self.models, options.model, **hints)
+        align, profile = options.align, options.profile
+        deadline = options.deadline or self.new_deadline()
         if align is not None and align not in {a.value for a in Alignment}:
             choices = ", ".join(a.value for a in Alignment)
             raise InvalidInputError(f"align must be one of {choices}; got {align!r}")
         try:
-            orientation = parse_orientation(orientation).value
+            orientation = parse_orientation(options.orientation).value
         except ValueError as exc:
             raise InvalidInputError(str(exc)) from None
         try:
-            filter = parse_filter(filter)
+            filter = parse_filter(options.filter)
         except ValueError as exc:
             raise InvalidInputError(str(exc)) from None
         if filter == EKF and entry.loaded.model.streams:
@@ -399,7 +370,7 @@ class PredictionService:
             scored,
             model_choice=model_choice,
             align=align,
-            group=group,
+            group=options.group,
             steps=steps,
             profile=profile,
         )
