@@ -1,4 +1,5 @@
-"""Arrays that grow by rows at their end: the live session's and the live filter's buffers.
+"""Arrays that grow by rows at their end: the live session's and the live filter's buffers, and the walk
+both keep in them (``GrowingWalk``).
 
 Below both ``ftin/live/`` and ``ftin/filter/`` (each keeps its samples in them), so neither imports
 the other for a container.
@@ -35,3 +36,28 @@ class Growing:
 
     def view(self) -> np.ndarray:
         return self._data[: self._n]
+
+
+class GrowingWalk:
+    """What a live run's predictors have in common (``ftin.live.incremental.IncrementalPredictor``,
+    ``ftin.filter.session.FilterSession``, read alike by the live service): the samples' times, the
+    device-frame gyro, accelerometer and orientation as appended, and the positions so far. Each
+    subclass appends to them; the views are of the growing arrays, no copies."""
+
+    def __init__(self) -> None:
+        self._t = Growing(None)
+        self._gyro, self._acc, self._q_in = Growing(3), Growing(3), Growing(4)
+        self._p = Growing(3)
+
+    def __len__(self) -> int:
+        return len(self._t)
+
+    def t_s(self) -> np.ndarray:
+        return self._t.view()
+
+    def imu(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(gyro, acc, q)`` in the device frame as appended, ``q`` the orientation given to ``extend``."""
+        return self._gyro.view(), self._acc.view(), self._q_in.view()
+
+    def positions(self) -> np.ndarray:
+        return self._p.view()

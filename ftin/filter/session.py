@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ftin.data import frames
-from ftin.data.growing import Growing
+from ftin.data.growing import Growing, GrowingWalk
 from ftin.filter.ekf import ErrorStateEkf
 from ftin.filter.state import POS, THETA, FilterConfig, rot_z, yaw_of
 
@@ -59,7 +59,7 @@ class FilterRun:
     speed_scale: np.ndarray  # (N,) the network's speed scale the filter estimated (1 where it does not)
 
 
-class FilterSession:
+class FilterSession(GrowingWalk):
     """One stream through ``ErrorStateEkf`` with ``measure`` (or ``network(rows[start:end])``) as the
     window measurement. ``start_q_wxyz``: the start orientation (else ``extend``'s first sample);
     ``start_biases``: the gyro and accelerometer biases to start from (zero; ``ftin.filter.settle``);
@@ -82,6 +82,7 @@ class FilterSession:
         measure: Measure | None = None,
         on_update: Callable[[int], None] | None = None,
     ) -> None:
+        super().__init__()
         self.config = config or FilterConfig()
         self.window = int(window)
         self.every = self.config.update_every or self.window
@@ -102,19 +103,15 @@ class FilterSession:
         self._last_heading: float | None = None  # extend: the reference unwrapped across chunks
         self._chunk_t, self._chunk_first = np.zeros(0), 0
         self._length_m = 0.0
-        # Per sample.
-        self._t, self._gyro, self._acc, self._q_in = Growing(None), Growing(3), Growing(3), Growing(4)
+        # Per sample, beside the walk's (GrowingWalk).
         self._rows = Growing(6, np.float32)
-        self._p, self._v, self._q = Growing(3), Growing(3), Growing(4)
+        self._v, self._q = Growing(3), Growing(4)
         self._bg, self._ba, self._pos_cov, self._tilt_cov = Growing(3), Growing(3), Growing(4), Growing(4)
         self._k = Growing(None)
         # Per update.
         self._span, self._velocity = Growing(2, np.int64), Growing(3)
         self._nis, self._applied = Growing(None), Growing(None, bool)
         self._cov = Growing(self.config.evolving_dim**2)
-
-    def __len__(self) -> int:
-        return len(self._t)
 
     # --- input -----------------------------------------------------------------------------------
 
@@ -267,16 +264,6 @@ class FilterSession:
     def path_length_m(self) -> float:
         """Horizontal path length so far (each step summed once: nothing recorded moves later)."""
         return self._length_m
-
-    def t_s(self) -> np.ndarray:
-        return self._t.view()
-
-    def imu(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(gyro, acc, q)`` in the device frame as appended, ``q`` the orientation given to ``extend``."""
-        return self._gyro.view(), self._acc.view(), self._q_in.view()
-
-    def positions(self) -> np.ndarray:
-        return self._p.view()
 
     def imu_world(self) -> np.ndarray:
         return self._rows.view()[: len(self)]

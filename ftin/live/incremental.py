@@ -25,15 +25,16 @@ import numpy as np
 
 from ftin.checkpoint import LoadedModel
 from ftin.data import frames
-from ftin.data.growing import Growing
+from ftin.data.growing import Growing, GrowingWalk
 from ftin.infer import run_windows, select_parts, stream_step
 from ftin.yaw_average import default_copies, uses_cyclic_turns
 
 BATCH_WINDOWS = 64
 
 
-class IncrementalPredictor:
+class IncrementalPredictor(GrowingWalk):
     def __init__(self, loaded: LoadedModel, stride: int | None = None) -> None:
+        super().__init__()
         self.loaded = loaded
         cyclic = uses_cyclic_turns(loaded.model_name, loaded.model.streams)  # as offline
         self.turn_stride = loaded.stride if cyclic else None
@@ -44,11 +45,7 @@ class IncrementalPredictor:
         self.parts = 1 if self.streams else loaded.model.target_parts(self.window)
         self.part = self.window // self.parts
         self.later = min(self.parts, -(-self.stride // self.part))
-        self._t = Growing(None)
-        self._gyro, self._acc = Growing(3), Growing(3)
-        self._q = Growing(4)
-        self._imu = Growing(6, np.float32)
-        self._p = Growing(3)
+        self._imu = Growing(6, np.float32)  # beside the walk's samples (GrowingWalk): the model's rows
         self._span_start, self._span_end = Growing(None, np.int64), Growing(None, np.int64)
         self._velocity = Growing(self.dim)
         self._span_t = Growing(2)  # start and end time of every span
@@ -66,9 +63,6 @@ class IncrementalPredictor:
         self._final_length_m = 0.0  # horizontal path length up to the final point
         self._delta = np.zeros((0, self.dim))
         self._count = np.zeros(0)
-
-    def __len__(self) -> int:
-        return len(self._t)
 
     @property
     def n_spans(self) -> int:
@@ -88,7 +82,7 @@ class IncrementalPredictor:
         self._t.extend(t_s)
         self._gyro.extend(gyro)
         self._acc.extend(acc)
-        self._q.extend(q_wxyz)
+        self._q_in.extend(q_wxyz)
         self._imu.extend(imu)
         self._p.extend(np.zeros((len(t_s), 3)))
         self._delta = np.concatenate([self._delta, np.zeros((len(t_s), self.dim))])
@@ -194,16 +188,6 @@ class IncrementalPredictor:
 
     # --- views ----------------------------------------------------------------------------------
 
-    def t_s(self) -> np.ndarray:
-        return self._t.view()
-
-    def imu(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(gyro, acc, q)`` in the device frame, as appended."""
-        return self._gyro.view(), self._acc.view(), self._q.view()
-
-    def positions(self) -> np.ndarray:
-        return self._p.view()
-
     def imu_world(self) -> np.ndarray:
         return self._imu.view()
 
@@ -224,7 +208,7 @@ class IncrementalPredictor:
             self._t,
             self._gyro,
             self._acc,
-            self._q,
+            self._q_in,
             self._imu,
             self._p,
             self._span_start,
