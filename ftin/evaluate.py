@@ -33,7 +33,7 @@ samples whose true position lies inside the 1- and 2-sigma ellipse of the path's
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -245,25 +245,17 @@ def evaluate_checkpoint(
         convention = convention_for(alignment)
     convention = Convention(convention)
     filter = parse_filter(filter)
+    predict = evaluation_predictor(
+        filter,
+        orientation=orientation,
+        precision=precision,
+        stride=stride,
+        yaw_copies=yaw_copies,
+        cyclic_turns=cyclic_turns,
+    )
     results: list[SequenceResult] = []
-    for seq in sequences:
-        if seq.gt is None:
-            raise DataFormatError(f"sequence {seq.name!r} has no ground truth: it cannot be evaluated")
-        if on_sequence is not None:
-            on_sequence(seq.name)
-        if filter == EKF:  # the filter levels the phone, the model reads it again (ftin.filter.levelled)
-            prediction = ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
-        else:
-            prediction = predict_trajectory(
-                loaded,
-                seq,
-                precision=precision,  # ftin.precision; reported numbers are fp32 unless asked
-                stride=stride,
-                keep_prepared=False,
-                orientation=orientation,
-                yaw_copies=yaw_copies,
-                cyclic_turns=cyclic_turns,
-            )
+    truth = ("gt", "has no ground truth: it cannot be evaluated")
+    for seq, prediction in each_prediction(loaded, sequences, predict, truth, on_sequence):
         scored = score(prediction, alignment, convention, rte_window_s)
         if scored.metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: {'; '.join(scored.warnings[-1:])}")
@@ -294,6 +286,59 @@ def evaluate_checkpoint(
         stand_still=mean_metrics(stills) if stills else None,
         filter=filter,
     )
+
+
+Predict = Callable[[LoadedModel, ImuSequence], Prediction]
+
+
+def evaluation_predictor(
+    filter: str = NONE,
+    *,
+    orientation: str | None = None,
+    precision: str = "fp32",
+    stride: int | None = None,
+    yaw_copies: int | None = None,
+    cyclic_turns: bool | None = None,
+) -> Predict:
+    """How an evaluation reads each recording: with ``filter`` ekf the EKF's answer (the filter levels
+    the phone, the model reads it again: ``ftin.filter.levelled``), else inference with these options
+    (``precision``: ``ftin.precision``; reported numbers are fp32 unless asked). Neither keeps the
+    prepared copy of the recording: an evaluation reads many."""
+    if parse_filter(filter) == EKF:
+        return lambda loaded, seq: ekf_prediction(loaded, seq, orientation=orientation, keep_prepared=False)
+
+    def infer(loaded: LoadedModel, seq: ImuSequence) -> Prediction:
+        return predict_trajectory(
+            loaded,
+            seq,
+            precision=precision,
+            stride=stride,
+            keep_prepared=False,
+            orientation=orientation,
+            yaw_copies=yaw_copies,
+            cyclic_turns=cyclic_turns,
+        )
+
+    return infer
+
+
+def each_prediction(
+    loaded: LoadedModel,
+    sequences: Iterable[ImuSequence],
+    predict: Predict,
+    needs: tuple[str, str],
+    on_sequence: Callable[[str], None] | None = None,
+) -> Iterator[tuple[ImuSequence, Prediction]]:
+    """Each of ``sequences`` in order with ``predict(loaded, seq)``, announced to ``on_sequence`` before
+    it is predicted. ``needs``: the ``ImuSequence`` field it is scored against (``gt``, ``waypoints``)
+    and, for one without it, the ``DataFormatError``'s words after the sequence's name."""
+    field_name, refusal = needs
+    for seq in sequences:
+        if getattr(seq, field_name) is None:
+            raise DataFormatError(f"sequence {seq.name!r} {refusal}")
+        if on_sequence is not None:
+            on_sequence(seq.name)
+        yield seq, predict(loaded, seq)
 
 
 def mean_tilt_error_deg(prediction: Prediction) -> float | None:

@@ -19,6 +19,7 @@ import numpy as np
 from ftin.checkpoint import LoadedModel
 from ftin.data.errors import DataFormatError
 from ftin.data.types import ImuSequence
+from ftin.evaluate import each_prediction
 from ftin.infer import Prediction, predict_trajectory
 from ftin.metrics.waypoints import WaypointMetrics, score_waypoints, stand_still_waypoints
 
@@ -119,12 +120,8 @@ def evaluate_waypoints(
     ``predict`` replaces the plain inference call (options, the EKF); default ``predict_trajectory``."""
     run = predict or (lambda model, seq: predict_trajectory(model, seq, keep_prepared=False))
     results: list[WaypointResult] = []
-    for seq in sequences:
-        if seq.waypoints is None:
-            raise DataFormatError(f"sequence {seq.name!r} has no waypoints: it cannot be scored at them")
-        if on_sequence is not None:
-            on_sequence(seq.name)
-        prediction = run(loaded, seq)
+    marks = ("waypoints", "has no waypoints: it cannot be scored at them")
+    for seq, prediction in each_prediction(loaded, sequences, run, marks, on_sequence):
         metrics = score_prediction(prediction, seq)
         if metrics is None:
             raise DataFormatError(f"sequence {seq.name!r}: its prediction is too short to score at waypoints")

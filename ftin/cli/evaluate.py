@@ -35,11 +35,9 @@ from ftin.cli.predict import EKF_TEXT, FilterName, FilterOption, PrecisionOption
 from ftin.cli.waypoint_table import print_waypoint_report
 from ftin.data.loading import load_sequences
 from ftin.data.orientation_option import Orientation
-from ftin.evaluate import evaluate_checkpoint
+from ftin.evaluate import evaluate_checkpoint, evaluation_predictor
 from ftin.evaluate_sparse import WaypointReport, evaluate_waypoints, has_waypoints
 from ftin.files import atomic_write_text
-from ftin.filter.choice import ekf_prediction
-from ftin.infer import predict_trajectory
 from ftin.metrics import HEADLINE_METRIC, Convention, get_metric, list_metrics
 from ftin.precision import PrecisionSetting, choose
 from ftin.uncertainty.coverage import ONE_SIGMA, TWO_SIGMA
@@ -196,13 +194,7 @@ def _waypoint_report(
     if not sequences:
         return None
 
-    def predict(model: Any, seq: Any) -> Any:
-        if filter == FilterName.EKF.value:
-            return ekf_prediction(model, seq, orientation=orientation, keep_prepared=False)
-        return predict_trajectory(
-            model, seq, keep_prepared=False, orientation=orientation, precision=precision
-        )
-
+    predict = evaluation_predictor(filter, orientation=orientation, precision=precision)
     return evaluate_waypoints(loaded, sequences, predict=predict)
 
 
