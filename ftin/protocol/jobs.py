@@ -21,7 +21,7 @@ Campaigns: Table 1 (``campaign_jobs``), the generalisation campaign's first stag
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -128,24 +128,14 @@ class Job:
         return f"{self.model}-{self.dataset}"
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "model": self.model,
-            "dataset": self.dataset,
-            "seed": self.seed,
-            "variant": self.variant,
-            "options": self.options,
-            "fold": self.fold,
-            "parts": {k: list(v) for k, v in self.parts.items()},
-        }
+        """Every field by its name (``parts``' tuples as lists): what ``from_json`` reads."""
+        return {**asdict(self), "parts": {k: list(v) for k, v in self.parts.items()}}
 
     @classmethod
     def from_json(cls, spec: Mapping[str, Any]) -> Job:
         """A job from its JSON form; ``options`` go over the model's ``model_options`` when the
         dataset has a rate in the protocol."""
-        unknown = sorted(
-            set(spec) - {"name", "model", "dataset", "seed", "variant", "options", "fold", "parts"}
-        )
+        unknown = sorted(set(spec) - {f.name for f in fields(cls)})
         missing = [key for key in ("name", "model", "dataset") if key not in spec]
         if unknown or missing:
             raise ValueError(f"job {spec.get('name')!r}: unknown key(s) {unknown}, missing {missing}")
