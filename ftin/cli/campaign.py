@@ -13,6 +13,7 @@ installed, naming the extra to install.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -304,9 +305,7 @@ def table_command(
     """Table 1 from the collected records (as ``ftin table --campaign``)."""
     from ftin.cli.table import campaign_table  # here: importing it registers `ftin table` (help order)
 
-    with user_errors(*CAMPAIGN_ERRORS):
-        written = campaign_table(results, out)
-    show_written(written)
+    _show_report(campaign_table, results, out)
 
 
 @campaign_app.command("crossval")
@@ -321,8 +320,13 @@ def crossval_command(
     """Walker-wise cross-validation of the generalisation campaign (its test parts are not read).
 
     Validation per arm and per walker, and paired comparisons with a walker-clustered bootstrap."""
+    _show_report(crossval_report, results, out)
+
+
+def _show_report(write: Callable[[Path, Path], list[Path]], results: Path, out: Path) -> None:
+    """A report of the collected records: ``write(results, out)``, its Markdown shown, its files listed."""
     with user_errors(*CAMPAIGN_ERRORS):
-        written = crossval_report(results, out)
+        written = write(results, out)
     show_written(written)
 
 
