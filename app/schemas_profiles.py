@@ -65,13 +65,5 @@ class AppliedProfilePayload(BaseModel):
 
     @classmethod
     def from_run(cls, run: Any) -> AppliedProfilePayload | None:
-        applied = run.profile
-        if applied is None:
-            return None
-        found = applied.found
-        return cls(
-            name=applied.name,
-            scale=round(found.scale, 4),
-            walks=found.walks,
-            scale_sigma=round(found.scale_sigma, 4),
-        )
+        applied = run.profile  # ftin.profiles.AppliedProfile; its figures as the profile shows them
+        return None if applied is None else cls(name=applied.name, **applied.found.to_json())

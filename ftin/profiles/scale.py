@@ -69,6 +69,15 @@ class ProfileScale:
         """The speed-scale spread the uncertainty uses: ``spread_sigma``, at least ``SCALE_SIGMA_FLOOR``."""
         return max(self.spread_sigma, SCALE_SIGMA_FLOOR)
 
+    def to_json(self) -> dict[str, Any]:
+        """The figures as a profile and an applied profile show them (``/profiles``, ``POST /predict``)."""
+        return {
+            "scale": round(self.scale, 4),
+            "log_spread": round(self.log_spread, 4),
+            "scale_sigma": round(self.scale_sigma, 4),
+            "walks": self.walks,
+        }
+
 
 def scale_sample(distance_m: float, predicted_m: float) -> float:
     """One walk's sample, ``distance_m / predicted_m``; ``ValueError`` naming what is wrong."""

@@ -95,14 +95,7 @@ class Profile:
         )
 
     def to_json(self) -> dict[str, Any]:
-        found = self.scale
-        return {
-            "name": self.name,
-            "scale": round(found.scale, 4),
-            "log_spread": round(found.log_spread, 4),
-            "scale_sigma": round(found.scale_sigma, 4),
-            "walks": [w.to_json() for w in self.walks],
-        }
+        return {"name": self.name, **self.scale.to_json(), "walks": [w.to_json() for w in self.walks]}
 
 
 class ProfileStore:
