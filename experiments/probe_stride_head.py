@@ -106,6 +106,7 @@ PCS = 16
 ALPHAS = (0.1, 1.0, 10.0, 100.0, 1000.0)
 FOLDS = 5
 WORSE_AT_MOST = 0.05
+READING = "## Reading"  # the report's hand-written section from here on survives a rerun
 STRIDE = ("log cadence", "interval cv", "log vertical std", "log horizontal rms", "log rotation rms")
 ARMS: dict[str, tuple[str, bool]] = {  # arm -> (features, with ILC)
     "stride only": ("stride", True),
@@ -408,7 +409,24 @@ def summary(rows: list[dict]) -> dict:
         "with_ratio": len(ratios),
         "mean_ate": float(np.mean([r["ate"] for r in rows if r["ate"] is not None])),
         "median_speed_ratio": float(np.median(speed)) if speed else None,
+        "speed_in_band": sum(low <= x <= high for x in speed),
     }
+
+
+def stride_sensitivity(items: list[tuple[str, dict, np.ndarray]], heads: dict[str, Head | None]) -> dict:
+    """Per arm over the walking stretches of ``items``: the median read / true speed and the slope of log
+    read speed on log true speed (1: a stride twice as long reads twice as fast; the issue found the
+    network's implied step length moving 0.39x as much as the true one)."""
+    f, y, _ = pooled_stretches(items)
+    out = {}
+    for arm, head in heads.items():
+        read = f["log_speed"] if head is None else head.predict(f)
+        out[arm] = {
+            "stretches": len(y),
+            "median_read_over_true": float(np.median(np.exp(read - y))),
+            "slope": float(np.polyfit(y, read, 1)[0]),
+        }
+    return out
 
 
 def judge(results: dict[str, dict[str, dict]], candidate: str) -> list[str]:
@@ -520,13 +538,33 @@ def main() -> None:
         arm: rows["new OxIOD, NEW_VAL"][arm] + rows["new OxIOD, floor walks"][arm] for arm in heads
     }
     results = {name: {arm: summary(r) for arm, r in by_arm.items()} for name, by_arm in rows.items()}
+    held_out = {
+        **{f"ILC {floor}": (sets[f"ILC {floor}"][0], ilc_stretches) for floor in ILC_HELD_OUT},
+        "new OxIOD, all": (
+            sets["new OxIOD, NEW_VAL"][0] + sets["new OxIOD, floor walks"][0],
+            dense_stretches,
+        ),
+    }
+    sensitivity = {
+        name: stride_sensitivity([(k, *stretches(r)) for k, r in recs], heads)
+        for name, (recs, stretches) in held_out.items()
+    }
     CACHE.mkdir(parents=True, exist_ok=True)
-    (CACHE / "rows.json").write_text(json.dumps({"rows": rows, "fits": fits, "bias": bias}))
+    (CACHE / "rows.json").write_text(
+        json.dumps({"rows": rows, "fits": fits, "bias": bias, "sensitivity": sensitivity})
+    )
     minutes = (time.monotonic() - started) / 60
-    write_report(args.out, report_lines(args, results, fits, bias, candidate, minutes))
+    lines = report_lines(args, results, fits, bias, sensitivity, candidate, minutes)
+    if args.out is not None and args.out.exists():  # the reading, written by hand, stays
+        text = args.out.read_text(encoding="utf-8")
+        if READING in text:
+            lines += ["", READING + text.split(READING, 1)[1].rstrip("\n")]
+    write_report(args.out, lines)
 
 
-def report_lines(args, results: dict, fits: dict, bias: dict, candidate: str, minutes: float) -> list[str]:
+def report_lines(
+    args, results: dict, fits: dict, bias: dict, sensitivity: dict, candidate: str, minutes: float
+) -> list[str]:
     lines = [
         "# A stride-aware speed head on the default's frozen network (issue 54, item 3)",
         "",
@@ -564,16 +602,37 @@ def report_lines(args, results: dict, fits: dict, bias: dict, candidate: str, mi
         "direction). ATE: ILC at the waypoints after one 2-D rotation + translation; dense, RoNIN "
         "convention.",
         "",
-        "| group | arm | walks | median path ratio | in 0.85-1.15 | median speed ratio | mean ATE (m) |",
-        "|---|---|--:|--:|--:|--:|--:|",
+        "| group | arm | walks | median path ratio | in 0.85-1.15 | median speed ratio | in 0.85-1.15 "
+        "| mean ATE (m) |",
+        "|---|---|--:|--:|--:|--:|--:|--:|",
     ]
     for group, by_arm in results.items():
         for arm, s in by_arm.items():
-            speed = "—" if s["median_speed_ratio"] is None else f"{s['median_speed_ratio']:.3f}"
+            speed = (
+                "— | —"
+                if s["median_speed_ratio"] is None
+                else f"{s['median_speed_ratio']:.3f} | {s['speed_in_band']} of {s['walks']}"
+            )
             lines.append(
                 f"| {group} | {arm} | {s['walks']} | {s['median_ratio']:.3f} "
                 f"| {s['in_band']} of {s['with_ratio']} "
                 f"| {speed} | {s['mean_ate']:.3f} |"
+            )
+    lines += [
+        "",
+        "## Does a long stride read long? (held-out walking stretches; not part of the rule)",
+        "",
+        "Slope: of log read speed on log true speed over the stretches (4 s, or one ILC segment between two "
+        "marks); 1 reads a stride twice as long as twice as fast, 0 reads every stride alike.",
+        "",
+        "| group | arm | stretches | median read / true speed | slope |",
+        "|---|---|--:|--:|--:|",
+    ]
+    for group, by_arm in sensitivity.items():
+        for arm, s in by_arm.items():
+            lines.append(
+                f"| {group} | {arm} | {s['stretches']} | {s['median_read_over_true']:.3f} "
+                f"| {s['slope']:.2f} |"
             )
     lines += ["", "## Against the rule", "", *judge(results, candidate)]
     return lines
