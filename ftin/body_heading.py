@@ -19,6 +19,13 @@ correlation with the vertical jerk: the body pushes forward as it rises), averag
 swinging walk, which the lock would make worse), so it changes no walk the models were chosen on.
 It is not free: walkers going to and fro in a small room with the phone held up (Inria's test AR and
 swinging walks, steadiness 0.22-0.34) are locked too and read worse (``docs/metrics.md``).
+
+A phone **held flat in front** (its z axis within ``FLAT_TILT_DEG`` of the vertical on at least
+``FLAT_SHARE`` of the walk: the mall walks of ILC, texting) turns with the walker too, and there the
+network's direction can wander without being lost (ILC: steadiness 0.4-0.8, walks of 30 s): such a
+walk of at least ``MIN_FLAT_WALK_S`` is locked where its median steadiness is under
+``FLAT_LOCK_BELOW`` (``docs/results/probes/flat_lock.md``: held-out ILC floors read 0.57/0.64 -> 0.80/0.82
+of their path, ATE at the waypoints 3.5 -> 1.5-1.6 m; no validation set's ATE worse).
 Applied to phone-only orientations only (an attitude filter's or the phone's own); not to live
 sessions, which have no whole walk to judge (``docs/metrics.md``, "Body-locked heading").
 """
@@ -35,6 +42,13 @@ STEADY_S = 20.0  # seconds of windows the steadiness is judged over
 LOCK_BELOW = 0.35  # median steadiness under which the walk is locked to the phone's heading
 MIN_WALK_S = 60.0  # a shorter recording is left as read: a few windows' median says little, and a
 # phone shaken in place (no walking direction at all) reads as unsteady as a lost one
+# A phone held flat in front (chosen on training walkers and ILC floors F1-F3 only, from a grid, by
+# experiments/probe_flat_lock.py; checked on held-out walks: docs/results/probes/flat_lock.md).
+FLAT_TILT_DEG = 15.0  # the device z axis this close to the vertical (face up or down) is flat
+FLAT_SHARE = 0.9  # share of the walk's samples that must be flat
+MIN_FLAT_WALK_S = 10.0  # shortest flat walk judged
+FLAT_LOCK_BELOW = 0.9  # median steadiness under which a flat walk is locked (a hand-held walk the
+# network reads well, OxIOD's or RIDI's, stays above it: 0.97-0.99)
 GAIT_S = 30.0  # seconds of acceleration each gait forward axis is read from
 GAIT_BAND_HZ = (0.8, 4.0)  # step frequencies of walking and running
 
@@ -47,10 +61,20 @@ class BodyLock:
     steadiness: float  # median over the walk, 0..1
     locked: bool
     below: float = LOCK_BELOW  # the median steadiness that locks
+    flat_share: float = float("nan")  # share of the walk held flat (device z near the vertical)
+    held_flat: bool = False  # locked because the phone was held flat in front
 
     def note(self) -> str | None:
         if not self.locked:
             return None
+        if self.held_flat:
+            return (
+                f"direction from the phone's heading: the phone was held flat in front (screen within "
+                f"{FLAT_TILT_DEG:g} deg of level for {100 * self.flat_share:.0f} % of the walk) and the "
+                f"network's direction wandered about it (steadiness {self.steadiness:.2f} < "
+                f"{FLAT_LOCK_BELOW:g}), so the phone is taken as turning with the walker; speeds are the "
+                "network's"
+            )
         return (
             f"direction from the phone's heading: the network's direction did not follow the phone "
             f"(steadiness {self.steadiness:.2f} < {self.below:g}), so the phone is taken as carried "
@@ -65,6 +89,14 @@ def phone_heading(q_world_device_wxyz: np.ndarray) -> np.ndarray:
     axes = np.stack([rot.apply(np.eye(3)[k]) for k in range(3)])  # (3, N, 3)
     k = int(np.argmin(np.median(np.abs(axes[:, :, 2]), axis=1)))
     return np.unwrap(np.arctan2(axes[k, :, 1], axes[k, :, 0]))
+
+
+def flat_share(q_world_device_wxyz: np.ndarray) -> float:
+    """Share of samples whose device z axis lies within ``FLAT_TILT_DEG`` of the vertical (face up or
+    down): a phone held flat."""
+    rot = Rotation.from_quat(np.asarray(q_world_device_wxyz, dtype=np.float64)[:, [1, 2, 3, 0]])
+    up = np.abs(rot.apply([0.0, 0.0, 1.0])[:, 2])
+    return float(np.mean(up >= np.cos(np.radians(FLAT_TILT_DEG))))
 
 
 def _around(values: np.ndarray, t: np.ndarray, t_mid: np.ndarray, width_s: float) -> np.ndarray:
@@ -110,23 +142,28 @@ def lock_to_phone(
     velocity_m_s: np.ndarray,
     below: float = LOCK_BELOW,
 ) -> BodyLock:
-    """The walk's velocities, locked to the phone's heading where the network's direction is lost
-    (module docstring; ``below`` the median steadiness that locks). Spans index ``t_s``; a walk too
-    short to judge is left as read."""
+    """The walk's velocities, locked to the phone's heading where the network's direction is lost, or
+    wanders while the phone is held flat in front (module docstring; ``below`` the median steadiness
+    that locks any walk of ``MIN_WALK_S``). Spans index ``t_s``; a walk too short to judge is left as
+    read."""
     velocity = np.asarray(velocity_m_s, dtype=np.float64)
     t = np.asarray(t_s, dtype=np.float64)
-    if velocity.shape[1] < 2 or len(velocity) < 2 or t[-1] - t[0] < MIN_WALK_S:
+    duration = t[-1] - t[0]
+    if velocity.shape[1] < 2 or len(velocity) < 2 or duration < min(MIN_WALK_S, MIN_FLAT_WALK_S):
         return BodyLock(velocity_m_s, float("nan"), False, below)
+    flat = flat_share(q_world_device_wxyz)
     yaw = phone_heading(q_world_device_wxyz)
     heading = span_heading(yaw, span_start, span_end)
     t_mid = 0.5 * (t[span_start] + t[span_end])
     median = float(np.median(steadiness(velocity[:, :2], heading, t_mid)))
-    if not median < below:
-        return BodyLock(velocity_m_s, median, False, below)
+    lost = duration >= MIN_WALK_S and median < below
+    held_flat = not lost and flat >= FLAT_SHARE and median < FLAT_LOCK_BELOW
+    if not (lost or held_flat):
+        return BodyLock(velocity_m_s, median, False, below, flat)
     speed = np.linalg.norm(velocity[:, :2], axis=1)
     forward = gait_forward(acc_world, yaw, rate_hz, t, t_mid)
     offset = np.angle(np.sum(speed * np.exp(1j * forward)))
     locked = velocity.copy()
     locked[:, 0] = speed * np.cos(heading + offset)
     locked[:, 1] = speed * np.sin(heading + offset)
-    return BodyLock(locked, median, True, below)
+    return BodyLock(locked, median, True, below, flat, held_flat)

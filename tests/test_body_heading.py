@@ -1,6 +1,6 @@
 """Body-locked heading (``ftin.body_heading``): a walk whose network direction is lost takes the
-phone's heading; a walk read well is left alone; and on a real walk of that kind the distance read
-comes back."""
+phone's heading; so does a phone held flat in front whose direction wanders; a walk read well is left
+alone; and on real walks of those kinds the distance read comes back."""
 
 from __future__ import annotations
 
@@ -10,10 +10,20 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from ftin.body_heading import LOCK_BELOW, lock_to_phone, phone_heading, steadiness
+from ftin.body_heading import (
+    FLAT_LOCK_BELOW,
+    LOCK_BELOW,
+    MIN_FLAT_WALK_S,
+    flat_share,
+    lock_to_phone,
+    phone_heading,
+    steadiness,
+)
 from ftin.checkpoint import load_model
+from ftin.data.discovery import read_sequence
 from ftin.data.loading import load_phone_only
 from ftin.evaluate import score
+from ftin.evaluate_sparse import score_prediction
 from ftin.infer import predict_trajectory
 from tests.utils.paths import REPO_ROOT
 
@@ -88,6 +98,46 @@ def test_a_recording_under_a_minute_is_not_judged():
     assert not lock.locked and lock.velocity_m_s is velocity
 
 
+def _wandering(n: int, forward_axis: np.ndarray, mid: np.ndarray, seed: int) -> np.ndarray:
+    """Window velocities that follow the walker only loosely (steadiness about 0.6, as the network
+    reads the ILC walks): the true direction plus +-80 deg of noise."""
+    rng = np.random.default_rng(seed)
+    truth = np.arctan2(forward_axis[mid, 1], forward_axis[mid, 0])
+    angle = truth + rng.uniform(-np.radians(80), np.radians(80), n)
+    speed = rng.uniform(0.9, 1.1, n)
+    return np.column_stack([speed * np.cos(angle), speed * np.sin(angle)])
+
+
+def test_a_phone_held_flat_whose_direction_wanders_is_locked_on_a_short_walk():
+    t, q, acc, a, b, forward_axis = _walk(seconds=30.0, pitch_deg=5.0)  # flat in front, half a minute
+    velocity = _wandering(len(a), forward_axis, (a + b) // 2, 7)
+    lock = lock_to_phone(t, q, acc, RATE, a, b, velocity)
+    assert flat_share(q) == 1.0 and LOCK_BELOW < lock.steadiness < FLAT_LOCK_BELOW
+    assert lock.locked and lock.held_flat
+    truth = np.arctan2(forward_axis[(a + b) // 2, 1], forward_axis[(a + b) // 2, 0])
+    got = np.arctan2(lock.velocity_m_s[:, 1], lock.velocity_m_s[:, 0])
+    assert np.degrees(np.abs(np.angle(np.exp(1j * (got - truth))))).max() < 10.0
+    assert "held flat in front" in lock.note() and f"< {FLAT_LOCK_BELOW:g}" in lock.note()
+
+
+def test_the_same_walk_held_upright_or_too_short_is_left_as_read():
+    t, q, acc, a, b, forward_axis = _walk(seconds=30.0, pitch_deg=60.0)  # tilted well off flat
+    velocity = _wandering(len(a), forward_axis, (a + b) // 2, 7)
+    lock = lock_to_phone(t, q, acc, RATE, a, b, velocity)
+    assert flat_share(q) == 0.0 and not lock.locked and lock.velocity_m_s is velocity
+    t, q, acc, a, b, forward_axis = _walk(seconds=MIN_FLAT_WALK_S - 3.0, pitch_deg=5.0)  # flat, 7 s
+    velocity = _wandering(len(a), forward_axis, (a + b) // 2, 8)
+    assert not lock_to_phone(t, q, acc, RATE, a, b, velocity).locked
+
+
+def test_a_flat_phone_the_network_follows_is_left_as_read():
+    t, q, acc, a, b, forward_axis = _walk(seconds=30.0, pitch_deg=5.0)
+    mid = (a + b) // 2
+    velocity = 1.0 * forward_axis[mid] + np.random.default_rng(9).normal(0.0, 0.1, (len(a), 2))
+    lock = lock_to_phone(t, q, acc, RATE, a, b, velocity)
+    assert lock.steadiness > FLAT_LOCK_BELOW and not lock.locked and lock.velocity_m_s is velocity
+
+
 FLOOR_WALK = Path("oxiod") / "large scale" / "floor1" / "syn" / "imu8.csv.xz"
 
 
@@ -115,3 +165,23 @@ def test_a_floor_walk_read_well_is_not_locked(shared_data: Path, walk: str):
     model = load_model(REPO_ROOT / "checkpoints" / "ronin_resnet-walking")
     prediction = predict_trajectory(model, seq, keep_prepared=False)
     assert not any("phone's heading" in note for note in prediction.notes)
+
+
+# A held-out ILC mall walk (floor B1, 30 s, the phone flat in front; docs/results/probes/flat_lock.md).
+ILC_WALK = Path("ilc") / "site1" / "B1" / "5dda33449191710006b57338.txt.xz"
+
+
+def test_a_mall_walk_held_flat_gets_its_path_back(shared_data: Path):
+    """The default reads this walk at 0.45 of the waypoints' path with the network's own directions
+    (steadiness 0.47: above the lock for a lost direction, and the walk is under a minute); held flat,
+    it is locked to the phone's heading: 0.76 of the path, ATE at the waypoints 5.9 -> 1.8 m."""
+    seq = read_sequence(shared_data / ILC_WALK)
+    model = load_model(REPO_ROOT / "checkpoints" / "ronin_resnet-walking")
+    alone = predict_trajectory(model, seq, keep_prepared=False, body_lock=False)
+    locked = predict_trajectory(model, seq, keep_prepared=False)
+    before, after = score_prediction(alone, seq), score_prediction(locked, seq)
+    assert before.path_ratio < 0.55 and after.path_ratio > 0.7
+    assert after.ate_m < 0.5 * before.ate_m
+    assert any("held flat in front" in note for note in locked.notes)
+    speed = np.linalg.norm(alone.velocity_m_s[:, :2], axis=1)
+    np.testing.assert_allclose(np.linalg.norm(locked.velocity_m_s[:, :2], axis=1), speed)
