@@ -49,6 +49,12 @@ the run, changing no number: ``default`` is the rule before this probe, steadine
 minute, computed here so that a rerun after the library took the gate reads the same; the report
 counts the walks the library's gate locks as the chosen gate does.)
 
+A side measurement, not part of the rule (``--phase radius``, after the library took the gate): the
+95 % end radius of ``ftin.uncertainty`` on the ILC floors its held-out probe reads
+(``experiments.probe_uncertainty_heldout``: B1 and F4, every 3rd trace, start-aligned), with and
+without the flat lock: the lock makes the windows' directions agree, and that probe's speed-scale
+spread grows with their disagreement (``direction_coherence``).
+
     nice -n 10 python -m experiments.probe_flat_lock --phase tune
     nice -n 10 python -m experiments.probe_flat_lock --phase check --out docs/results/probes/flat_lock.md
 """
@@ -477,14 +483,64 @@ def load_rows(model, names: tuple[str, ...], root: Path, every: int) -> dict[str
     return rows
 
 
+def radius_lines(model, root: Path) -> list[str]:
+    """The side measurement (module docstring): ILC coverage of the 95 % end radius, flat lock off/on."""
+    import ftin.body_heading as body_heading  # noqa: PLC0415  (the gate switched off for one arm)
+    from experiments.probe_uncertainty_heldout import (  # noqa: PLC0415
+        EVERY,
+        HELD_FLOORS,
+        coverage,
+        path_ratio,
+        walk_marks,
+    )
+    from experiments.uncertainty_ilc_walks import cached_ilc_walks  # noqa: PLC0415
+    from ftin.uncertainty.calibration import calibration_for  # noqa: PLC0415
+    from ftin.uncertainty.propagate import direction_coherence  # noqa: PLC0415
+
+    calibration = calibration_for(CHECKPOINT.name)
+    lines = [
+        "| floor | walks | flat lock | median path ratio | median direction coherence | true end within r95 "
+        "| Spearman(r95, end error) | median r95 (m) |",
+        "|---|--:|---|--:|--:|--:|--:|--:|",
+    ]
+    share = body_heading.FLAT_SHARE
+    for arm in ("off", "on"):
+        body_heading.FLAT_SHARE = share if arm == "on" else 2.0  # 2.0: no walk is ever that flat
+        try:
+            cache = CACHE / weights_key(model) / f"radius-{arm}"
+            walks = cached_ilc_walks(model, root, cache, HELD_FLOORS, EVERY)
+        finally:
+            body_heading.FLAT_SHARE = share
+        for floor in HELD_FLOORS:
+            mine = [w for w in walks if str(w["dataset"]) == f"ilc {floor}"]
+            inside, rho = coverage(mine, calibration)
+            coherence = []
+            for w in mine:
+                t = w["t_s"]
+                a = np.clip(np.searchsorted(t, w["span_t_s"][:, 0]), 0, len(t) - 1)
+                b = np.clip(np.searchsorted(t, w["span_t_s"][:, 1]), 0, len(t) - 1)
+                coherence.append(direction_coherence(t, a, b, w["v_pred"]))
+            r95 = [walk_marks(w, calibration)["r95"] for w in mine]
+            lines.append(
+                f"| {floor} | {len(mine)} | {arm} | {_median([path_ratio(w) for w in mine]):.2f} "
+                f"| {_median(coherence):.2f} | {inside} of {len(mine)} ({100 * inside / len(mine):.0f} %) "
+                f"| {rho:.2f} | {_median(r95):.1f} |"
+            )
+    return lines
+
+
 def main() -> None:
     parser = argument_parser(__doc__)
-    parser.add_argument("--phase", choices=("tune", "check"), required=True)
+    parser.add_argument("--phase", choices=("tune", "check", "radius"), required=True)
     parser.add_argument("--every", type=int, default=2, help="every k-th ILC trace of each floor")
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args: argparse.Namespace = parse(parser)
     model = load_model(CHECKPOINT)
+    if args.phase == "radius":
+        title = "# The flat lock and the 95 % end radius on the held-out ILC floors (a side measurement)"
+        write_report(args.out, [title, "", *radius_lines(model, args.data_root)])
+        return
     tuning = load_rows(model, TUNING, args.data_root, args.every)
     gate, grid = choose(tuning)
     lines = [
