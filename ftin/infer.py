@@ -46,8 +46,9 @@ call. Steps and decisions:
    height, a 3-D model integrates z too. ``Prediction.window_t_s`` / ``velocity_m_s`` hold one time
    (the middle of the span) and one velocity per prediction, ``span_t_s`` the spans themselves.
 4b. Body-locked heading (``ftin.body_heading``, phone-only orientations): where the network's
-   direction does not follow the phone at all over the walk, each window keeps its speed and takes
-   the phone's heading plus one offset (a phone carried fixed to the body); a note says so.
+   direction does not follow the phone at all over the walk, or wanders while the phone is held flat
+   in front, each window keeps its speed and takes the phone's heading plus one offset (a phone
+   carried fixed to the body); a note says so and why.
 5. Frames: with ground truth the estimate lives in the ground-truth world frame (readers align it
    with the device world frame at the start: ``docs/design.md``, "Frames"); without it, the estimate is in the
    device's own world frame (gravity-aligned, arbitrary yaw).

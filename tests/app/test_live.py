@@ -236,8 +236,15 @@ def test_a_replayed_export_ends_near_the_offline_prediction(
     offline_path = float(np.linalg.norm(np.diff(offline_xy, axis=0), axis=1).sum())
     session, tum = _replay(real_client, export_messages(path, 1.0, session_id=f"replay-{path.stem}"))
     assert _path_m(tum) == pytest.approx(offline_path, rel=0.10)
-    end_error = float(np.linalg.norm(tum[-1, 1:3] - offline_xy[-1]))
-    assert end_error <= 0.02 * offline_path, (end_error, offline_path)  # 2 m per 100 m walked
+    if any("held flat in front" in note for note in offline.json()["notes"]):
+        # Offline, a walk held flat whose direction wanders takes the phone's heading, a judgement of
+        # the whole walk that a stream does not make (docs/live.md): the same speeds, other directions,
+        # so the end lies as far from the start but elsewhere.
+        reach = [float(np.linalg.norm(xy[-1] - xy[0])) for xy in (tum[:, 1:3], offline_xy)]
+        assert reach[0] == pytest.approx(reach[1], rel=0.10), reach
+    else:
+        end_error = float(np.linalg.norm(tum[-1, 1:3] - offline_xy[-1]))
+        assert end_error <= 0.02 * offline_path, (end_error, offline_path)  # 2 m per 100 m walked
     assert session["orientation"] == "device" and session["steps"] > 5
     if "20-steps" in export:  # the recording's name says how many steps it holds
         assert 17 <= session["steps"] <= 23, session["steps"]
