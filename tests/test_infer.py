@@ -38,7 +38,9 @@ def _oracle(rate_hz: float = 100.0, window: int = 100, stride: int = 100) -> Loa
 
 
 def _circle_walk(rate_hz: float = 100.0, duration_s: float = 70.0) -> ImuSequence:
-    """A 5 m circle at 1 m/s, z = 1 m; gyro x, y = the exact velocity over each sample interval."""
+    """A 5 m circle at 1 m/s, z = 1 m; world-frame gyro x, y = the exact velocity over each sample
+    interval. The phone is held upright and never turns: held flat, a phone whose heading does not
+    follow the walk's direction would be taken for one whose direction wanders (``ftin.body_heading``)."""
     t = np.arange(int(duration_s * rate_hz) + 1) / rate_hz
     angle = 0.2 * t
     p = np.column_stack([5 * np.cos(angle) + 2.0, 5 * np.sin(angle) - 1.0, np.ones_like(t)])
@@ -46,7 +48,9 @@ def _circle_walk(rate_hz: float = 100.0, duration_s: float = 70.0) -> ImuSequenc
     gyro = np.vstack([v, v[-1:]])
     gyro[:, 2] = 0.0
     acc = np.tile([0.0, 0.0, 9.81], (len(t), 1))
-    q = np.tile([1.0, 0.0, 0.0, 0.0], (len(t), 1))
+    upright = Rotation.from_euler("x", 90.0, degrees=True)  # world from device
+    q = np.tile(upright.as_quat()[[3, 0, 1, 2]], (len(t), 1))
+    gyro, acc = upright.inv().apply(gyro), upright.inv().apply(acc)  # the same world-frame IMU
     return ImuSequence("circle", t, gyro, acc, q, Trajectory(t, p), {"orientation_source": "device"})
 
 
