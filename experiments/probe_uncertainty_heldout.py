@@ -285,21 +285,32 @@ def main() -> None:
     walks += cached_ilc_walks(
         model, args.data_root, Path("runs/uncertainty_ilc") / key, FIT_FLOORS + HELD_FLOORS, EVERY
     )
+    groups = grouped(walks)
+    before, plain, after, adopted = refits(groups, walks, calibration_for(CHECKPOINT.name))
+    if args.save:  # the rule's choice: the validation fit stays where the refit brings no group in
+        save_calibration(after if adopted else before)
+    write_report(args.out, report(groups, [before, plain, after], adopted))
+
+
+def grouped(walks: list[dict]) -> dict[str, list[dict]]:
     groups: dict[str, list[dict]] = defaultdict(list)
     for w in walks:
         groups[group_of(w)].append(w)
-    # "before": what calibration.json held before this probe (the validation fit); a rerun after --save
-    # reads the adopted refit there, so it is remade from the validation probe's rule.
-    before = calibration_for(CHECKPOINT.name)
-    if "ilc" in before.fitted_on:
-        before = validation_fit(walks)
+    return groups
+
+
+def refits(
+    groups: dict[str, list[dict]], walks: list[dict], stored: Calibration
+) -> tuple[Calibration, Calibration, Calibration, bool]:
+    """``(before, plain refit, refit, adopted)`` by the rule (module docstring, step 3). "before" is the
+    validation fit: what calibration.json held before this probe, remade from the validation probe's
+    rule where calibration.json holds an entry fitted on ILC (a rerun after ``--save``)."""
+    before = validation_fit(walks) if "ilc" in stored.fitted_on else stored
     plain, after = fit_heldout(groups, before, plain=True), fit_heldout(groups, before)
     adopted = sum(in_target(groups[g], after) for g in HELD_GROUPS) > sum(
         in_target(groups[g], before) for g in HELD_GROUPS
     )
-    if args.save and adopted:
-        save_calibration(after)
-    write_report(args.out, report(groups, [before, plain, after], adopted))
+    return before, plain, after, adopted
 
 
 def validation_fit(walks: list[dict]) -> Calibration:
