@@ -66,6 +66,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +88,7 @@ from experiments.probe_flat_lock import (
     set_paths,
     summary,
 )
-from ftin.body_heading import MIN_FLAT_WALK_S, gait_forward
+from ftin.body_heading import MIN_FLAT_WALK_S, gait_forward, phone_heading, span_heading, steadiness
 from ftin.checkpoint import load_model
 from ftin.files import DEFAULT_DATA_ROOT
 
@@ -128,7 +129,14 @@ def upright_features(record: dict) -> dict:
     forward = gait_forward(record["acc"], yaw, float(record["rate_hz"]), t, t_mid)
     speed = np.linalg.norm(velocity[:, :2], axis=1)
     offset = np.angle(np.sum(speed * np.exp(1j * forward)))
+    truth_steady = float("nan")
+    if "truth_p" in record:  # the side measurement: does the true direction keep to the phone?
+        p = np.column_stack([np.interp(t, record["truth_t"], record["truth_p"][:, k]) for k in range(2)])
+        true_v = (p[span[:, 1]] - p[span[:, 0]]) / np.maximum(t[span[:, 1]] - t[span[:, 0]], 1e-9)[:, None]
+        phone = span_heading(phone_heading(record["q"]), span[:, 0], span[:, 1])
+        truth_steady = float(np.median(steadiness(true_v, phone, t_mid)))
     return {
+        "truth_steady": truth_steady,
         "upright_share": {f"{a:g}": float(np.mean(tilt_from_horizontal <= a)) for a in GRID["tilt"]},
         "sway_deg": sway,
         "line_deg": float(np.degrees(np.arccos(abs(np.cos(offset))))),
@@ -164,11 +172,12 @@ def upright(row: dict, tilt: float, share: float, sway: float, line: float, belo
     )
 
 
-def scored(rows: list[dict], gate: tuple | None) -> list[dict]:
-    """Each walk's scores: locked where the library locks it or ``gate`` fires (None: today's)."""
+def scored(rows: list[dict], gate: tuple | None, force: str | None = None) -> list[dict]:
+    """Each walk's scores: locked where the library locks it or ``gate`` fires (None: today's), or
+    (``force``, the side measurement) every walk of that Inria carry."""
     out = []
     for r in rows:
-        touched = gate is not None and upright(r, *gate)
+        touched = (gate is not None and upright(r, *gate)) or (force is not None and r["group"] == force)
         fired = r["library_locks"] or touched
         out.append({**r["locked" if fired else "default"], "fired": fired, "touched": touched, "row": r})
     return out
@@ -257,18 +266,25 @@ def feature_table(rows: dict[str, list[dict]]) -> list[str]:
         for label, mine in groups_of(name, part):
             if not mine:
                 continue
-            med = {k: _median([r[k] for r in mine]) for k in ("sway_deg", "line_deg", "steady")}
+            med = {
+                k: _median([r[k] for r in mine]) for k in ("sway_deg", "line_deg", "steady", "truth_steady")
+            }
             shares = [_median([r["upright_share"][f"{a:g}"] for r in mine]) for a in GRID["tilt"]]
             cells.append(
                 [label, str(len(mine)), ", ".join(f"{x:.2f}" for x in shares), f"{med['sway_deg']:.1f}"]
                 + [
                     f"{med['line_deg']:.0f}",
                     f"{med['steady']:.2f}",
+                    _fmt(med["truth_steady"], 2),
                     str(sum(r["library_locks"] for r in mine)),
                 ]
             )
     header = ["set", "walks", f"camera axis within {tilts} deg of horizontal (share, median)", "sway (deg)"]
-    return markdown(header + ["walking line to camera axis (deg)", "steadiness", "today's lock fires"], cells)
+    return markdown(
+        header
+        + ["walking line to camera axis (deg)", "steadiness", "truth's steadiness", "today's lock fires"],
+        cells,
+    )
 
 
 def _pair(before: float | None, after: float | None, digits: int = 1) -> str:
@@ -296,24 +312,43 @@ def set_table(rows: dict[str, list[dict]], gate: tuple | None) -> list[str]:
     return markdown(header + ["walks the gate touches", "of them newly locked"], cells)
 
 
-def walk_table(rows: dict[str, list[dict]], gate: tuple | None) -> list[str]:
-    """The walks the gate touches, and what it did to each."""
+def walk_table(rows: dict[str, list[dict]], keep: Callable[[dict], bool]) -> list[str]:
+    """The walks ``keep`` keeps (those the gate touches; the AR walks), and what a lock does to each."""
     cells = []
     for name, part in rows.items():
-        for r in (r for r in part if gate is not None and upright(r, *gate)):
+        for r in filter(keep, part):
             d, k = r["locked" if r["library_locks"] else "default"], r["locked"]
+            shares = "/".join(f"{r['upright_share'][f'{a:g}']:.2f}" for a in GRID["tilt"])
             cells.append(
-                [name, r["walk"].rsplit("/", 1)[-1], f"{r['duration_s']:.0f}"]
-                + [
-                    f"{r['upright_share'][f'{gate[0]:g}']:.2f}",
-                    f"{r['sway_deg']:.1f}",
-                    f"{r['line_deg']:.0f}",
-                ]
-                + [f"{r['steady']:.2f}", "yes" if r["library_locks"] else "no", _pair(d["ate"], k["ate"], 2)]
+                [name, r["walk"].rsplit("/", 1)[-1], f"{r['duration_s']:.0f}", shares, f"{r['sway_deg']:.1f}"]
+                + [f"{r['line_deg']:.0f}", f"{r['steady']:.2f}", _fmt(r["truth_steady"], 2)]
+                + ["yes" if r["library_locks"] else "no", _pair(d["ate"], k["ate"], 2)]
                 + [_pair(d["ratio"], k["ratio"], 2), _pair(d["heading"], k["heading"])]
             )
-    header = ["set", "walk", "s", "upright share", "sway (deg)", "line (deg)", "steadiness", "locked today"]
-    return markdown(header + ["ATE today -> upright", "ratio", "heading (deg)"], cells)
+    if not cells:
+        return ["None."]
+    tilts = "/".join(f"{a:g}" for a in GRID["tilt"])
+    header = ["set", "walk", "s", f"upright share ({tilts} deg)", "sway (deg)", "line (deg)", "steadiness"]
+    header += ["truth's steadiness", "locked today", "ATE today -> locked", "ratio", "heading (deg)"]
+    return markdown(header, cells)
+
+
+def forced_table(rows: dict[str, list[dict]]) -> list[str]:
+    """The side measurement (after the verdict, changing no choice): each Inria carry with the lock forced
+    on every walk of it, the best any gate on that carry could do."""
+    cells = []
+    for name, part in rows.items():
+        for g in GROUPS if name.startswith("inria") else ():
+            mine = [r for r in part if r["group"] == g]
+            b, a = summary(scored(mine, None)), summary(scored(mine, None, g))
+            whole_b, whole_a = summary(scored(part, None)), summary(scored(part, None, g))
+            cells.append(
+                [f"{name} {g}", str(len(mine)), str(sum(r["library_locks"] for r in mine))]
+                + [_pair(b["mean_ate"], a["mean_ate"], 2), _pair(b["heading"], a["heading"])]
+                + [_pair(b["ratio"], a["ratio"], 2), _pair(whole_b["heading"], whole_a["heading"])]
+            )
+    header = ["carry", "walks", "locked today", "mean ATE today -> all locked", "heading median (deg)"]
+    return markdown(header + ["path ratio", "the whole set's heading median"], cells)
 
 
 def verdict(rows: dict[str, list[dict]], gate: tuple | None) -> tuple[bool, list[str]]:
@@ -374,7 +409,9 @@ def main() -> None:
     lines += part(
         "The choice on the tuning sets", [f"Chosen gate: {gate_words(gate)}.", "", *set_table(tuning, gate)]
     )
-    lines += part("Tuning walks the gate touches", walk_table(tuning, gate))
+    lines += part(
+        "Tuning walks the gate touches", walk_table(tuning, lambda r: gate is not None and upright(r, *gate))
+    )
     lines += part("The grid (qualifying first, by the Inria training heading median)", grid)
     if args.phase == "check":
         held = load_rows(model, HELD_OUT, args.data_root, args.every)
@@ -382,7 +419,19 @@ def main() -> None:
         adopted, words = verdict(held, gate)
         lines += part("The held-out sets (read once, after the choice)", feature_table(held))
         lines += ["", *set_table(held, gate), "", *words]
-        lines += part("Held-out walks the gate touches", walk_table(held, gate))
+        lines += part(
+            "Held-out walks the gate touches",
+            walk_table(held, lambda r: gate is not None and upright(r, *gate)),
+        )
+        title = "Side measurement (after the verdict, changing no choice): each Inria carry locked throughout"
+        inria = {"inria-train": tuning["inria-train"], "inria-val": held["inria-val"]}
+        lines += part(title, forced_table(inria))
+        lines += [
+            "",
+            "Each Inria AR walk, today and locked:",
+            "",
+            *walk_table(inria, lambda r: r["group"] == "AR"),
+        ]
         (OUT / "verdict.json").write_text(json.dumps({"gate": gate, "adopted": adopted}))
     write_report(args.out, lines)
 
