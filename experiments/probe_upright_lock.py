@@ -56,6 +56,12 @@ Method: each walk's arm is ``locked`` where today's library locks it (``library_
 fires, else ``default``; scores come from probe_flat_lock's row cache (``runs/probes/flat_lock``),
 the gate's features from its record cache, both read only (``--every`` as that probe's).
 
+Side measurements, not part of the rule (added after the verdict, changing no choice): each Inria
+carry with the lock forced on every walk of it (the best any gate on that carry could do), and the
+**truth's steadiness**: the same steadiness computed from the motion-capture velocity over each
+window instead of the network's (a constant yaw between the truth's frame and the phone's leaves it
+unchanged), which says whether the walker really went where the phone pointed.
+
     nice -n 10 python -m experiments.probe_upright_lock --phase tune
     nice -n 10 python -m experiments.probe_upright_lock --phase check \
         --out docs/results/probes/upright_lock.md
