@@ -22,17 +22,19 @@ validation loss).
         --candidate runs/stride-retrain/stride-retrain/ronin_resnet-sparse-s0/ronin_resnet-walking \
         --out docs/results/probes/stride_retrain_judge.md
 
-Each checkpoint's rows are cached in ``runs/probes/stride_retrain_judge/<weights key>.json``.
+Each checkpoint's rows are cached in ``runs/probes/stride_retrain_judge/<weights key>-<library key>.json``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+import ftin
 from experiments.common import argument_parser, parse, weights_key, write_report
 from experiments.probe_new_oxiod_walks import NEW_WALKS, walk_row
 from experiments.probe_sparse_truth import dense_validation, ilc_paths
@@ -69,9 +71,19 @@ def rows_of(loaded: LoadedModel, data_root: Path) -> dict:
     return rows
 
 
+def library_key() -> str:
+    """The library's content (every file of ``ftin/``): inference changes (a body lock, a calibration)
+    move the rows as much as the weights do, so both key the cache."""
+    package = Path(ftin.__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted(p for p in package.rglob("*.py*") if "__pycache__" not in p.parts):
+        digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:12]
+
+
 def cached_rows(checkpoint: Path, data_root: Path) -> dict:
     loaded = load_model(checkpoint)
-    cache = RUNS / f"{weights_key(loaded)}.json"
+    cache = RUNS / f"{weights_key(loaded)}-{library_key()}.json"
     if cache.exists():
         return json.loads(cache.read_text())
     started = time.monotonic()
