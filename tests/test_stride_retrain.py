@@ -8,7 +8,12 @@ import pytest
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.campaigns import CAMPAIGNS
 from ftin.protocol.stage_three import REFERENCE_DISAGREES
-from ftin.protocol.stride_retrain import ILC_HELD_OUT, ILC_TRAIN_FLOORS, stride_retrain_jobs
+from ftin.protocol.stride_retrain import (
+    ILC_HELD_OUT,
+    ILC_TRAIN_FLOORS,
+    LIGHT_SPARSE_WEIGHT,
+    stride_retrain_jobs,
+)
 from ftin.train.config import TrainConfig
 
 ILC = DEFAULT_DATA_ROOT / "ilc" / "site1"
@@ -29,3 +34,14 @@ def test_the_retrain_mixes_the_ilc_training_floors_and_holds_the_others_out():
     resnet, ftin = (j.options for j in jobs)
     assert resnet["precision"] == "bf16" and resnet["augment"] == {"mirror": None}
     assert ftin.get("precision", "fp32") == "fp32" and ftin["augment"] == {"mirror": None, "pace": None}
+
+
+@pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
+def test_the_light_arm_differs_only_in_the_segment_terms_weight():
+    heavy, light = stride_retrain_jobs(DEFAULT_DATA_ROOT), CAMPAIGNS["stride-retrain-light"](None)
+    assert [j.name for j in light] == [
+        "stride-retrain-light/ronin_resnet-sparse0.1-s0",
+        "stride-retrain-light/ftin-sparse0.1-s0",
+    ]
+    for h, lt in zip(heavy, light, strict=True):
+        assert lt.options == {**h.options, "sparse_weight": LIGHT_SPARSE_WEIGHT} and lt.parts == h.parts

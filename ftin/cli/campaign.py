@@ -95,8 +95,8 @@ def plan_command(
         typer.Option(
             "--jobs",
             help="A protocol campaign (table1, generalisation, tilt, stage-three, stage-three-retrain, "
-            "stride-retrain), stage-two (stage one's choices, read from --choices), or a JSON file of "
-            "job specs.",
+            "stride-retrain, stride-retrain-light), stage-two (stage one's choices, read from --choices), or "
+            "a JSON file of job specs.",
         ),
     ] = "table1",
     choices: Annotated[

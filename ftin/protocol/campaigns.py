@@ -12,7 +12,7 @@ from collections.abc import Callable
 from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
 from ftin.protocol.jobs import Job, campaign_jobs, generalisation_jobs, tilt_question_jobs
 from ftin.protocol.stage_three import stage_three_jobs, stage_three_retrain_jobs
-from ftin.protocol.stride_retrain import stride_retrain_jobs
+from ftin.protocol.stride_retrain import LIGHT_SPARSE_WEIGHT, stride_retrain_jobs
 
 
 def _stage_three(_variant: str | None = None) -> list[Job]:
@@ -30,6 +30,11 @@ def _stride_retrain(_variant: str | None = None) -> list[Job]:
     return stride_retrain_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain_light(_variant: str | None = None) -> list[Job]:
+    """The same retrain with the segment term at ``LIGHT_SPARSE_WEIGHT`` (``stride_retrain``)."""
+    return stride_retrain_jobs(DEFAULT_DATA_ROOT, LIGHT_SPARSE_WEIGHT)
+
+
 CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
@@ -37,4 +42,5 @@ CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan -
     "stage-three": _stage_three,
     "stage-three-retrain": _stage_three_retrain,
     "stride-retrain": _stride_retrain,
+    "stride-retrain-light": _stride_retrain_light,
 }
