@@ -27,18 +27,17 @@ Each checkpoint's rows are cached in ``runs/probes/stride_retrain_judge/<weights
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from pathlib import Path
 
 import numpy as np
 
-import ftin
 from experiments.common import argument_parser, parse, weights_key, write_report
 from experiments.probe_new_oxiod_walks import NEW_WALKS, walk_row
 from experiments.probe_sparse_truth import dense_validation, ilc_paths
 from ftin import protocol
+from ftin.campaign.folder import code_digest
 from ftin.checkpoint import LoadedModel, load_model
 from ftin.data.discovery import read_sequence
 from ftin.data.loading import load_phone_only
@@ -71,19 +70,11 @@ def rows_of(loaded: LoadedModel, data_root: Path) -> dict:
     return rows
 
 
-def library_key() -> str:
-    """The library's content (every file of ``ftin/``): inference changes (a body lock, a calibration)
-    move the rows as much as the weights do, so both key the cache."""
-    package = Path(ftin.__file__).resolve().parent
-    digest = hashlib.sha256()
-    for path in sorted(p for p in package.rglob("*.py*") if "__pycache__" not in p.parts):
-        digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()[:12]
-
-
 def cached_rows(checkpoint: Path, data_root: Path) -> dict:
     loaded = load_model(checkpoint)
-    cache = RUNS / f"{weights_key(loaded)}-{library_key()}.json"
+    # the library's content keys the cache too: inference changes (a body lock, a calibration) move the
+    # rows as much as the weights do
+    cache = RUNS / f"{weights_key(loaded)}-{code_digest()}.json"
     if cache.exists():
         return json.loads(cache.read_text())
     started = time.monotonic()

@@ -283,15 +283,21 @@ class Campaign:
         return chosen
 
 
-def freeze_code(runs: Path) -> tuple[Path, str | None]:
-    """Copy the running ``ftin`` package to ``<runs>/code-<content hash>/ftin`` (once per content);
-    return the folder and the git commit it came from (``+dirty`` with local changes; None outside git)."""
+def code_digest() -> str:
+    """The running ``ftin`` package's content (every file but caches), hashed: names its frozen copy."""
     package = Path(ftin.__file__).resolve().parent
     files = sorted(p for p in package.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
     digest = hashlib.sha256()
     for path in files:
         digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
-    code = runs / f"code-{digest.hexdigest()[:12]}"
+    return digest.hexdigest()[:12]
+
+
+def freeze_code(runs: Path) -> tuple[Path, str | None]:
+    """Copy the running ``ftin`` package to ``<runs>/code-<content hash>/ftin`` (once per content);
+    return the folder and the git commit it came from (``+dirty`` with local changes; None outside git)."""
+    package = Path(ftin.__file__).resolve().parent
+    code = runs / f"code-{code_digest()}"
     if not code.exists():
         tmp = runs / f".{code.name}.tmp"
         shutil.rmtree(tmp, ignore_errors=True)
