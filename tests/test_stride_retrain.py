@@ -12,6 +12,7 @@ from ftin.protocol.stride_retrain import (
     ILC_HELD_OUT,
     ILC_TRAIN_FLOORS,
     LIGHT_SPARSE_WEIGHT,
+    stride_head_jobs,
     stride_retrain_jobs,
 )
 from ftin.train.config import TrainConfig
@@ -45,3 +46,19 @@ def test_the_light_arm_differs_only_in_the_segment_terms_weight():
     ]
     for h, lt in zip(heavy, light, strict=True):
         assert lt.options == {**h.options, "sparse_weight": LIGHT_SPARSE_WEIGHT} and lt.parts == h.parts
+
+
+@pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
+def test_the_head_refit_starts_from_each_light_network_on_its_dense_walks_only(tmp_path):
+    light, heads = CAMPAIGNS["stride-retrain-light"](None), stride_head_jobs(DEFAULT_DATA_ROOT, tmp_path)
+    assert [j.name for j in heads] == [
+        "stride-retrain-light-head/ronin_resnet-sparse0.1-head-s0",
+        "stride-retrain-light-head/ftin-sparse0.1-head-s0",
+    ]
+    for arm, head in zip(light, heads, strict=True):
+        start = tmp_path.resolve() / arm.name.split("/")[1] / f"{arm.model}-walking.safetensors"
+        assert head.options["init_from"] == str(start) and head.options["train_only"] == ["log_std_head"]
+        assert head.options["model_kwargs"]["uncertainty_head"] and head.options["augment"]["tilt"] is None
+        assert "sparse_weight" not in head.options and "precision" not in head.options
+        dense_train = tuple(r for r in arm.parts["train"] if not r.startswith("ilc/"))
+        assert head.parts["train"] == dense_train and head.parts["val"] == arm.parts["val"]

@@ -30,7 +30,7 @@ from typing import Any
 
 from ftin.protocol.datasets import WALKING
 from ftin.protocol.jobs import Job, model_options
-from ftin.protocol.stage_three import REFERENCE_DISAGREES, _parts
+from ftin.protocol.stage_three import HEAD_OPTIONS, REFERENCE_DISAGREES, _parts
 
 ILC_TRAIN_FLOORS = ("F1", "F2", "F3")
 ILC_HELD_OUT = ("B1", "F4")
@@ -78,4 +78,31 @@ def stride_retrain_jobs(data_root: Path, weight: float = SPARSE_WEIGHT) -> list[
             else ("stride-retrain-light", f"sparse{weight:g}")
         )
         jobs.append(Job(f"{campaign}/{model}-{variant}-s0", model, WALKING, 0, variant, options, None, parts))
+    return jobs
+
+
+# The light arm's jobs, where ``ftin campaign run --runs runs/stride-retrain-light`` keeps them.
+LIGHT_ARM_JOBS = Path("runs/stride-retrain-light/stride-retrain-light")
+
+
+def stride_head_jobs(data_root: Path, arm_jobs: Path = LIGHT_ARM_JOBS) -> list[Job]:
+    """The variance head refitted on each of the arm's networks, frozen (stage three's ``HEAD_OPTIONS``):
+    campaign ``stride-retrain-light-head``. Dense walks only (the head's NLL needs a dense velocity),
+    the same ones the network trained on; its recipe's augmentation plus the gravity tilt, as stage three.
+    Its weights start from the arm job's best-validation checkpoint, so the velocity stays bit for bit."""
+    parts = _parts(data_root, REFERENCE_DISAGREES)
+    variant = f"sparse{LIGHT_SPARSE_WEIGHT:g}"
+    jobs = []
+    for model, recipe in RECIPES.items():
+        start = Path(arm_jobs).resolve() / f"{model}-{variant}-s0" / f"{model}-{WALKING}.safetensors"
+        options = {
+            **model_options(model, WALKING),
+            **{key: value for key, value in recipe.items() if key != "precision"},  # fp32, as stage three
+            **HEAD_OPTIONS,
+            "model_kwargs": {**recipe.get("model_kwargs", {}), "uncertainty_head": True},
+            "augment": {**recipe["augment"], "tilt": None},
+            "init_from": str(start),
+        }
+        name = f"stride-retrain-light-head/{model}-{variant}-head-s0"
+        jobs.append(Job(name, model, WALKING, 0, "head", options, None, parts))
     return jobs
