@@ -69,6 +69,10 @@ class WindowAugmentation(Protocol):
         self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
     ) -> tuple[np.ndarray, np.ndarray]: ...
 
+    def stretch_strides(
+        self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
     def before_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
 
     def after_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray: ...
@@ -393,6 +397,7 @@ class WindowDataset(torch.utils.data.Dataset):
             )
         if aug is not None:
             x, v = aug.mirror(x, v, indices, self.epoch)
+            x, v = aug.stretch_strides(x, v, indices, self.epoch)
             x = aug.before_yaw(x, indices, self.epoch)
         if self.augment_yaw:
             x, v = rotate_yaw(x, v, self._angles[indices])

@@ -36,8 +36,15 @@ Decisions:
   together, as between a slow and a brisk gait, so neither the bounce nor the rhythm alone is the
   speed; and speeds that few training walks reach (running) are seen. A window never stretches past
   its sequence's end, a held hole, or an untracked ground-truth sample (``ftin.data.windows``).
-Order: pace (which samples a window reads), then mirror and vertical (motion) before yaw (done by the
-dataset), then orientation and tilt (the input's rotation), then bias and noise (the sensor).
+- ``stride_length`` (ours): the walk with its horizontal motion stretched at the same cadence and bounce: the
+  horizontal specific force (gravity-aligned frame, x and y, window mean included) and the target
+  velocity x ``s``, ``s`` log-uniform in ``[1 / (1 + magnitude), 1 + magnitude]`` (0.3: 0.77-1.3). The
+  angular rate and the vertical stay. Kinematically exact (the position track scaled about the vertical
+  axis), so a window's horizontal swing, not its bounce or rhythm, tells a long stride from a short one:
+  the networks read long strides short (issue 54) and move their speed by under 2 % when the
+  along-track swing is 1.5x (``docs/results/probes/speed_cues_walking.md``).
+Order: pace (which samples a window reads), then mirror, stride length and vertical (motion) before yaw
+(done by the dataset), then orientation and tilt (the input's rotation), then bias and noise (the sensor).
 """
 
 from __future__ import annotations
@@ -61,6 +68,7 @@ AUGMENTATIONS: dict[str, float] = {
     "orientation": 3.0,  # degrees of heading error at the window's end
     "mirror": 0.5,  # probability that a window is mirrored
     "pace": 0.3,  # the walk up to 1.3x faster or slower (log-uniform)
+    "stride_length": 0.3,  # the horizontal motion up to 1.3x longer or shorter (log-uniform)
 }
 # One RNG stream per augmentation; a new one goes last, so the draws of the others never move.
 _SALT = {name: i + 1 for i, name in enumerate(AUGMENTATIONS)}
@@ -192,6 +200,20 @@ class WindowAugmenter:
         sign_x = np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0], dtype=x.dtype)  # gyro x, y, z; acc x, y, z
         x[flip] *= sign_x[None, :, None]
         v[flip, ..., 1] *= -1
+        return x, v
+
+    def stretch_strides(
+        self, x: np.ndarray, v: np.ndarray, indices: np.ndarray, epoch: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Windows ``(B, 6, L)`` and targets ``(B, [K,] D)`` with the horizontal motion scaled (module
+        docstring). Returns new arrays (the same ones when stride_length is off)."""
+        if "stride_length" not in self.magnitudes:
+            return x, v
+        draw = self._uniform("stride_length", epoch, indices, 1)[:, 0]
+        factors = np.exp(np.log1p(self.magnitudes["stride_length"]) * draw)
+        x, v = np.array(x, copy=True), np.array(v, copy=True)
+        x[:, 3:5, :] *= factors[:, None, None].astype(x.dtype)
+        v[..., :2] *= factors.reshape((-1,) + (1,) * (v.ndim - 1)).astype(v.dtype)
         return x, v
 
     def before_yaw(self, x: np.ndarray, indices: np.ndarray, epoch: int) -> np.ndarray:

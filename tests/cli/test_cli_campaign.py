@@ -71,8 +71,8 @@ def test_bad_plans_fail_cleanly(tmp_path):
     args = ["campaign", "plan", "--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--jobs"]
     fails_cleanly(runner.invoke(app, [*args, str(bad)]), "missing ['dataset']")
     campaigns = (
-        "table1, generalisation, tilt, stage-three, stage-three-retrain, stride-retrain, stride-retrain-light, "
-        "stride-retrain-light-head"
+        "table1, generalisation, tilt, stage-three, stage-three-retrain, stride-retrain, "
+        "stride-retrain-light, stride-retrain-light-head"
     )
     message = f"neither a protocol campaign ({campaigns})"
     fails_cleanly(runner.invoke(app, [*args, "table9"]), message)

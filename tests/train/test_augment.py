@@ -115,6 +115,19 @@ def test_vertical_scales_only_the_bounce(sim_sequences):
     np.testing.assert_array_equal(v0, v1)
 
 
+def test_stride_stretches_the_horizontal_motion_and_its_target_alike(sim_sequences):
+    x0, v0, x1, v1 = batches(sim_sequences, {"stride_length": 0.3})
+    np.testing.assert_array_equal(x1[:, :3], x0[:, :3])  # the rotation stays
+    np.testing.assert_array_equal(x1[:, 5], x0[:, 5])  # the vertical: bounce and gravity
+    factor = np.sum(x1[:, 3:5] * x0[:, 3:5], axis=(1, 2)) / np.sum(x0[:, 3:5] ** 2, axis=(1, 2))
+    np.testing.assert_allclose(x1[:, 3:5], factor[:, None, None] * x0[:, 3:5], rtol=1e-5, atol=1e-6)
+    # the target's horizontal velocity by the same factor: the track stretched, a walk still
+    np.testing.assert_allclose(
+        v1[..., :2], factor.reshape((-1,) + (1,) * (v0.ndim - 1)) * v0[..., :2], rtol=1e-4
+    )
+    assert factor.min() >= 1 / 1.3 - 1e-6 and factor.max() <= 1.3 + 1e-6 and np.ptp(factor) > 0.3
+
+
 def test_orientation_noise_ramps_from_the_true_frame(sim_sequences):
     x0, v0, x1, v1 = batches(sim_sequences, {"orientation": 3.0})
     np.testing.assert_allclose(x1[:, :, 0], x0[:, :, 0], atol=1e-5)  # the error starts at zero
