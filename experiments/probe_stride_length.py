@@ -1,0 +1,141 @@
+"""Does stretching the stride in training teach the default to read a long stride long? (issue 54, item 3)
+
+Question: the networks read speed mostly from the vertical bounce and hardly from the horizontal swing
+(``speed_cues_walking.md``: the along-track swing at 1.5x moves the speed by under 2 %), and long strides
+read short. The ``stride_length`` augmentation (``ftin.train.augment``) stretches each window's
+horizontal motion and its target alike at the same cadence and bounce, so only the swing tells the
+stretch. Does it lengthen walks the network never saw, without hurting the dense validation sets?
+
+Method (a fine-tune of minutes, not a campaign): ``experiments.probe_sparse_truth``'s fine-tune (from
+``checkpoints/ronin_resnet-walking``, Adam at ``--lr``, batch norm as shipped, bf16 autocast, ``--steps``
+steps of ``--dense`` windows of the default's own training walks, seed 0), dense truth only, in two arms
+that differ only in the augmentation: ``mirror`` (the default's recipe) and ``mirror+stride_length``
+(magnitude 0.3: 0.77-1.3x). Each fine-tuned network is saved under ``runs/probes/stride_length/`` and read
+by the stride judge's rows (``experiments.judge_stride_retrain``: every group, phone only, flat lock and
+all as the app runs), beside the untouched default.
+
+The rule, written before any arm was read: ``stride_length`` goes into the next retrain's recipe when,
+against ``mirror`` (the same fine-tune without it), the median path ratio is closer to 1 on at least three
+of the four held-out groups (ILC B1, ILC F4, the new OxIOD walkers and phones, the long floor walks) and no
+dense validation set (OxIOD, RIDI, Inria) has a mean ATE worse than ``mirror``'s by more than 5 %.
+
+    nice -n 10 python -m experiments.probe_stride_length --out docs/results/probes/stride_length.md
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from experiments.common import argument_parser, parse, write_report
+from experiments.judge_stride_retrain import (
+    DEFAULT,
+    DENSE_SETS,
+    WORSE_AT_MOST,
+    cached_rows,
+    new_walk_groups,
+    table,
+)
+from experiments.probe_sparse_truth import fine_tune
+from ftin.checkpoint import save_checkpoint
+from ftin.data.loading import load_sequences
+from ftin.data.prepare import prepare
+from ftin.data.windows import WindowDataset
+from ftin.files import DEFAULT_DATA_ROOT
+from ftin.protocol.stride_retrain import ILC_HELD_OUT
+from ftin.train.augment import WindowAugmenter
+
+RUNS = Path("runs/probes/stride_length")
+ARMS = {"mirror": {"mirror": None}, "mirror+stride_length": {"mirror": None, "stride_length": 0.3}}
+STRIDE = 20  # the default's window stride (samples)
+
+
+def held_out_ratios(rows: dict) -> dict[str, float]:
+    """Median path ratio of each held-out group the rule reads."""
+    groups = {f"ILC {f}": rows["floors"][f] for f in ILC_HELD_OUT} | new_walk_groups(rows["new"])
+    return {
+        name: float(np.median([w["ratio"] for w in part if w["ratio"] is not None]))
+        for name, part in groups.items()
+    }
+
+
+def verdict(control: dict, arm: dict) -> tuple[bool, list[str]]:
+    reasons, closer = [], 0
+    before, after = held_out_ratios(control), held_out_ratios(arm)
+    for group in before:
+        better = abs(after[group] - 1) < abs(before[group] - 1)
+        closer += better
+        reasons.append(f"{group}: median path ratio {before[group]:.3f} -> {after[group]:.3f}")
+    adopted = closer >= 3
+    for group in DENSE_SETS:
+        b = np.mean([w["ate"] for w in control["dense"] if w["set"] == group])
+        a = np.mean([w["ate"] for w in arm["dense"] if w["set"] == group])
+        adopted &= a <= b * (1 + WORSE_AT_MOST)
+        reasons.append(f"{group} validation: mean ATE {b:.3f} -> {a:.3f} m ({a / b - 1:+.1%})")
+    return bool(adopted), [f"closer to 1 on {closer} of {len(before)} held-out groups", *reasons]
+
+
+def main() -> None:
+    parser = argument_parser(__doc__)
+    parser.add_argument("--steps", type=int, default=400, help="optimizer steps per arm")
+    parser.add_argument("--lr", type=float, default=1e-4)
+    parser.add_argument("--dense", type=int, default=64, help="dense windows per step")
+    parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
+    parser.add_argument("--out", type=Path, default=None)
+    args = parse(parser)
+    args.freeze_bn, args.chunks = True, 0  # what probe_sparse_truth.fine_tune reads
+    started = time.monotonic()
+    recipe = json.loads(DEFAULT.with_suffix(".json").read_text())["train_config"]
+    seqs = load_sequences([args.data_root / r for r in recipe["data"]], "dense", recipe["orientation"])
+    prepared = [prepare(s, 100.0, orientation=recipe["orientation"]).seq for s in seqs]
+    RUNS.mkdir(parents=True, exist_ok=True)
+    rows, training = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}
+    for arm, augment in ARMS.items():
+        stem = RUNS / f"{arm}-{args.steps}-{args.lr:g}"
+        info_path = stem.with_suffix(".training.json")
+        if not info_path.exists():
+            print(f"{arm}: fine-tuning", flush=True)
+            dense = WindowDataset(
+                prepared, 100, STRIDE, 2, augment_yaw=True, seed=0,
+                augmenter=WindowAugmenter(augment, STRIDE, 0),
+            )  # fmt: skip
+            loaded, info = fine_tune(arm, dense, None, args)
+            save_checkpoint(stem, loaded.model, loaded.meta)
+            info_path.write_text(json.dumps(info))
+        training[arm] = json.loads(info_path.read_text())
+        rows[arm] = cached_rows(stem, args.data_root)
+    adopted, reasons = verdict(rows["mirror"], rows["mirror+stride_length"])
+    minutes = (time.monotonic() - started) / 60
+    lines = [
+        "# Stretching the stride in training (the `stride_length` augmentation): a fine-tune of minutes",
+        "",
+        f"Made by `nice -n 10 python -m experiments.probe_stride_length --steps {args.steps} --lr {args.lr:g} "
+        f"--dense {args.dense} --out {args.out}` ({minutes:.0f} min this run, two shared cores). Its "
+        "docstring: method and the rule, written before any arm was read. Phone only; ATE in m (ILC: median "
+        "at the waypoints); path ratio median (walks in 0.85-1.15).",
+        "",
+        "| arm | steps | minutes | dense loss first -> last fifth |",
+        "|---|--:|--:|---|",
+        *(
+            f"| {arm} | {t['steps']} | {t['minutes']:.1f} | "
+            f"{t['dense_loss_first_fifth']:.3f} -> {t['dense_loss_last_fifth']:.3f} |"
+            for arm, t in training.items()
+        ),
+        "",
+        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
+        "| heading error median / after minute 2 (deg) |",
+        "|---|---|--:|---|--:|--:|",
+        *(line for name, r in rows.items() for line in table(name, r)),
+        "",
+        f"**By the rule: `stride_length` {'adopted' if adopted else 'not adopted'}** (against `mirror`).",
+        "",
+        *(f"- {r}" for r in reasons),
+    ]
+    write_report(args.out, lines)
+
+
+if __name__ == "__main__":
+    main()
