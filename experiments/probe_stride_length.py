@@ -113,7 +113,8 @@ def main() -> None:
         "# Stretching the stride in training (the `stride_length` augmentation): a fine-tune of minutes",
         "",
         "Made by `nice -n 10 python -m experiments.probe_stride_length "
-        f"--steps {args.steps} --lr {args.lr:g} --dense {args.dense} --out {args.out}` ({minutes:.0f} min this run, two shared cores). Its "
+        f"--steps {args.steps} --lr {args.lr:g} --dense {args.dense} --out {args.out}` "
+        f"({minutes:.0f} min this run, two shared cores). Its "
         "docstring: method and the rule, written before any arm was read. Phone only; ATE in m (ILC: median "
         "at the waypoints); path ratio median (walks in 0.85-1.15).",
         "",
