@@ -151,7 +151,7 @@ def fine_tune(
         sparse_value = None
         if layout is not None:
             term = segment_loss(velocity[len(x_dense) :], layout)
-            loss = loss + term
+            loss = loss + getattr(args, "sparse_weight", 1.0) * term  # 1 in this probe's own arms
             sparse_value = float(term.detach())
         optimizer.zero_grad()
         loss.backward()
