@@ -114,7 +114,8 @@ def main() -> None:
         "# From the default: a fine-tune with the light segment term (ILC), a probe of minutes",
         "",
         "Made by `nice -n 10 python -m experiments.probe_light_finetune "
-        f"--steps {args.steps} --lr {args.lr:g} --dense {args.dense} --chunks {args.chunks} --out {args.out}` "
+        f"--steps {args.steps} --lr {args.lr:g} --dense {args.dense} --chunks {args.chunks} "
+        f"--out {args.out}` "
         f"({minutes:.0f} min this run, two shared cores). Its docstring: method and the rule, written "
         "before any arm was read. Phone only; ATE in m (ILC: median at the waypoints); path ratio median "
         "(walks in 0.85-1.15).",
@@ -122,7 +123,8 @@ def main() -> None:
         "| arm | steps | minutes | dense loss first -> last fifth | segment loss first -> last fifth |",
         "|---|--:|--:|---|---|",
         *(
-            f"| {arm} | {t['steps']} | {t['minutes']:.1f} | {pair(t, 'dense_loss')} | {pair(t, 'sparse_loss')} |"
+            f"| {arm} | {t['steps']} | {t['minutes']:.1f} | {pair(t, 'dense_loss')} "
+            f"| {pair(t, 'sparse_loss')} |"
             for arm, t in training.items()
         ),
         "",
