@@ -178,17 +178,18 @@ def main() -> None:
     candidate = cached_rows(args.candidate, args.data_root)
     adopted, reasons = verdict(default, candidate)
     lines = [
-        "# The stride retrain against the shipped default",
+        f"# The stride retrain against the shipped {Path(args.default).name}",
         "",
         f"Made by `nice -n 10 python -m experiments.judge_stride_retrain --candidate {args.candidate} "
-        f"--label {args.label}` (its docstring: the rule, written before any candidate was read). Phone "
+        f"--default {args.default} --label '{args.label}'` (its docstring: the rule, written before any "
+        "candidate was read). Phone "
         "only; ATE in m (RoNIN convention; ILC: median ATE at the waypoints); path ratio median (walks in "
         "0.85-1.15).",
         "",
         "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
         "| heading error median / after minute 2 (deg) |",
         "|---|---|--:|---|--:|--:|",
-        *table("shipped default", default),
+        *table(f"shipped {Path(args.default).name}", default),
         *table(args.label, candidate),
         "",
         f"**By the rule: {'adopted' if adopted else 'not adopted'}.**",
