@@ -11,6 +11,13 @@ the candidate replaces ``checkpoints/ronin_resnet-walking`` when
 2. no dense validation set (the default's own validation walks: OxIOD, RIDI, every 4th Inria walk,
    phone only as the app reads them) has a mean ATE worse than the default's by more than 5 %.
 
+With ``--rule footing`` (written on 2026-12-07 before the job it judges had trained an epoch): the
+control job (campaign ``stride-retrain-control``: FTIN on the default's recipe without ILC, after neither
+ILC arm was adopted) replaces ``checkpoints/ftin-walking`` when
+
+1. no dense validation set (as above) has a mean ATE worse than ftin-walking's by more than 5 %, and
+2. on the new OxIOD walkers and phones not trained on (held out from both) its mean ATE is lower.
+
 Reported beside the rule and choosing nothing: the issue's done-when figures on the held-out groups
 (path ratio in 0.85-1.15 per group: the ILC floors, the new OxIOD walkers and phones, the long floor
 walks with Tango truth) and the heading error over 10-s windows (``ftin.metrics.heading``) where the
@@ -109,9 +116,18 @@ def new_walk_groups(rows: list[dict]) -> dict[str, list[dict]]:
     }
 
 
-def verdict(default: dict, candidate: dict) -> tuple[bool, list[str]]:
+def verdict(default: dict, candidate: dict, rule: str = "ilc") -> tuple[bool, list[str]]:
     reasons, adopted = [], True
-    for floor in ILC_HELD_OUT:
+    if rule == "footing":
+        group = "new OxIOD walkers and phones, not trained on"
+        before, after = (
+            np.mean([w["ate"] for w in new_walk_groups(r["new"])[group]]) for r in (default, candidate)
+        )
+        adopted = after < before
+        reasons.append(
+            f"{group}: mean ATE {before:.3f} -> {after:.3f} m ({'lower' if adopted else 'not lower'})"
+        )
+    for floor in ILC_HELD_OUT if rule == "ilc" else ():
         before = np.median([w["ratio"] for w in default["floors"][floor] if w["ratio"] is not None])
         after = np.median([w["ratio"] for w in candidate["floors"][floor] if w["ratio"] is not None])
         closer = abs(after - 1) < abs(before - 1)
@@ -171,19 +187,21 @@ def main() -> None:
     parser.add_argument("--candidate", type=Path, required=True, help="the retrained network (stem or file)")
     parser.add_argument("--default", type=Path, default=DEFAULT, help="what it would replace")
     parser.add_argument("--label", default="candidate", help="the candidate's name in the tables")
+    parser.add_argument(
+        "--rule", choices=("ilc", "footing"), default="ilc", help="which rule of the docstring decides"
+    )
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args = parse(parser)
     default = cached_rows(args.default, args.data_root)
     candidate = cached_rows(args.candidate, args.data_root)
-    adopted, reasons = verdict(default, candidate)
+    adopted, reasons = verdict(default, candidate, args.rule)
     lines = [
         f"# The stride retrain against the shipped {Path(args.default).name}",
         "",
         f"Made by `nice -n 10 python -m experiments.judge_stride_retrain --candidate {args.candidate} "
-        f"--default {args.default} --label '{args.label}'` (its docstring: the rule, written before any "
-        "candidate was read). Phone "
-        "only; ATE in m (RoNIN convention; ILC: median ATE at the waypoints); path ratio median (walks in "
+        f"--default {args.default} --label '{args.label}' --rule {args.rule}` (its docstring: the rule, "
+        "written before any candidate was read). Phone only; ATE in m (RoNIN convention; ILC: median ATE at the waypoints); path ratio median (walks in "
         "0.85-1.15).",
         "",
         "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "

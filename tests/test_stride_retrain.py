@@ -12,6 +12,7 @@ from ftin.protocol.stride_retrain import (
     ILC_HELD_OUT,
     ILC_TRAIN_FLOORS,
     LIGHT_SPARSE_WEIGHT,
+    stride_control_jobs,
     stride_head_jobs,
     stride_retrain_jobs,
 )
@@ -62,3 +63,16 @@ def test_the_head_refit_starts_from_each_light_network_on_its_dense_walks_only(t
         assert "sparse_weight" not in head.options and "precision" not in head.options
         dense_train = tuple(r for r in arm.parts["train"] if not r.startswith("ilc/"))
         assert head.parts["train"] == dense_train and head.parts["val"] == arm.parts["val"]
+
+
+@pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
+def test_the_control_is_ftin_on_the_defaults_dense_walks_without_ilc():
+    (control,) = stride_control_jobs(DEFAULT_DATA_ROOT)
+    ftin_arm = stride_retrain_jobs(DEFAULT_DATA_ROOT)[1]
+    assert control.model == "ftin" and "sparse_weight" not in control.options
+    assert control.options["augment"] == ftin_arm.options["augment"]
+    assert control.options["model_kwargs"] == {"fdl_output": "mixed"}
+    assert control.parts["train"] == tuple(r for r in ftin_arm.parts["train"] if not r.startswith("ilc/"))
+    assert control.parts["val"] == ftin_arm.parts["val"] and not set(REFERENCE_DISAGREES) & set(
+        control.parts["train"]
+    )

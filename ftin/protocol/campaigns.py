@@ -12,7 +12,12 @@ from collections.abc import Callable
 from ftin.files import DEFAULT_CHECKPOINT_DIR, DEFAULT_DATA_ROOT
 from ftin.protocol.jobs import Job, campaign_jobs, generalisation_jobs, tilt_question_jobs
 from ftin.protocol.stage_three import stage_three_jobs, stage_three_retrain_jobs
-from ftin.protocol.stride_retrain import LIGHT_SPARSE_WEIGHT, stride_head_jobs, stride_retrain_jobs
+from ftin.protocol.stride_retrain import (
+    LIGHT_SPARSE_WEIGHT,
+    stride_control_jobs,
+    stride_head_jobs,
+    stride_retrain_jobs,
+)
 
 
 def _stage_three(_variant: str | None = None) -> list[Job]:
@@ -40,6 +45,11 @@ def _stride_retrain_light_head(_variant: str | None = None) -> list[Job]:
     return stride_head_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain_control(_variant: str | None = None) -> list[Job]:
+    """FTIN on the default's recipe without ILC, the final recipe (``stride_retrain``)."""
+    return stride_control_jobs(DEFAULT_DATA_ROOT)
+
+
 CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
@@ -49,4 +59,5 @@ CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan -
     "stride-retrain": _stride_retrain,
     "stride-retrain-light": _stride_retrain_light,
     "stride-retrain-light-head": _stride_retrain_light_head,
+    "stride-retrain-control": _stride_retrain_control,
 }

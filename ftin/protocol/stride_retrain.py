@@ -81,6 +81,19 @@ def stride_retrain_jobs(data_root: Path, weight: float = SPARSE_WEIGHT) -> list[
     return jobs
 
 
+def stride_control_jobs(data_root: Path) -> list[Job]:
+    """FTIN on the default's own recipe and walkers, without ILC: campaign ``stride-retrain-control``.
+
+    Neither ILC arm was adopted (``docs/campaign.md``), so the final recipe is the one the shipped default
+    already trained on (stage three's pooled walkers without ``REFERENCE_DISAGREES``); the default stays
+    as it is, and this job trains FTIN on that recipe so that the paper's model stands on the default's
+    footing (the shipped ftin-walking trained before the new OxIOD walkers joined). Judged against
+    ftin-walking by ``experiments/judge_stride_retrain.py --rule footing``."""
+    options = {**model_options("ftin", WALKING), **RECIPES["ftin"]}
+    parts = _parts(data_root, REFERENCE_DISAGREES)
+    return [Job("stride-retrain-control/ftin-pooled-s0", "ftin", WALKING, 0, "pooled", options, None, parts)]
+
+
 # The light arm's jobs, where ``ftin campaign run --runs runs/stride-retrain-light`` keeps them.
 LIGHT_ARM_JOBS = Path("runs/stride-retrain-light/stride-retrain-light")
 
