@@ -201,7 +201,8 @@ def main() -> None:
         "",
         f"Made by `nice -n 10 python -m experiments.judge_stride_retrain --candidate {args.candidate} "
         f"--default {args.default} --label '{args.label}' --rule {args.rule}` (its docstring: the rule, "
-        "written before any candidate was read). Phone only; ATE in m (RoNIN convention; ILC: median ATE at the waypoints); path ratio median (walks in "
+        "written before any candidate was read). Phone only; ATE in m (RoNIN convention; ILC: median ATE "
+        "at the waypoints); path ratio median (walks in "
         "0.85-1.15).",
         "",
         "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
