@@ -129,7 +129,7 @@ def main() -> None:
         ),
         "",
         "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error median / after minute 2 (deg) |",
+        "| heading error, start-aligned: median / after minute 2 (deg) |",
         "|---|---|--:|---|--:|--:|",
         *(line for name, r in rows.items() for line in table(name, r)),
         "",
