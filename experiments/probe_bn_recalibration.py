@@ -97,7 +97,7 @@ def main() -> None:
         "convention; ILC: median ATE at the waypoints); path ratio median (walks in 0.85-1.15).",
         "",
         "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error median / after minute 2 (deg) |",
+        "| heading error, start-aligned: median / after minute 2 (deg) |",
         "|---|---|--:|---|--:|--:|",
     ]
     for name, r in rows.items():
