@@ -12,6 +12,7 @@ from ftin.protocol.stride_retrain import (
     ILC_HELD_OUT,
     ILC_TRAIN_FLOORS,
     LIGHT_SPARSE_WEIGHT,
+    control_head_jobs,
     stride_control_jobs,
     stride_head_jobs,
     stride_retrain_jobs,
@@ -76,3 +77,13 @@ def test_the_control_is_ftin_on_the_defaults_dense_walks_without_ilc():
     assert control.parts["val"] == ftin_arm.parts["val"] and not set(REFERENCE_DISAGREES) & set(
         control.parts["train"]
     )
+
+
+@pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
+def test_the_controls_head_starts_from_its_ftin(tmp_path):
+    (head,) = control_head_jobs(DEFAULT_DATA_ROOT, tmp_path)
+    assert head.name == "stride-retrain-control-head/ftin-pooled-head-s0" and head.model == "ftin"
+    assert head.options["init_from"] == str(
+        tmp_path.resolve() / "ftin-pooled-s0" / "ftin-walking.safetensors"
+    )
+    assert head.options["model_kwargs"] == {"fdl_output": "mixed", "uncertainty_head": True}

@@ -14,6 +14,7 @@ from ftin.protocol.jobs import Job, campaign_jobs, generalisation_jobs, tilt_que
 from ftin.protocol.stage_three import stage_three_jobs, stage_three_retrain_jobs
 from ftin.protocol.stride_retrain import (
     LIGHT_SPARSE_WEIGHT,
+    control_head_jobs,
     stride_control_jobs,
     stride_head_jobs,
     stride_retrain_jobs,
@@ -50,6 +51,11 @@ def _stride_retrain_control(_variant: str | None = None) -> list[Job]:
     return stride_control_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain_control_head(_variant: str | None = None) -> list[Job]:
+    """The variance head refitted on the control's frozen FTIN (``stride_retrain``)."""
+    return control_head_jobs(DEFAULT_DATA_ROOT)
+
+
 CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
@@ -60,4 +66,5 @@ CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan -
     "stride-retrain-light": _stride_retrain_light,
     "stride-retrain-light-head": _stride_retrain_light_head,
     "stride-retrain-control": _stride_retrain_control,
+    "stride-retrain-control-head": _stride_retrain_control_head,
 }

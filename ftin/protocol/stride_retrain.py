@@ -94,28 +94,42 @@ def stride_control_jobs(data_root: Path) -> list[Job]:
     return [Job("stride-retrain-control/ftin-pooled-s0", "ftin", WALKING, 0, "pooled", options, None, parts)]
 
 
-# The light arm's jobs, where ``ftin campaign run --runs runs/stride-retrain-light`` keeps them.
+# Where ``ftin campaign run`` keeps the jobs whose networks gain a head: the light arm's, the control's.
 LIGHT_ARM_JOBS = Path("runs/stride-retrain-light/stride-retrain-light")
+CONTROL_JOBS = Path("runs/stride-retrain-control/stride-retrain-control")
 
 
-def stride_head_jobs(data_root: Path, arm_jobs: Path = LIGHT_ARM_JOBS) -> list[Job]:
-    """The variance head refitted on each of the arm's networks, frozen (stage three's ``HEAD_OPTIONS``):
-    campaign ``stride-retrain-light-head``. Dense walks only (the head's NLL needs a dense velocity),
-    the same ones the network trained on; its recipe's augmentation plus the gravity tilt, as stage three.
-    Its weights start from the arm job's best-validation checkpoint, so the velocity stays bit for bit."""
+def head_jobs(data_root: Path, campaign: str, networks: dict[str, Path]) -> list[Job]:
+    """The variance head refitted on each frozen network of ``networks`` (model -> its job folder), as
+    stage three did (``HEAD_OPTIONS``): dense walks only (the head's NLL needs a dense velocity), the
+    ones the network trained on; its recipe's augmentation plus the gravity tilt. The weights start from
+    the job's best-validation checkpoint, so the velocity stays bit for bit."""
     parts = _parts(data_root, REFERENCE_DISAGREES)
-    variant = f"sparse{LIGHT_SPARSE_WEIGHT:g}"
     jobs = []
-    for model, recipe in RECIPES.items():
-        start = Path(arm_jobs).resolve() / f"{model}-{variant}-s0" / f"{model}-{WALKING}.safetensors"
+    for model, folder in networks.items():
+        recipe = RECIPES[model]
         options = {
             **model_options(model, WALKING),
             **{key: value for key, value in recipe.items() if key != "precision"},  # fp32, as stage three
             **HEAD_OPTIONS,
             "model_kwargs": {**recipe.get("model_kwargs", {}), "uncertainty_head": True},
             "augment": {**recipe["augment"], "tilt": None},
-            "init_from": str(start),
+            "init_from": str(Path(folder).resolve() / f"{model}-{WALKING}.safetensors"),
         }
-        name = f"stride-retrain-light-head/{model}-{variant}-head-s0"
+        name = f"{campaign}/{Path(folder).name.removesuffix('-s0')}-head-s0"
         jobs.append(Job(name, model, WALKING, 0, "head", options, None, parts))
     return jobs
+
+
+def stride_head_jobs(data_root: Path, arm_jobs: Path = LIGHT_ARM_JOBS) -> list[Job]:
+    """The head on each of the light arm's networks: campaign ``stride-retrain-light-head``."""
+    variant = f"sparse{LIGHT_SPARSE_WEIGHT:g}"
+    networks = {model: Path(arm_jobs) / f"{model}-{variant}-s0" for model in RECIPES}
+    return head_jobs(data_root, "stride-retrain-light-head", networks)
+
+
+def control_head_jobs(data_root: Path, control_jobs: Path = CONTROL_JOBS) -> list[Job]:
+    """The head on the control's FTIN: campaign ``stride-retrain-control-head``."""
+    return head_jobs(
+        data_root, "stride-retrain-control-head", {"ftin": Path(control_jobs) / "ftin-pooled-s0"}
+    )

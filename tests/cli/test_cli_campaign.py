@@ -72,7 +72,8 @@ def test_bad_plans_fail_cleanly(tmp_path):
     fails_cleanly(runner.invoke(app, [*args, str(bad)]), "missing ['dataset']")
     campaigns = (
         "table1, generalisation, tilt, stage-three, stage-three-retrain, stride-retrain, "
-        "stride-retrain-light, stride-retrain-light-head, stride-retrain-control"
+        "stride-retrain-light, stride-retrain-light-head, stride-retrain-control, "
+        "stride-retrain-control-head"
     )
     message = f"neither a protocol campaign ({campaigns})"
     fails_cleanly(runner.invoke(app, [*args, "table9"]), message)
