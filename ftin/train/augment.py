@@ -42,7 +42,8 @@ Decisions:
   angular rate and the vertical stay. Kinematically exact (the position track scaled about the vertical
   axis), so a window's horizontal swing, not its bounce or rhythm, tells a long stride from a short one:
   the networks read long strides short (issue 54) and move their speed by under 2 % when the
-  along-track swing is 1.5x (``docs/results/probes/speed_cues_walking.md``).
+  along-track swing is 1.5x (``docs/results/probes/speed_cues_walking.md``). In no recipe: in a
+  fine-tune it read the ILC floors (a phone held flat) shorter (``docs/results/probes/stride_length.md``).
 Order: pace (which samples a window reads), then mirror, stride length and vertical (motion) before yaw
 (done by the dataset), then orientation and tilt (the input's rotation), then bias and noise (the sensor).
 """
@@ -151,6 +152,11 @@ class WindowAugmenter:
         """``(B, size)`` draws in [-1, 1), one stream per window index."""
         return np.stack([self._rng(name, epoch, i).uniform(-1.0, 1.0, size) for i in indices])
 
+    def _log_uniform(self, name: str, epoch: int, indices: np.ndarray) -> np.ndarray:
+        """``(B,)`` factors log-uniform in ``[1 / (1 + m), 1 + m]``, ``m`` the magnitude of ``name``."""
+        draw = self._uniform(name, epoch, indices, 1)[:, 0]
+        return np.exp(np.log1p(self.magnitudes[name]) * draw)
+
     def shift_starts(
         self, starts: np.ndarray, lowest: np.ndarray, highest: np.ndarray, indices: np.ndarray, epoch: int
     ) -> np.ndarray:
@@ -170,8 +176,7 @@ class WindowAugmenter:
         ``reach / window`` (the samples each start may read)."""
         if "pace" not in self.magnitudes:
             return None
-        draw = self._uniform("pace", epoch, indices, 1)[:, 0]
-        factors = np.exp(np.log1p(self.magnitudes["pace"]) * draw)
+        factors = self._log_uniform("pace", epoch, indices)
         return np.minimum(factors, np.asarray(reach, dtype=np.float64) / window)
 
     @staticmethod
@@ -209,8 +214,7 @@ class WindowAugmenter:
         docstring). Returns new arrays (the same ones when stride_length is off)."""
         if "stride_length" not in self.magnitudes:
             return x, v
-        draw = self._uniform("stride_length", epoch, indices, 1)[:, 0]
-        factors = np.exp(np.log1p(self.magnitudes["stride_length"]) * draw)
+        factors = self._log_uniform("stride_length", epoch, indices)
         x, v = np.array(x, copy=True), np.array(v, copy=True)
         x[:, 3:5, :] *= factors[:, None, None].astype(x.dtype)
         v[..., :2] *= factors.reshape((-1,) + (1,) * (v.ndim - 1)).astype(v.dtype)
