@@ -31,18 +31,19 @@ import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
 from experiments.judge_stride_retrain import DEFAULT, DENSE_SETS, WORSE_AT_MOST, cached_rows, table
-from experiments.probe_sparse_truth import TRAIN_FLOORS, SparseChunks, fine_tune, ilc_paths
+from experiments.probe_sparse_truth import (
+    TRAIN_FLOORS,
+    SparseChunks,
+    default_training_windows,
+    fine_tune,
+    ilc_paths,
+)
 from ftin.checkpoint import save_checkpoint
 from ftin.data.discovery import read_sequence
-from ftin.data.loading import load_sequences
-from ftin.data.prepare import prepare
-from ftin.data.windows import WindowDataset
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stride_retrain import ILC_HELD_OUT, LIGHT_SPARSE_WEIGHT
-from ftin.train.augment import WindowAugmenter
 
 RUNS = Path("runs/probes/light_finetune")
-STRIDE = 20  # the default's window stride (samples)
 SPARSE_WEIGHT = LIGHT_SPARSE_WEIGHT
 ARMS = ("dense", "sparse0.1+dense")
 
@@ -77,7 +78,6 @@ def main() -> None:
     args = parse(parser)
     args.freeze_bn, args.sparse_weight = True, SPARSE_WEIGHT  # what probe_sparse_truth.fine_tune reads
     started = time.monotonic()
-    recipe = json.loads(DEFAULT.with_suffix(".json").read_text())["train_config"]
     RUNS.mkdir(parents=True, exist_ok=True)
     rows, training, dense = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}, None
     for arm in ARMS:
@@ -85,14 +85,7 @@ def main() -> None:
         info_path = stem.with_suffix(".training.json")
         if not info_path.exists():
             if dense is None:
-                seqs = load_sequences(
-                    [args.data_root / r for r in recipe["data"]], "dense", recipe["orientation"]
-                )
-                prepared = [prepare(s, 100.0, orientation=recipe["orientation"]).seq for s in seqs]
-                dense = WindowDataset(
-                    prepared, 100, STRIDE, 2, augment_yaw=True, seed=0,
-                    augmenter=WindowAugmenter(recipe["augment"], STRIDE, 0),
-                )  # fmt: skip
+                dense = default_training_windows(args.data_root)
             sparse = None
             if arm != "dense":
                 walks = [read_sequence(p) for p in ilc_paths(args.data_root, TRAIN_FLOORS)]

@@ -123,6 +123,16 @@ class SparseChunks:
         return torch.from_numpy(np.concatenate(xs)), layout
 
 
+def default_training_windows(data_root: Path, augment: dict | None = None) -> WindowDataset:
+    """The default's own training walks as it trained on them (its JSON's data, orientation, window
+    stride 20), random yaw, seed 0, and ``augment`` (its recipe's when None)."""
+    recipe = json.loads(START.with_suffix(".json").read_text())["train_config"]
+    seqs = load_sequences([data_root / r for r in recipe["data"]], "dense", recipe["orientation"])
+    prepared = [prepare(s, 100.0, orientation=recipe["orientation"]).seq for s in seqs]
+    augmenter = WindowAugmenter(recipe["augment"] if augment is None else augment, 20, 0)
+    return WindowDataset(prepared, 100, 20, 2, augment_yaw=True, seed=0, augmenter=augmenter)
+
+
 def fine_tune(
     arm: str, dense: WindowDataset, sparse: SparseChunks | None, args: Any
 ) -> tuple[LoadedModel, dict[str, Any]]:
@@ -271,15 +281,7 @@ def main() -> None:
             loaded, info = load_model(START), {}
         else:
             if dense is None:
-                recipe = json.loads(START.with_suffix(".json").read_text())["train_config"]
-                seqs = load_sequences(
-                    [args.data_root / r for r in recipe["data"]], "dense", recipe["orientation"]
-                )
-                prepared = [prepare(s, 100.0, orientation=recipe["orientation"]).seq for s in seqs]
-                dense = WindowDataset(
-                    prepared, 100, 20, 2, augment_yaw=True, seed=0,
-                    augmenter=WindowAugmenter(recipe["augment"], 20, 0),
-                )  # fmt: skip
+                dense = default_training_windows(args.data_root)
             if arm == "sparse+dense" and sparse is None:
                 sparse = SparseChunks(
                     [read_sequence(p) for p in ilc_paths(args.data_root, TRAIN_FLOORS)], 100.0, 100

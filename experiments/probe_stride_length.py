@@ -39,18 +39,13 @@ from experiments.judge_stride_retrain import (
     new_walk_groups,
     table,
 )
-from experiments.probe_sparse_truth import fine_tune
+from experiments.probe_sparse_truth import default_training_windows, fine_tune
 from ftin.checkpoint import save_checkpoint
-from ftin.data.loading import load_sequences
-from ftin.data.prepare import prepare
-from ftin.data.windows import WindowDataset
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stride_retrain import ILC_HELD_OUT
-from ftin.train.augment import WindowAugmenter
 
 RUNS = Path("runs/probes/stride_length")
 ARMS = {"mirror": {"mirror": None}, "mirror+stride_length": {"mirror": None, "stride_length": 0.3}}
-STRIDE = 20  # the default's window stride (samples)
 
 
 def held_out_ratios(rows: dict) -> dict[str, float]:
@@ -88,9 +83,6 @@ def main() -> None:
     args = parse(parser)
     args.freeze_bn, args.chunks = True, 0  # what probe_sparse_truth.fine_tune reads
     started = time.monotonic()
-    recipe = json.loads(DEFAULT.with_suffix(".json").read_text())["train_config"]
-    seqs = load_sequences([args.data_root / r for r in recipe["data"]], "dense", recipe["orientation"])
-    prepared = [prepare(s, 100.0, orientation=recipe["orientation"]).seq for s in seqs]
     RUNS.mkdir(parents=True, exist_ok=True)
     rows, training = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}
     for arm, augment in ARMS.items():
@@ -98,10 +90,7 @@ def main() -> None:
         info_path = stem.with_suffix(".training.json")
         if not info_path.exists():
             print(f"{arm}: fine-tuning", flush=True)
-            dense = WindowDataset(
-                prepared, 100, STRIDE, 2, augment_yaw=True, seed=0,
-                augmenter=WindowAugmenter(augment, STRIDE, 0),
-            )  # fmt: skip
+            dense = default_training_windows(args.data_root, augment)
             loaded, info = fine_tune(arm, dense, None, args)
             save_checkpoint(stem, loaded.model, loaded.meta)
             info_path.write_text(json.dumps(info))
