@@ -158,6 +158,16 @@ def heading_cell(part: list[dict]) -> str:
     return " / ".join(cells)
 
 
+def rows_table(networks: dict[str, dict]) -> list[str]:
+    """The tables' markdown: one block of ``table`` rows per named network's rows, under one header."""
+    header = [
+        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
+        "| heading error, start-aligned: median / after minute 2 (deg) |",
+        "|---|---|--:|---|--:|--:|",
+    ]
+    return header + [line for name, rows in networks.items() for line in table(name, rows)]
+
+
 def table(name: str, rows: dict) -> list[str]:
     lines = []
     for floor in ILC_HELD_OUT:
@@ -207,11 +217,7 @@ def main() -> None:
         "at the waypoints); path ratio median (walks in "
         "0.85-1.15).",
         "",
-        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error, start-aligned: median / after minute 2 (deg) |",
-        "|---|---|--:|---|--:|--:|",
-        *table(f"shipped {Path(args.default).name}", default),
-        *table(args.label, candidate),
+        *rows_table({f"shipped {Path(args.default).name}": default, args.label: candidate}),
         "",
         f"**By the rule: {'adopted' if adopted else 'not adopted'}.**",
         "",

@@ -35,7 +35,7 @@ import numpy as np
 import torch
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.judge_stride_retrain import DEFAULT, cached_rows, table, verdict
+from experiments.judge_stride_retrain import DEFAULT, cached_rows, rows_table, verdict
 from ftin.checkpoint import load_model, save_checkpoint
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
@@ -96,12 +96,8 @@ def main() -> None:
         f"--batches {args.batches}` (its docstring: question, method, rule). Phone only; ATE in m (RoNIN "
         "convention; ILC: median ATE at the waypoints); path ratio median (walks in 0.85-1.15).",
         "",
-        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error, start-aligned: median / after minute 2 (deg) |",
-        "|---|---|--:|---|--:|--:|",
+        *rows_table(rows),
     ]
-    for name, r in rows.items():
-        lines += table(name, r)
     for name in ("retrain as trained", "retrain, batch norm on dense windows"):
         adopted, reasons = verdict(rows["shipped default"], rows[name])
         lines += ["", f"**{name}, by the judge's rule: {'adopted' if adopted else 'not adopted'}.**", ""]

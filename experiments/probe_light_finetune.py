@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.judge_stride_retrain import DEFAULT, DENSE_SETS, WORSE_AT_MOST, cached_rows, table
+from experiments.judge_stride_retrain import DEFAULT, DENSE_SETS, WORSE_AT_MOST, cached_rows, rows_table
 from experiments.probe_sparse_truth import (
     TRAIN_FLOORS,
     SparseChunks,
@@ -121,10 +121,7 @@ def main() -> None:
             for arm, t in training.items()
         ),
         "",
-        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error, start-aligned: median / after minute 2 (deg) |",
-        "|---|---|--:|---|--:|--:|",
-        *(line for name, r in rows.items() for line in table(name, r)),
+        *rows_table(rows),
         "",
         f"**By the rule: {'a campaign arm' if adopted else 'not a campaign arm'}.**",
         "",

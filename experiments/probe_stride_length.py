@@ -37,7 +37,7 @@ from experiments.judge_stride_retrain import (
     WORSE_AT_MOST,
     cached_rows,
     new_walk_groups,
-    table,
+    rows_table,
 )
 from experiments.probe_sparse_truth import default_training_windows, fine_tune
 from ftin.checkpoint import save_checkpoint
@@ -115,10 +115,7 @@ def main() -> None:
             for arm, t in training.items()
         ),
         "",
-        "| network | group | walks | path ratio median (in 0.85-1.15) | ATE "
-        "| heading error, start-aligned: median / after minute 2 (deg) |",
-        "|---|---|--:|---|--:|--:|",
-        *(line for name, r in rows.items() for line in table(name, r)),
+        *rows_table(rows),
         "",
         f"**By the rule: `stride_length` {'adopted' if adopted else 'not adopted'}** (against `mirror`).",
         "",
