@@ -74,9 +74,11 @@ def test_the_control_is_ftin_on_the_defaults_dense_walks_without_ilc():
     assert control.options["augment"] == ftin_arm.options["augment"]
     assert control.options["model_kwargs"] == {"fdl_output": "mixed"}
     assert control.parts["train"] == tuple(r for r in ftin_arm.parts["train"] if not r.startswith("ilc/"))
-    assert control.parts["val"] == ftin_arm.parts["val"] and not set(REFERENCE_DISAGREES) & set(
-        control.parts["train"]
-    )
+    assert control.parts["val"] == ftin_arm.parts["val"]
+    assert not set(REFERENCE_DISAGREES) & set(control.parts["train"])
+    (second,) = CAMPAIGNS["stride-retrain-control-s1"](None)
+    assert second.name == "stride-retrain-control-s1/ftin-pooled-s1" and second.seed == 1
+    assert second.options == control.options and second.parts == control.parts
 
 
 @pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")

@@ -51,6 +51,11 @@ def _stride_retrain_control(_variant: str | None = None) -> list[Job]:
     return stride_control_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain_control_s1(_variant: str | None = None) -> list[Job]:
+    """The control's second seed (``stride_retrain``)."""
+    return stride_control_jobs(DEFAULT_DATA_ROOT, seed=1)
+
+
 def _stride_retrain_control_head(_variant: str | None = None) -> list[Job]:
     """The variance head refitted on the control's frozen FTIN (``stride_retrain``)."""
     return control_head_jobs(DEFAULT_DATA_ROOT)
@@ -66,5 +71,6 @@ CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan -
     "stride-retrain-light": _stride_retrain_light,
     "stride-retrain-light-head": _stride_retrain_light_head,
     "stride-retrain-control": _stride_retrain_control,
+    "stride-retrain-control-s1": _stride_retrain_control_s1,
     "stride-retrain-control-head": _stride_retrain_control_head,
 }
