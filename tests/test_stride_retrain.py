@@ -83,9 +83,12 @@ def test_the_control_is_ftin_on_the_defaults_dense_walks_without_ilc():
 
 @pytest.mark.skipif(not ILC.is_dir(), reason=f"{ILC} is absent (the shared ILC sample)")
 def test_the_controls_head_starts_from_its_ftin(tmp_path):
-    (head,) = control_head_jobs(DEFAULT_DATA_ROOT, tmp_path)
+    (head,) = control_head_jobs(DEFAULT_DATA_ROOT, runs=tmp_path)
     assert head.name == "stride-retrain-control-head/ftin-pooled-head-s0" and head.model == "ftin"
-    assert head.options["init_from"] == str(
-        tmp_path.resolve() / "ftin-pooled-s0" / "ftin-walking.safetensors"
-    )
+    job = tmp_path.resolve() / "stride-retrain-control" / "stride-retrain-control" / "ftin-pooled-s0"
+    assert head.options["init_from"] == str(job / "ftin-walking.safetensors")
+    (second,) = control_head_jobs(DEFAULT_DATA_ROOT, seed=1, runs=tmp_path)
+    job = tmp_path.resolve() / "stride-retrain-control-s1" / "stride-retrain-control-s1" / "ftin-pooled-s1"
+    assert second.name == "stride-retrain-control-s1-head/ftin-pooled-s1-head-s0"
+    assert second.options["init_from"] == str(job / "ftin-walking.safetensors")
     assert head.options["model_kwargs"] == {"fdl_output": "mixed", "uncertainty_head": True}

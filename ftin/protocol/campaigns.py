@@ -61,6 +61,11 @@ def _stride_retrain_control_head(_variant: str | None = None) -> list[Job]:
     return control_head_jobs(DEFAULT_DATA_ROOT)
 
 
+def _stride_retrain_control_s1_head(_variant: str | None = None) -> list[Job]:
+    """The variance head refitted on the control's second seed (``stride_retrain``)."""
+    return control_head_jobs(DEFAULT_DATA_ROOT, seed=1)
+
+
 CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan --jobs``)
     "table1": campaign_jobs,
     "generalisation": generalisation_jobs,
@@ -73,4 +78,5 @@ CAMPAIGNS: dict[str, Callable[[str | None], list[Job]]] = {  # by name (``plan -
     "stride-retrain-control": _stride_retrain_control,
     "stride-retrain-control-s1": _stride_retrain_control_s1,
     "stride-retrain-control-head": _stride_retrain_control_head,
+    "stride-retrain-control-s1-head": _stride_retrain_control_s1_head,
 }

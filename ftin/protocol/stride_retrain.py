@@ -98,9 +98,9 @@ def stride_control_jobs(data_root: Path, seed: int = 0) -> list[Job]:
     return [Job(f"{campaign}/ftin-pooled-s{seed}", "ftin", WALKING, seed, "pooled", options, None, parts)]
 
 
-# Where ``ftin campaign run`` keeps the jobs whose networks gain a head: the light arm's, the control's.
+# Where ``ftin campaign run`` keeps the jobs whose networks gain a head (the light arm's, the control's).
 LIGHT_ARM_JOBS = Path("runs/stride-retrain-light/stride-retrain-light")
-CONTROL_JOBS = Path("runs/stride-retrain-control/stride-retrain-control")
+RUNS = Path("runs")
 
 
 def head_jobs(data_root: Path, campaign: str, networks: dict[str, Path]) -> list[Job]:
@@ -132,8 +132,8 @@ def stride_head_jobs(data_root: Path, arm_jobs: Path = LIGHT_ARM_JOBS) -> list[J
     return head_jobs(data_root, "stride-retrain-light-head", networks)
 
 
-def control_head_jobs(data_root: Path, control_jobs: Path = CONTROL_JOBS) -> list[Job]:
-    """The head on the control's FTIN: campaign ``stride-retrain-control-head``."""
-    return head_jobs(
-        data_root, "stride-retrain-control-head", {"ftin": Path(control_jobs) / "ftin-pooled-s0"}
-    )
+def control_head_jobs(data_root: Path, seed: int = 0, runs: Path = RUNS) -> list[Job]:
+    """The head on the control's FTIN of ``seed``: campaign ``stride-retrain-control[-s<seed>]-head``."""
+    (control,) = stride_control_jobs(data_root, seed)
+    campaign = control.name.split("/")[0]
+    return head_jobs(data_root, f"{campaign}-head", {"ftin": Path(runs) / campaign / control.name})

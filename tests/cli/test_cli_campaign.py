@@ -73,7 +73,7 @@ def test_bad_plans_fail_cleanly(tmp_path):
     campaigns = (
         "table1, generalisation, tilt, stage-three, stage-three-retrain, stride-retrain, "
         "stride-retrain-light, stride-retrain-light-head, stride-retrain-control, "
-        "stride-retrain-control-s1, stride-retrain-control-head"
+        "stride-retrain-control-s1, stride-retrain-control-head, stride-retrain-control-s1-head"
     )
     message = f"neither a protocol campaign ({campaigns})"
     fails_cleanly(runner.invoke(app, [*args, "table9"]), message)
