@@ -92,15 +92,15 @@ def render_campaign_card(
     config = meta.get("train_config", {})
     split = meta.get("split", {})
     dataset = training["dataset"]
+    # FTIN's TDL variant is what its weights were built with; a campaign's variant names it only when the
+    # campaign chose it (Table 1), while other campaigns name their arms by it ("pooled", "sparse0.1")
+    tdl = meta.get("model_kwargs", {}).get("fdl_output")
+    chosen = ", chosen on validation" if variant == tdl else ""
     lines = [
         f"# {config.get('name', meta['model_name'])}",
         "",
         f"- **Model:** `{meta['model_name']}`"
-        + (
-            f" (TDL variant `{variant}`, chosen on validation)"
-            if meta["model_name"] == "ftin" and variant
-            else ""
-        )
+        + (f" (TDL variant `{tdl}`{chosen})" if meta["model_name"] == "ftin" and tdl else "")
         + f" with `{json.dumps(meta.get('model_kwargs', {}))}`",
         f"- **Data:** {_CITATION.get(dataset, dataset)}; split and rules: docs/results/protocol.md",
         f"- **Training recordings ({len(split.get('train', []))}):** {', '.join(split.get('train', []))}",

@@ -58,6 +58,9 @@ def test_campaign_card_states_what_a_reader_needs():
     assert "| val MSE | 0.0100 | 0.2000 | 0.3000 |" in card
     assert "## oxiod test, ground-truth orientation" in card and "## oxiod val, device orientation" in card
     assert card.index("oxiod test") < card.index("oxiod val")  # test first
+    # a campaign that names its FTIN arm otherwise (the stride control's "pooled") chose no TDL variant
+    other = render_campaign_card(META, shipped, [shipped], "pooled")
+    assert "(TDL variant `ordered`)" in other and "pooled" not in other
     # every registered table metric (PDE in %; a metric the record predates shows —), stand-still ATE last
     header = "| recording | ATE [m] | ATE evo [m] | RTE [m] | PDE [%] | Path ratio | stand-still ATE [m] |"
     assert header in card
