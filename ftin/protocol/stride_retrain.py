@@ -90,8 +90,9 @@ def stride_control_jobs(data_root: Path, seed: int = 0) -> list[Job]:
     footing (the shipped ftin-walking trained before the new OxIOD walkers joined). Judged against
     ftin-walking by ``experiments/judge_stride_retrain.py --rule footing``. Seed 0 was not adopted
     (OxIOD validation, two walks, +35 %, every other set better); seed 1 (campaign
-    ``stride-retrain-control-s1``) is judged by ``--rule footing-oxiod12``, written before it trained,
-    which reads OxIOD on its twelve validation and held-out walks instead of two."""
+    ``stride-retrain-control-s1``), judged by ``--rule footing-oxiod12`` (written before it trained: OxIOD
+    read on its twelve validation and held-out walks instead of two), was not adopted either (RIDI +47 %):
+    FTIN stays as shipped (``docs/campaign.md``)."""
     options = {**model_options("ftin", WALKING), **RECIPES["ftin"]}
     parts = _parts(data_root, REFERENCE_DISAGREES)
     campaign = "stride-retrain-control" + ("" if seed == 0 else f"-s{seed}")
