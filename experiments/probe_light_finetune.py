@@ -30,7 +30,15 @@ from pathlib import Path
 import numpy as np
 
 from experiments.common import argument_parser, parse, write_report
-from experiments.judge_stride_retrain import DEFAULT, DENSE_SETS, WORSE_AT_MOST, cached_rows, rows_table
+from experiments.judge_stride_retrain import (
+    DEFAULT,
+    DENSE_SETS,
+    WORSE_AT_MOST,
+    cached_rows,
+    floor_ratio,
+    rows_table,
+    set_ates,
+)
 from experiments.probe_sparse_truth import (
     TRAIN_FLOORS,
     SparseChunks,
@@ -48,19 +56,14 @@ SPARSE_WEIGHT = LIGHT_SPARSE_WEIGHT
 ARMS = ("dense", "sparse0.1+dense")
 
 
-def floor_median(rows: dict, floor: str) -> float:
-    return float(np.median([w["ratio"] for w in rows["floors"][floor] if w["ratio"] is not None]))
-
-
 def verdict(default: dict, dense: dict, mixed: dict) -> tuple[bool, list[str]]:
     adopted, reasons = True, []
     for floor in ILC_HELD_OUT:
-        d, m = floor_median(dense, floor), floor_median(mixed, floor)
+        d, m = floor_ratio(dense, floor), floor_ratio(mixed, floor)
         adopted &= abs(m - 1) < abs(d - 1)
         reasons.append(f"ILC {floor}: median path ratio, dense {d:.3f} -> sparse0.1+dense {m:.3f}")
     for group in DENSE_SETS:
-        base = np.mean([w["ate"] for w in default["dense"] if w["set"] == group])
-        ate = np.mean([w["ate"] for w in mixed["dense"] if w["set"] == group])
+        base, ate = np.mean(set_ates(default, group)), np.mean(set_ates(mixed, group))
         adopted &= ate <= base * (1 + WORSE_AT_MOST)
         reasons.append(f"{group} validation: mean ATE, default {base:.3f} -> sparse0.1+dense {ate:.3f} m "
                        f"({ate / base - 1:+.1%})")  # fmt: skip

@@ -36,8 +36,10 @@ from experiments.judge_stride_retrain import (
     DENSE_SETS,
     WORSE_AT_MOST,
     cached_rows,
+    floor_ratio,
     new_walk_groups,
     rows_table,
+    set_ates,
 )
 from experiments.probe_sparse_truth import default_training_windows, fine_tune
 from ftin.checkpoint import save_checkpoint
@@ -50,10 +52,10 @@ ARMS = {"mirror": {"mirror": None}, "mirror+stride_length": {"mirror": None, "st
 
 def held_out_ratios(rows: dict) -> dict[str, float]:
     """Median path ratio of each held-out group the rule reads."""
-    groups = {f"ILC {f}": rows["floors"][f] for f in ILC_HELD_OUT} | new_walk_groups(rows["new"])
-    return {
+    floors = {f"ILC {f}": floor_ratio(rows, f) for f in ILC_HELD_OUT}
+    return floors | {
         name: float(np.median([w["ratio"] for w in part if w["ratio"] is not None]))
-        for name, part in groups.items()
+        for name, part in new_walk_groups(rows["new"]).items()
     }
 
 
@@ -66,8 +68,7 @@ def verdict(control: dict, arm: dict) -> tuple[bool, list[str]]:
         reasons.append(f"{group}: median path ratio {before[group]:.3f} -> {after[group]:.3f}")
     adopted = closer >= 3
     for group in DENSE_SETS:
-        b = np.mean([w["ate"] for w in control["dense"] if w["set"] == group])
-        a = np.mean([w["ate"] for w in arm["dense"] if w["set"] == group])
+        b, a = np.mean(set_ates(control, group)), np.mean(set_ates(arm, group))
         adopted &= a <= b * (1 + WORSE_AT_MOST)
         reasons.append(f"{group} validation: mean ATE {b:.3f} -> {a:.3f} m ({a / b - 1:+.1%})")
     return bool(adopted), [f"closer to 1 on {closer} of {len(before)} held-out groups", *reasons]
