@@ -94,9 +94,8 @@ def plan_command(
         str,
         typer.Option(
             "--jobs",
-            help="A protocol campaign (table1, generalisation, tilt, stage-three, stage-three-retrain, "
-            "stride-retrain, stride-retrain-light), stage-two (stage one's choices, read from --choices), or "
-            "a JSON file of job specs.",
+            help=f"A protocol campaign ({', '.join(protocol.CAMPAIGNS)}), stage-two (stage one's choices, "
+            "read from --choices), or a JSON file of job specs.",
         ),
     ] = "table1",
     choices: Annotated[

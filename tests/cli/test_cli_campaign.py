@@ -10,6 +10,7 @@ import sys
 import pytest
 
 from app.settings import DEFAULT_CHECKPOINT_DIR
+from ftin import protocol
 from ftin.campaign import CampaignError, burst
 from ftin.campaign.folder import Campaign
 from ftin.cli import app
@@ -62,6 +63,13 @@ def test_plan_then_status_lists_every_job_as_left(tmp_path):
     assert "walks/ronin_tcn-s1" in status.output
     again = runner.invoke(app, ["campaign", "plan", "--runs", str(runs), "--data", str(tmp_path)])
     fails_cleanly(again, "already holds a campaign")
+
+
+def test_plan_help_names_every_protocol_campaign():
+    result = runner.invoke(app, ["campaign", "plan", "--help"], env={"COLUMNS": "400"})
+    assert result.exit_code == 0
+    text = " ".join(result.output.split())
+    assert all(name in text for name in protocol.CAMPAIGNS) and "stride-retrain-control-s1-head" in text
 
 
 def test_bad_plans_fail_cleanly(tmp_path):
