@@ -79,7 +79,7 @@ def main() -> None:
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args = parse(parser)
-    args.freeze_bn, args.sparse_weight = True, SPARSE_WEIGHT  # what probe_sparse_truth.fine_tune reads
+    args.freeze_bn = True  # probe_sparse_truth.fine_tune reads it: batch norm as shipped
     started = time.monotonic()
     RUNS.mkdir(parents=True, exist_ok=True)
     rows, training, dense = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}, None
@@ -94,7 +94,7 @@ def main() -> None:
                 walks = [read_sequence(p) for p in ilc_paths(args.data_root, TRAIN_FLOORS)]
                 sparse = SparseChunks(walks, 100.0, 100)
             print(f"{arm}: fine-tuning", flush=True)
-            loaded, info = fine_tune(arm, dense, sparse, args)
+            loaded, info = fine_tune(arm, dense, sparse, args, SPARSE_WEIGHT)
             save_checkpoint(stem, loaded.model, loaded.meta)
             info_path.write_text(json.dumps(info))
         training[arm] = json.loads(info_path.read_text())

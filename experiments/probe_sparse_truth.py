@@ -134,8 +134,10 @@ def default_training_windows(data_root: Path, augment: dict | None = None) -> Wi
 
 
 def fine_tune(
-    arm: str, dense: WindowDataset, sparse: SparseChunks | None, args: Any
+    arm: str, dense: WindowDataset, sparse: SparseChunks | None, args: Any, sparse_weight: float = 1.0
 ) -> tuple[LoadedModel, dict[str, Any]]:
+    """The default fine-tuned for ``args.steps`` steps (module docstring); ``sparse_weight`` scales the
+    segment term (1 in this probe's own arms)."""
     loaded = load_model(START)
     model = loaded.model
     model.train()
@@ -161,7 +163,7 @@ def fine_tune(
         sparse_value = None
         if layout is not None:
             term = segment_loss(velocity[len(x_dense) :], layout)
-            loss = loss + getattr(args, "sparse_weight", 1.0) * term  # 1 in this probe's own arms
+            loss = loss + sparse_weight * term
             sparse_value = float(term.detach())
         optimizer.zero_grad()
         loss.backward()
