@@ -58,7 +58,7 @@ def test_the_head_refit_starts_from_each_light_network_on_its_dense_walks_only(t
         "stride-retrain-light-head/ftin-sparse0.1-head-s0",
     ]
     for arm, head in zip(light, heads, strict=True):
-        start = tmp_path.resolve() / arm.name.split("/")[1] / f"{arm.model}-walking.safetensors"
+        start = tmp_path.resolve() / "stride-retrain-light" / arm.name / f"{arm.model}-walking.safetensors"
         assert head.options["init_from"] == str(start) and head.options["train_only"] == ["log_std_head"]
         assert head.options["model_kwargs"]["uncertainty_head"] and head.options["augment"]["tilt"] is None
         assert "sparse_weight" not in head.options and "precision" not in head.options

@@ -99,9 +99,14 @@ def stride_control_jobs(data_root: Path, seed: int = 0) -> list[Job]:
     return [Job(f"{campaign}/ftin-pooled-s{seed}", "ftin", WALKING, seed, "pooled", options, None, parts)]
 
 
-# Where ``ftin campaign run`` keeps the jobs whose networks gain a head (the light arm's, the control's).
-LIGHT_ARM_JOBS = Path("runs/stride-retrain-light/stride-retrain-light")
+# Where the campaigns are run (``ftin campaign run --runs runs/<campaign>``): a job's network is in
+# ``runs/<campaign>/<job name>``, the job name starting with its campaign's.
 RUNS = Path("runs")
+
+
+def job_folder(job: Job, runs: Path = RUNS) -> Path:
+    """The folder ``ftin campaign run --runs <runs>/<campaign>`` trains ``job`` in."""
+    return Path(runs) / job.name.split("/")[0] / job.name
 
 
 def head_jobs(data_root: Path, campaign: str, networks: dict[str, Path]) -> list[Job]:
@@ -126,15 +131,16 @@ def head_jobs(data_root: Path, campaign: str, networks: dict[str, Path]) -> list
     return jobs
 
 
-def stride_head_jobs(data_root: Path, arm_jobs: Path = LIGHT_ARM_JOBS) -> list[Job]:
+def stride_head_jobs(data_root: Path, runs: Path = RUNS) -> list[Job]:
     """The head on each of the light arm's networks: campaign ``stride-retrain-light-head``."""
-    variant = f"sparse{LIGHT_SPARSE_WEIGHT:g}"
-    networks = {model: Path(arm_jobs) / f"{model}-{variant}-s0" for model in RECIPES}
-    return head_jobs(data_root, "stride-retrain-light-head", networks)
+    arm = stride_retrain_jobs(data_root, LIGHT_SPARSE_WEIGHT)
+    return head_jobs(
+        data_root, "stride-retrain-light-head", {job.model: job_folder(job, runs) for job in arm}
+    )
 
 
 def control_head_jobs(data_root: Path, seed: int = 0, runs: Path = RUNS) -> list[Job]:
     """The head on the control's FTIN of ``seed``: campaign ``stride-retrain-control[-s<seed>]-head``."""
     (control,) = stride_control_jobs(data_root, seed)
     campaign = control.name.split("/")[0]
-    return head_jobs(data_root, f"{campaign}-head", {"ftin": Path(runs) / campaign / control.name})
+    return head_jobs(data_root, f"{campaign}-head", {"ftin": job_folder(control, runs)})
