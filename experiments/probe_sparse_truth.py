@@ -169,7 +169,7 @@ def fine_tune(
         loss.backward()
         optimizer.step()
         steps += 1
-        history.append([float(dense_loss), sparse_value])
+        history.append([float(dense_loss.detach()), sparse_value])
     model.eval()
     first, last = history[: max(1, len(history) // 5)], history[-max(1, len(history) // 5) :]
 
