@@ -44,8 +44,7 @@ from experiments.judge_stride_retrain import (
     set_ates,
 )
 from experiments.probe_light_finetune import RUNS as LIGHT_RUNS
-from experiments.probe_sparse_truth import START, fine_tune
-from ftin.checkpoint import save_checkpoint
+from experiments.probe_sparse_truth import START, fine_tune, fine_tune_arguments, fine_tuned_once
 from ftin.data.loading import load_sequences
 from ftin.data.prepare import prepare
 from ftin.data.windows import WindowDataset
@@ -110,9 +109,7 @@ def without_trained(rows: dict) -> dict:
 
 def main() -> None:
     parser = argument_parser(__doc__)
-    parser.add_argument("--steps", type=int, default=1200, help="optimizer steps")
-    parser.add_argument("--lr", type=float, default=1e-4)
-    parser.add_argument("--dense", type=int, default=64, help="windows per step")
+    fine_tune_arguments(parser, steps=1200)
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args = parse(parser)
@@ -123,13 +120,7 @@ def main() -> None:
         raise SystemExit(f"run probe_light_finetune with the same --steps/--lr/--dense first: {control}")
     RUNS.mkdir(parents=True, exist_ok=True)
     stem = RUNS / f"handbag-{args.steps}-{args.lr:g}-{args.dense}"
-    info_path = Path(f"{stem}.training.json")
-    if not info_path.exists():
-        print("handbag: fine-tuning", flush=True)
-        loaded, info = fine_tune("handbag", training_windows(args.data_root), None, args)
-        save_checkpoint(stem, loaded.model, loaded.meta)
-        info_path.write_text(json.dumps(info))
-    info = json.loads(info_path.read_text())
+    info = fine_tuned_once(stem, lambda: fine_tune("handbag", training_windows(args.data_root), None, args))
     rows = {
         "default (untouched)": cached_rows(DEFAULT, args.data_root),
         "dense": cached_rows(control, args.data_root),

@@ -27,7 +27,6 @@ The rule, written before the arm was read: ``disguised`` is worth a campaign arm
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -54,9 +53,10 @@ from experiments.probe_sparse_truth import (
     SparseChunks,
     default_training_windows,
     fine_tune,
+    fine_tune_arguments,
+    fine_tuned_once,
     ilc_paths,
 )
-from ftin.checkpoint import save_checkpoint
 from ftin.data.discovery import read_sequence
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stride_retrain import ILC_HELD_OUT
@@ -114,9 +114,7 @@ def verdict(dense: dict, light: dict, disguised: dict) -> tuple[bool, list[str]]
 
 def main() -> None:
     parser = argument_parser(__doc__)
-    parser.add_argument("--steps", type=int, default=1200, help="optimizer steps")
-    parser.add_argument("--lr", type=float, default=1e-4)
-    parser.add_argument("--dense", type=int, default=64, help="dense windows per step")
+    fine_tune_arguments(parser, steps=1200)
     parser.add_argument("--chunks", type=int, default=2, help="ILC chunks per step")
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
@@ -130,17 +128,13 @@ def main() -> None:
         raise SystemExit(f"run probe_light_finetune with the same arguments first: missing {missing}")
     RUNS.mkdir(parents=True, exist_ok=True)
     stem = RUNS / f"disguised-{suffix}"
-    info_path = Path(f"{stem}.training.json")
-    if not info_path.exists():
+
+    def train() -> tuple:
         walks = [read_sequence(p) for p in ilc_paths(args.data_root, TRAIN_FLOORS)]
         sparse = DisguisedChunks(walks, 100.0, 100)
-        print("disguised: fine-tuning", flush=True)
-        loaded, info = fine_tune(
-            "disguised", default_training_windows(args.data_root), sparse, args, SPARSE_WEIGHT
-        )
-        save_checkpoint(stem, loaded.model, loaded.meta)
-        info_path.write_text(json.dumps(info))
-    info = json.loads(info_path.read_text())
+        return fine_tune("disguised", default_training_windows(args.data_root), sparse, args, SPARSE_WEIGHT)
+
+    info = fine_tuned_once(stem, train)
     rows = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}
     rows |= {arm: cached_rows(path, args.data_root) for arm, path in light.items()}
     rows["disguised"] = cached_rows(stem, args.data_root)

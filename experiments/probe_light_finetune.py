@@ -23,7 +23,7 @@ worse than the **untouched default's** by more than 5 % (the bar that arm would 
 
 from __future__ import annotations
 
-import json
+import functools
 import time
 from pathlib import Path
 
@@ -44,9 +44,10 @@ from experiments.probe_sparse_truth import (
     SparseChunks,
     default_training_windows,
     fine_tune,
+    fine_tune_arguments,
+    fine_tuned_once,
     ilc_paths,
 )
-from ftin.checkpoint import save_checkpoint
 from ftin.data.discovery import read_sequence
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stride_retrain import ILC_HELD_OUT, LIGHT_SPARSE_WEIGHT
@@ -72,9 +73,7 @@ def verdict(default: dict, dense: dict, mixed: dict) -> tuple[bool, list[str]]:
 
 def main() -> None:
     parser = argument_parser(__doc__)
-    parser.add_argument("--steps", type=int, default=1200, help="optimizer steps per arm")
-    parser.add_argument("--lr", type=float, default=1e-4)
-    parser.add_argument("--dense", type=int, default=64, help="dense windows per step")
+    fine_tune_arguments(parser, steps=1200)
     parser.add_argument("--chunks", type=int, default=2, help="ILC chunks per step (sparse arm)")
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
@@ -82,22 +81,19 @@ def main() -> None:
     args.freeze_bn = True  # probe_sparse_truth.fine_tune reads it: batch norm as shipped
     started = time.monotonic()
     RUNS.mkdir(parents=True, exist_ok=True)
-    rows, training, dense = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}, None
+    rows, training = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}
+    dense = functools.cache(lambda: default_training_windows(args.data_root))  # read once, if at all
     for arm in ARMS:
         stem = RUNS / f"{arm}-{args.steps}-{args.lr:g}-{args.dense}-{args.chunks}"
-        info_path = stem.with_suffix(".training.json")
-        if not info_path.exists():
-            if dense is None:
-                dense = default_training_windows(args.data_root)
+
+        def train(arm: str = arm) -> tuple:
             sparse = None
             if arm != "dense":
                 walks = [read_sequence(p) for p in ilc_paths(args.data_root, TRAIN_FLOORS)]
                 sparse = SparseChunks(walks, 100.0, 100)
-            print(f"{arm}: fine-tuning", flush=True)
-            loaded, info = fine_tune(arm, dense, sparse, args, SPARSE_WEIGHT)
-            save_checkpoint(stem, loaded.model, loaded.meta)
-            info_path.write_text(json.dumps(info))
-        training[arm] = json.loads(info_path.read_text())
+            return fine_tune(arm, dense(), sparse, args, SPARSE_WEIGHT)
+
+        training[arm] = fine_tuned_once(stem, train)
         rows[arm] = cached_rows(stem, args.data_root)
     adopted, reasons = verdict(rows["default (untouched)"], rows["dense"], rows["sparse0.1+dense"])
     minutes = (time.monotonic() - started) / 60

@@ -43,6 +43,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,7 @@ import torch
 
 from experiments.common import argument_parser, parse, write_report
 from experiments.probe_new_oxiod_walks import walk_row
-from ftin.checkpoint import LoadedModel, load_model
+from ftin.checkpoint import LoadedModel, load_model, save_checkpoint
 from ftin.data.discovery import read_sequence
 from ftin.data.loading import load_phone_only, load_sequences
 from ftin.data.prepare import prepare
@@ -186,6 +187,25 @@ def fine_tune(
         "sparse_loss_last_fifth": mean_of(last, 1),
     }
     return loaded, info
+
+
+def fine_tune_arguments(parser: Any, steps: int) -> None:
+    """The fine-tune's budget on a probe's command line (the probes built on ``fine_tune``)."""
+    parser.add_argument("--steps", type=int, default=steps, help="optimizer steps per fine-tuned arm")
+    parser.add_argument("--lr", type=float, default=1e-4)
+    parser.add_argument("--dense", type=int, default=64, help="dense windows per step")
+
+
+def fine_tuned_once(stem: Path, train: Callable[[], tuple[LoadedModel, dict[str, Any]]]) -> dict[str, Any]:
+    """The training record of the network saved at ``stem``: ``train`` runs only when no record is there
+    (the network is saved beside it as ``<stem>.safetensors`` and ``.json``)."""
+    record = Path(f"{stem}.training.json")
+    if not record.exists():
+        print(f"{stem.name}: fine-tuning", flush=True)
+        loaded, info = train()
+        save_checkpoint(stem, loaded.model, loaded.meta)
+        record.write_text(json.dumps(info))
+    return json.loads(record.read_text())
 
 
 def score(

@@ -24,7 +24,6 @@ dense validation set (OxIOD, RIDI, Inria) has a mean ATE worse than ``mirror``'s
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -41,8 +40,12 @@ from experiments.judge_stride_retrain import (
     rows_table,
     set_ates,
 )
-from experiments.probe_sparse_truth import default_training_windows, fine_tune
-from ftin.checkpoint import save_checkpoint
+from experiments.probe_sparse_truth import (
+    default_training_windows,
+    fine_tune,
+    fine_tune_arguments,
+    fine_tuned_once,
+)
 from ftin.files import DEFAULT_DATA_ROOT
 from ftin.protocol.stride_retrain import ILC_HELD_OUT
 
@@ -76,9 +79,7 @@ def verdict(control: dict, arm: dict) -> tuple[bool, list[str]]:
 
 def main() -> None:
     parser = argument_parser(__doc__)
-    parser.add_argument("--steps", type=int, default=400, help="optimizer steps per arm")
-    parser.add_argument("--lr", type=float, default=1e-4)
-    parser.add_argument("--dense", type=int, default=64, help="dense windows per step")
+    fine_tune_arguments(parser, steps=400)
     parser.add_argument("--data-root", type=Path, default=DEFAULT_DATA_ROOT)
     parser.add_argument("--out", type=Path, default=None)
     args = parse(parser)
@@ -88,14 +89,11 @@ def main() -> None:
     rows, training = {"default (untouched)": cached_rows(DEFAULT, args.data_root)}, {}
     for arm, augment in ARMS.items():
         stem = RUNS / f"{arm}-{args.steps}-{args.lr:g}"
-        info_path = stem.with_suffix(".training.json")
-        if not info_path.exists():
-            print(f"{arm}: fine-tuning", flush=True)
-            dense = default_training_windows(args.data_root, augment)
-            loaded, info = fine_tune(arm, dense, None, args)
-            save_checkpoint(stem, loaded.model, loaded.meta)
-            info_path.write_text(json.dumps(info))
-        training[arm] = json.loads(info_path.read_text())
+
+        def train(arm: str = arm, augment: dict = augment) -> tuple:
+            return fine_tune(arm, default_training_windows(args.data_root, augment), None, args)
+
+        training[arm] = fine_tuned_once(stem, train)
         rows[arm] = cached_rows(stem, args.data_root)
     adopted, reasons = verdict(rows["mirror"], rows["mirror+stride_length"])
     minutes = (time.monotonic() - started) / 60
